@@ -1,0 +1,139 @@
+"""What each joint, force and sensor kind accepts and provides: data the validator checks against.
+
+Adding a kind starts here (its arguments, their dimensions, its coordinates); the compiler's lowering then
+gives it meaning. Argument kinds: 'scalar' (an expression of the given dimension), 'vector' (3 components),
+'axis' (a direction: x, y, z, -x, ... or a vector; normalised), 'frame' (a frame reference), 'word' (one of
+a fixed set of names), 'law' (an expression that may use the kind's local variables), 'flag' (true/false).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from . import units as U
+
+
+@dataclass(frozen=True)
+class Arg:
+    name: str
+    kind: str                       # scalar | vector | axis | frame | word | law | flag | table
+    dimension: U.Dimension | None = None
+    default: object = None          # None: required unless optional
+    optional: bool = False
+    choices: tuple[str, ...] = ()
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class JointKind:
+    name: str
+    args: tuple[Arg, ...]
+    # coordinate local names and dimensions; for 'spherical'/'free' they depend on the rotation argument
+    coordinates: tuple[tuple[str, U.Dimension], ...]
+    doc: str
+
+
+@dataclass(frozen=True)
+class ElementKind:
+    name: str
+    args: tuple[Arg, ...]
+    locals: tuple[tuple[str, U.Dimension], ...] = ()  # variables a law may use
+    components: tuple[str, ...] = ("",)               # sensor outputs ("" = scalar)
+    doc: str = ""
+    extra_args: bool = False                          # joint forces: one argument per coordinate
+
+
+_CUT = Arg("cut", "flag", optional=True, doc="make this joint the cut joint of its loop")
+_ROTATION = Arg("rotation", "word", default="quaternion", choices=("quaternion", "cardan"),
+                doc="quaternion: singularity-free; cardan: angles x-y-z, for motions far from gimbal lock")
+
+ANGLE, LENGTH = U.ANGLE, U.LENGTH
+_CARDAN = (("alpha", ANGLE), ("beta", ANGLE), ("gamma", ANGLE))
+_QUATERNION = (("qw", U.DIMENSIONLESS), ("qx", U.DIMENSIONLESS), ("qy", U.DIMENSIONLESS), ("qz", U.DIMENSIONLESS))
+QUATERNION_SPEEDS = (("wx", U.ANGULAR_VELOCITY), ("wy", U.ANGULAR_VELOCITY), ("wz", U.ANGULAR_VELOCITY))
+
+JOINTS: dict[str, JointKind] = {j.name: j for j in (
+    JointKind("fixed", (_CUT,), (), "no relative motion"),
+    JointKind("revolute", (Arg("axis", "axis", default="z"), _CUT), (("phi", ANGLE),),
+              "rotation phi about axis (in frame a)"),
+    JointKind("prismatic", (Arg("axis", "axis", default="z"), _CUT), (("s", LENGTH),),
+              "translation s along axis"),
+    JointKind("cylindrical", (Arg("axis", "axis", default="z"), _CUT), (("s", LENGTH), ("phi", ANGLE)),
+              "translation s along and rotation phi about one axis"),
+    JointKind("universal", (Arg("axis1", "axis", default="x"), Arg("axis2", "axis", default="y"), _CUT),
+              (("phi1", ANGLE), ("phi2", ANGLE)), "Cardan joint: phi1 about axis1, then phi2 about axis2"),
+    JointKind("spherical", (_ROTATION, _CUT), _QUATERNION, "ball joint"),
+    JointKind("planar", (Arg("normal", "axis", default="z"), Arg("direction", "axis", default="x"), _CUT),
+              (("x", LENGTH), ("y", LENGTH), ("phi", ANGLE)),
+              "translation x along direction, y along normal x direction, rotation phi about normal"),
+    JointKind("free", (_ROTATION, _CUT), (("x", LENGTH), ("y", LENGTH), ("z", LENGTH)) + _QUATERNION,
+              "six degrees of freedom: translation in frame a, then rotation"),
+)}
+
+
+def joint_coordinates(kind: str, rotation: str) -> tuple[tuple[str, U.Dimension], ...]:
+    """Coordinates of a joint; spherical and free joints depend on the rotation parametrisation."""
+    coords = JOINTS[kind].coordinates
+    if rotation == "cardan":
+        coords = tuple(c for c in coords if c[0] not in ("qw", "qx", "qy", "qz")) + _CARDAN
+    return coords
+
+
+def speed_names(kind: str, rotation: str) -> tuple[str, ...]:
+    """Names of the velocity coordinates (quaternion joints have angular velocities, not der(q))."""
+    names = []
+    for local, _ in joint_coordinates(kind, rotation):
+        if local == "qw":
+            continue
+        names.append({"qx": "wx", "qy": "wy", "qz": "wz"}.get(local, local))
+    return tuple(names)
+
+
+_ALONG = Arg("along", "axis", optional=True,
+             doc="act along this axis of frame a (deflection = projection) instead of along the line a-b")
+_LINE_LOCALS = (("l", LENGTH), ("v", U.VELOCITY))
+
+FORCES: dict[str, ElementKind] = {k.name: k for k in (
+    ElementKind("spring", (Arg("k", "scalar", U.STIFFNESS), Arg("l0", "scalar", LENGTH, default=0.0), _ALONG),
+                doc="linear spring, tension k (l - l0)"),
+    ElementKind("damper", (Arg("d", "scalar", U.DAMPING), _ALONG), doc="linear damper, tension d v"),
+    ElementKind("spring_damper", (Arg("k", "scalar", U.STIFFNESS), Arg("d", "scalar", U.DAMPING),
+                                  Arg("l0", "scalar", LENGTH, default=0.0), _ALONG),
+                doc="tension k (l - l0) + d v"),
+    ElementKind("line", (Arg("f", "law", U.FORCE), _ALONG), _LINE_LOCALS,
+                doc="nonlinear tension f(l, v) along the line a-b (or along an axis); positive pulls together"),
+    ElementKind("point", (Arg("force", "vector", U.FORCE, optional=True),
+                          Arg("torque", "vector", U.TORQUE, optional=True),
+                          Arg("in", "frame", optional=True)),
+                doc="force and torque on frame b (components in frame 'in', default frame a); reaction on a"),
+    ElementKind("joint", (), (), extra_args=True,
+                doc="generalized forces on the interaction's joint coordinates: joint(phi = -d * der(phi))"),
+)}
+
+SENSORS: dict[str, ElementKind] = {k.name: k for k in (
+    ElementKind("position", (Arg("in", "frame", optional=True),), components=("x", "y", "z"),
+                doc="position of frame b relative to frame a, components in frame 'in' (default a)"),
+    ElementKind("velocity", (Arg("in", "frame", optional=True),), components=("x", "y", "z"),
+                doc="velocity of frame b relative to frame a (time derivative seen from the inertial frame)"),
+    ElementKind("acceleration", (Arg("in", "frame", optional=True),), components=("x", "y", "z"),
+                doc="acceleration of frame b relative to frame a"),
+    ElementKind("angles", (Arg("sequence", "word", default="xyz", choices=("xyz", "zyx", "zxz")),),
+                components=("a", "b", "c"), doc="orientation of frame b relative to frame a as three angles"),
+    ElementKind("distance", (), doc="distance between the origins of frames a and b"),
+    ElementKind("joint", (), components=(), doc="the joint's coordinates and speeds"),
+    ElementKind("force", (Arg("element", "word", optional=True),),
+                doc="the scalar force of a force element of this interaction"),
+    ElementKind("reaction", (Arg("in", "frame", optional=True),),
+                components=("fx", "fy", "fz", "mx", "my", "mz"),
+                doc="constraint force and torque the joint transmits to frame b, components in frame 'in'"),
+)}
+
+# Settings allowed in blocks: name -> (dimension or kind, default)
+BODY_SETTINGS = {"mass": U.MASS, "com": LENGTH, "inertia": U.INERTIA}
+MODEL_SETTINGS = {"gravity": U.ACCELERATION}
+SCENE_SETTINGS = {
+    "model": "word", "t_end": U.TIME, "sample": U.TIME, "integrator": "word", "rtol": U.DIMENSIONLESS,
+    "atol": U.DIMENSIONLESS, "start": "word",
+}
+INTEGRATORS = ("RK45", "DOP853", "Radau", "BDF", "LSODA", "dopri5", "rodas")
+SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "DOP853", "rtol": 1e-8, "atol": 1e-10, "start": "initial"}

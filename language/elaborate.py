@@ -1,0 +1,790 @@
+"""AST -> validated data model: components expanded, names resolved, units converted and checked.
+
+Three passes over the tree of scopes (the model, and one scope per ``use`` of a component):
+  declare  every name of every scope (so statements may appear in any order);
+  bind     component ports to frames of the instantiating model (so port frames exist before use);
+  build    the data-model objects, resolving every expression.
+Problems are reported, not raised, so one run shows all of them; rules.py then checks the finished model.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from . import ast, catalog
+from . import expr as X
+from . import geometry as G
+from . import model as M
+from . import units as U
+from .diagnostics import Diagnostics, Span
+from .expressions import ExprResolver, Invalid
+from .loader import Loader
+from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, Module, OutputEntry,
+                    ParamEntry, PartEntry, PortEntry, Scope, did_you_mean)
+from .units import Dimension
+
+DEFAULT_GRAVITY = (0.0, 0.0, -9.81)  # m/s^2, standard gravity along -z of the inertial frame
+
+
+class Elaborator:
+    def __init__(self, loader: Loader, diags: Diagnostics):
+        self.loader, self.diags = loader, diags
+        self._param_dims: dict[int, object] = {}
+        self._param_exprs: dict[str, X.E] = {}
+        self._param_spans: dict[str, tuple[Span, str | None, Dimension | None]] = {}
+        self._values: dict[str, float] = {}
+        self._resolving: set[int] = set()
+        self._module_scopes: dict[Path, Scope] = {}
+        self._call_depth = 0
+        self._cyclic: set[str] = set()
+        self.broken_links: set[tuple[str, str]] = set()
+
+    # ====================================================================================== entry
+    def model(self, module: Module, block: ast.Model, harness: bool = False) -> M.Model | None:
+        """Elaborate one model (or, with harness=True, a component with its ports bound to the ground)."""
+        root = Scope(module, block)
+        self.inertial = PartEntry(M.INERTIAL, None, {M.ORIGIN: block.name.span})
+        root.entries[M.INERTIAL] = self.inertial
+        self.root, self.harness = root, harness
+        self.inertial_frames: list[ast.Frame] = []
+        self.gravity = None
+        self.declare(root, is_component=block.kind == "component")
+        self.bind(root)
+        parts, interactions = [], []
+        self.part_frames: dict[str, list[M.Frame]] = {}
+        self.build(root, parts, interactions)
+        inertial = M.Part(M.INERTIAL, tuple(self._frames_of(M.INERTIAL, root, self.inertial_frames, None)), None,
+                          "inertial frame", block.span)
+        parts.insert(0, inertial)
+        parts = [M.Part(p.name, p.frames + tuple(self.part_frames.get(p.name, ())), p.body, p.description, p.span)
+                 for p in parts]
+        outputs = self.outputs(root)
+        params = self.parameters()
+        gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
+        self.warn_unused(root)
+        built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
+                        gravity, tuple(parts), tuple(interactions), (), block.span)
+        return built
+
+    def module_scope(self, module: Module) -> Scope:
+        if module.path not in self._module_scopes:
+            dummy = ast.Model("component", ast.Ident(module.dotted, module.file.span), None, (), module.file.span)
+            self._module_scopes[module.path] = Scope(module, dummy, prefix="")
+        return self._module_scopes[module.path]
+
+    # ====================================================================================== declare
+    def declare(self, scope: Scope, is_component: bool) -> None:
+        for st in scope.block.statements:
+            name = getattr(st, "name", None)
+            if isinstance(st, (ast.Param, ast.Input)) and "." in st.name.text:
+                self.diags.error("a parameter or input name cannot contain '.'", scope.at(st.name.span))
+                continue
+            if isinstance(st, ast.Param):
+                self.add(scope, st.name, ParamEntry(scope.full(st.name.text), st))
+            elif isinstance(st, ast.Input):
+                self.add(scope, st.name, InputEntry(scope.full(st.name.text), st))
+            elif isinstance(st, ast.Func):
+                self.add(scope, st.name, FuncEntry(st, scope))
+            elif isinstance(st, ast.Output):
+                if len(st.name.parts) == 1 and st.value is not None:
+                    self.add(scope, st.name.parts[0], OutputEntry(scope.full(st.name.dotted), st, scope))
+            elif isinstance(st, ast.Part):
+                self.declare_part(scope, st)
+            elif isinstance(st, ast.Port):
+                if not is_component:
+                    self.diags.error("ports belong to components; a model attaches to 'inertial'", scope.at(st.span))
+                self.add(scope, st.name, PortEntry(st))
+            elif isinstance(st, ast.Interact):
+                self.add(scope, st.name, self.declare_interaction(scope, st))
+            elif isinstance(st, ast.Use):
+                self.instantiate(scope, st)
+            elif isinstance(st, ast.Import):
+                imports: dict = {}
+                self.loader.import_into(imports, st, scope.module.path.parent)
+                for alias, module in imports.items():
+                    self.add(scope, st.alias or st.path.parts[-1], ImportEntry(module))
+            elif isinstance(st, ast.Setting):
+                self.model_setting(scope, st)
+            del name
+
+    def add(self, scope: Scope, name: ast.Ident, entry) -> None:
+        if name.text in scope.entries:
+            self.diags.error(f"'{name.text}' is already declared in this {scope.block.kind}",
+                             scope.at(name.span), ("first declared here", scope.at(_decl_span(scope.entries[name.text],
+                                                                                                 name.span))))
+            return
+        if name.text in ("t", "pi", "der", "lookup") or name.text in X.FUNCTIONS:
+            self.diags.error(f"'{name.text}' is a reserved name", scope.at(name.span))
+            return
+        scope.entries[name.text] = entry
+        scope.order.append(name.text)
+
+    def declare_part(self, scope: Scope, st: ast.Part) -> None:
+        if st.name.text == M.INERTIAL:
+            if scope is not self.root or st.rigid:
+                self.diags.error("'inertial' is the predefined ground part: only a model may add frames to it, "
+                                 "with 'part inertial { frame ... }'", scope.at(st.name.span))
+                return
+            for f in st.frames:
+                self.add_frame_name(scope, self.inertial, f)
+            self.inertial_frames.extend(st.frames)
+            return
+        if st.rigid and st.body is None:
+            self.diags.error(f"rigid part '{st.name.text}' needs a body {{ mass = ...; com = ...; inertia = ... }}"
+                             " (use 'part' for a massless part)", scope.at(st.name.span))
+        entry = PartEntry(scope.full(st.name.text), st, {M.ORIGIN: st.name.span})
+        if st.rigid:
+            entry.frames["com"] = st.name.span
+        for f in st.frames:
+            self.add_frame_name(scope, entry, f)
+        self.add(scope, st.name, entry)
+
+    def add_frame_name(self, scope: Scope, entry: PartEntry, f: ast.Frame) -> None:
+        if f.name.text in entry.frames:
+            what = "predefined" if f.name.text in (M.ORIGIN, "com") else "already declared on this part"
+            self.diags.error(f"frame '{f.name.text}' is {what}", scope.at(f.name.span))
+        else:
+            entry.frames[f.name.text] = f.name.span
+
+    def declare_interaction(self, scope: Scope, st: ast.Interact) -> InteractEntry:
+        entry = InteractEntry(scope.full(st.name.text), st)
+        for member in st.members:
+            if isinstance(member, ast.Joint) and member.kind.text in catalog.JOINTS:
+                rotation = _word_arg(member.args, "rotation") or "quaternion"
+                kind = member.kind.text
+                for local, dim in catalog.joint_coordinates(kind, rotation):
+                    entry.coordinates[local] = dim
+                quaternion = kind in ("spherical", "free") and rotation == "quaternion"
+                for local, dim in catalog.joint_coordinates(kind, rotation):
+                    if local.startswith("q") and quaternion:
+                        continue
+                    entry.speeds.setdefault(f"der_{local}", dim / U.TIME)
+                if quaternion:
+                    for local, dim in catalog.QUATERNION_SPEEDS:
+                        entry.speeds[local] = dim
+            elif isinstance(member, ast.Sensor) and member.kind.text in catalog.SENSORS:
+                kind = catalog.SENSORS[member.kind.text]
+                comps = kind.components
+                if member.kind.text == "joint":
+                    comps = tuple(entry.coordinates) or ("",)
+                if member.name.text in entry.sensors:
+                    self.diags.error(f"sensor '{member.name.text}' is already declared", scope.at(member.name.span))
+                entry.sensors[member.name.text] = (member.kind.text, comps)
+            elif isinstance(member, ast.Force) and member.name is not None:
+                if member.name.text in entry.forces:
+                    self.diags.error(f"force '{member.name.text}' is already declared", scope.at(member.name.span))
+                entry.forces[member.name.text] = member.kind.text
+        return entry
+
+    def instantiate(self, scope: Scope, st: ast.Use) -> None:
+        found = self.find_block(scope, st.component)
+        if found is None:
+            return
+        module, block = found
+        if block.kind != "component":
+            self.diags.error(f"'{st.component.dotted}' is a model; only components can be instantiated",
+                             scope.at(st.component.span))
+            return
+        if any(st.span is site for _, site in scope.via) or len(scope.via) > 20:
+            self.diags.error("component instantiates itself", scope.at(st.span))
+            return
+        mirror = (1, 1, 1)
+        overrides = []
+        for arg in st.args:
+            if not isinstance(arg, ast.Kwarg):
+                self.diags.error("arguments of 'use' are named: use lib.part as x(k = 1 N/m)", scope.at(arg.span))
+                continue
+            if arg.name.text == "mirror":
+                plane = arg.value.ref.dotted if isinstance(arg.value, ast.Name) else ""
+                if plane not in G.MIRROR_PLANES:
+                    self.diags.error("mirror takes a plane: xz, xy or yz", scope.at(arg.value.span))
+                else:
+                    mirror = G.MIRROR_PLANES[plane]
+                continue
+            overrides.append(arg)
+        label = f"in instance '{scope.full(st.alias.text)}' of component '{block.name.text}', created here"
+        child = Scope(module, block, prefix=scope.full(st.alias.text) + ".",
+                      signs=G.compose_signs(scope.signs, mirror), via=((label, scope.at(st.span)),) + scope.via,
+                      parent=scope)
+        self.declare(child, is_component=True)
+        for arg in overrides:
+            entry = child.entries.get(arg.name.text)
+            if not isinstance(entry, ParamEntry):
+                params = [n for n, e in child.entries.items() if isinstance(e, ParamEntry)]
+                self.diags.error(f"component '{block.name.text}' has no parameter '{arg.name.text}'"
+                                 f"{did_you_mean(arg.name.text, params)}", scope.at(arg.name.span))
+                continue
+            entry.override, entry.override_scope = arg.value, scope
+        self.add(scope, st.alias, InstanceEntry(child, st))
+
+    def find_block(self, scope: Scope, ref: ast.Ref) -> tuple[Module, ast.Model] | None:
+        names = [p.text for p in ref.parts]
+        if len(names) == 1 and names[0] in scope.module.blocks:
+            return scope.module, scope.module.blocks[names[0]]
+        if len(names) == 2:
+            entry = scope.lookup(names[0])
+            if isinstance(entry, ImportEntry) and names[1] in entry.module.blocks:
+                return entry.module, entry.module.blocks[names[1]]
+            if isinstance(entry, ImportEntry):
+                self.diags.error(f"module '{names[0]}' has no component '{names[1]}'"
+                                 f"{did_you_mean(names[1], entry.module.blocks)}", scope.at(ref.parts[1].span))
+                return None
+        candidates = list(scope.module.blocks) + list(scope.module.imports)
+        self.diags.error(f"unknown component '{ref.dotted}'{did_you_mean(ref.dotted, candidates)} (import its module "
+                         f"first: import lib.name)", scope.at(ref.span))
+        return None
+
+    def model_setting(self, scope: Scope, st: ast.Setting) -> None:
+        if st.name.text != "gravity":
+            self.diags.error(f"unknown model setting '{st.name.text}'{did_you_mean(st.name.text, ['gravity'])}",
+                             scope.at(st.name.span))
+        elif scope is not self.root:
+            self.diags.error("gravity is set by the model, not by a component", scope.at(st.span))
+        else:
+            self._gravity_stmt = st
+
+    # ====================================================================================== bind
+    def bind(self, scope: Scope) -> None:
+        for entry in list(scope.entries.values()):
+            if isinstance(entry, InstanceEntry):
+                self.bind_instance(scope, entry)
+                self.bind(entry.scope)
+        if self.harness and scope is self.root:
+            for entry in scope.entries.values():
+                if isinstance(entry, PortEntry):
+                    self.attach_port(scope, entry, M.INERTIAL, M.ORIGIN, entry.decl.name.text + ".")
+
+    def bind_instance(self, scope: Scope, inst: InstanceEntry) -> None:
+        child = inst.scope
+        bound = set()
+        for b in inst.decl.bindings:
+            port = child.entries.get(b.port.text)
+            if not isinstance(port, PortEntry):
+                ports = [n for n, e in child.entries.items() if isinstance(e, PortEntry)]
+                self.diags.error(f"component '{child.block.name.text}' has no port '{b.port.text}'"
+                                 f"{did_you_mean(b.port.text, ports)}", scope.at(b.port.span))
+                continue
+            target = self.frame_ref(scope, b.target)
+            if target is None:
+                continue
+            bound.add(b.port.text)
+            self.attach_port(child, port, target.part, target.frame, child.prefix + b.port.text + ".")
+        for name, entry in child.entries.items():
+            if isinstance(entry, PortEntry) and name not in bound:
+                self.diags.error(f"port '{name}' of component '{child.block.name.text}' is not bound: add "
+                                 f"{{ {name} = part.frame }}", scope.at(inst.decl.alias.span))
+
+    def attach_port(self, scope: Scope, port: PortEntry, part: str, frame: str, prefix: str) -> None:
+        port.part, port.base_frame, port.frame_prefix = part, frame, prefix
+        target = self.part_entry(part)
+        for f in port.decl.frames:
+            target.frames[prefix + f.name.text] = f.name.span
+
+    def part_entry(self, full: str) -> PartEntry:
+        if full == M.INERTIAL:
+            return self.inertial
+        return self._find_part(self.root, full)
+
+    def _find_part(self, scope: Scope, full: str) -> PartEntry:
+        for entry in scope.entries.values():
+            if isinstance(entry, PartEntry) and entry.full == full:
+                return entry
+            if isinstance(entry, InstanceEntry) and full.startswith(entry.scope.prefix):
+                found = self._find_part(entry.scope, full)
+                if found is not None:
+                    return found
+        return None  # type: ignore[return-value]
+
+    # ====================================================================================== frames
+    def frame_ref(self, scope: Scope, ref: ast.Ref) -> M.FrameRef | None:
+        """part | part.frame | port | port.frame | instance.(...) | inertial[.frame]"""
+        names = ref.parts
+        entry = scope.lookup(names[0].text)
+        if entry is None and names[0].text == M.INERTIAL:
+            entry = self.inertial
+        if isinstance(entry, InstanceEntry) and len(names) > 1:
+            return self.frame_ref(entry.scope, ast.Ref(names[1:], ref.span))
+        if isinstance(entry, PartEntry):
+            if len(names) == 1:
+                return M.FrameRef(entry.full, M.ORIGIN)
+            frame = ".".join(n.text for n in names[1:])
+            if frame not in entry.frames:
+                self.diags.error(f"part '{names[0].text}' has no frame '{frame}'"
+                                 f"{did_you_mean(frame, entry.frames)}", scope.at(ref.span))
+                return None
+            entry.used_frames.add(frame)
+            return M.FrameRef(entry.full, frame)
+        if isinstance(entry, PortEntry):
+            if entry.part is None:
+                return None  # unbound port: reported at the instantiation
+            if len(names) == 1:
+                return M.FrameRef(entry.part, entry.base_frame)
+            local = ".".join(n.text for n in names[1:])
+            if local not in {f.name.text for f in entry.decl.frames}:
+                self.diags.error(f"port '{names[0].text}' has no frame '{local}'"
+                                 f"{did_you_mean(local, [f.name.text for f in entry.decl.frames])}",
+                                 scope.at(ref.span))
+                return None
+            self.part_entry(entry.part).used_frames.add(entry.frame_prefix + local)
+            return M.FrameRef(entry.part, entry.frame_prefix + local)
+        if entry is None:
+            candidates = [n for n, e in scope.entries.items() if isinstance(e, (PartEntry, PortEntry, InstanceEntry))]
+            self.diags.error(f"unknown part '{names[0].text}'{did_you_mean(names[0].text, candidates + ['inertial'])}",
+                             scope.at(names[0].span))
+            return None
+        self.diags.error(f"'{names[0].text}' is not a part, port or component instance", scope.at(names[0].span))
+        return None
+
+    # ====================================================================================== build
+    def build(self, scope: Scope, parts: list, interactions: list) -> None:
+        for st in scope.block.statements:
+            try:
+                if isinstance(st, ast.Part) and st.name.text != M.INERTIAL:
+                    parts.append(self.build_part(scope, st))
+                elif isinstance(st, ast.Port):
+                    self.build_port_frames(scope, st)
+                elif isinstance(st, ast.Interact):
+                    built = self.build_interaction(scope, st)
+                    if built is not None:
+                        interactions.append(built)
+                elif isinstance(st, ast.Use):
+                    inst = scope.entries.get(st.alias.text)
+                    if isinstance(inst, InstanceEntry) and inst.decl is st:
+                        self.build(inst.scope, parts, interactions)
+                elif isinstance(st, ast.Param):
+                    entry = scope.entries.get(st.name.text)
+                    if isinstance(entry, ParamEntry):
+                        self.param_dimension(entry)
+                elif isinstance(st, ast.Setting) and scope is self.root and st.name.text == "gravity":
+                    r = ExprResolver(self, scope, allow_state=False, what="gravity")
+                    vec, dim = r.vector(st.value, "gravity")
+                    r.expect(dim, U.ACCELERATION, st.value.span, "gravity")
+                    self.gravity = vec
+            except Invalid:
+                pass
+
+    def build_part(self, scope: Scope, st: ast.Part) -> M.Part:
+        full = scope.full(st.name.text)
+        body = self.build_body(scope, st) if st.body is not None else None
+        frames = self._frames_of(full, scope, st.frames, body)
+        return M.Part(full, tuple(frames), body, st.description, scope.at(st.span))
+
+    def _frames_of(self, part: str, scope: Scope, decls, body) -> list[M.Frame]:
+        frames = [M.Frame(M.ORIGIN, G.ZERO_VEC, G.IDENTITY, scope.at(scope.block.name.span))]
+        if body is not None:
+            frames.append(M.Frame("com", body.com, G.IDENTITY, body.span))
+        for f in decls:
+            try:
+                position, rotation = self.frame_pose(scope, f)
+            except Invalid:
+                continue
+            frames.append(M.Frame(f.name.text, position, rotation, scope.at(f.span)))
+        return frames
+
+    def frame_pose(self, scope: Scope, f: ast.Frame) -> tuple[M.Vec3, M.Mat3]:
+        r = ExprResolver(self, scope, allow_state=False, what=f"the position of frame '{f.name.text}'")
+        position = G.ZERO_VEC
+        if f.at is not None:
+            position, dim = r.vector(f.at, "a frame position")
+            r.expect(dim, U.LENGTH, f.at.span, "a frame position")
+        rotation = self.rotation(scope, f.rotate) if f.rotate is not None else G.IDENTITY
+        return G.mirror_vec(scope.signs, position), G.mirror_mat(scope.signs, rotation)
+
+    def build_port_frames(self, scope: Scope, st: ast.Port) -> None:
+        port = scope.entries.get(st.name.text)
+        if not isinstance(port, PortEntry) or port.part is None:
+            return
+        base = self.base_pose(port.part, port.base_frame)
+        for f in st.frames:
+            try:
+                p, R = self.frame_pose(scope, f)
+            except Invalid:
+                continue
+            if base is not None:
+                bp, bR = base
+                p, R = G.vadd(bp, G.matvec(bR, p)), G.matmul(bR, R)
+            self.part_frames.setdefault(port.part, []).append(M.Frame(port.frame_prefix + f.name.text, p, R,
+                                                                      scope.at(f.span)))
+
+    def base_pose(self, part: str, frame: str):
+        """Pose of a frame a port is bound to (frames declared directly on the part, or the origin)."""
+        if frame == M.ORIGIN:
+            return None
+        entry = self.part_entry(part)
+        if entry is None:
+            return None
+        decls = entry.decl.frames if entry.decl is not None else self.inertial_frames
+        for f in decls:
+            if f.name.text == frame:
+                scope = self._scope_of_part(self.root, part) or self.root
+                return self.frame_pose(scope, f)
+        for fr in self.part_frames.get(part, []):
+            if fr.name == frame:
+                return fr.position, fr.rotation
+        return None
+
+    def _scope_of_part(self, scope: Scope, full: str) -> Scope | None:
+        for entry in scope.entries.values():
+            if isinstance(entry, PartEntry) and entry.full == full:
+                return scope
+            if isinstance(entry, InstanceEntry):
+                found = self._scope_of_part(entry.scope, full)
+                if found:
+                    return found
+        return None
+
+    def rotation(self, scope: Scope, node: ast.Expr) -> M.Mat3:
+        """axis_angle(axis, angle) | cardan(a, b, c) | euler(a, b, c) | angles(seq, a, b, c) | dcm([[...]])"""
+        r = ExprResolver(self, scope, allow_state=False, what="a frame rotation")
+        if not isinstance(node, ast.Call):
+            raise r.error("a rotation is axis_angle(axis, angle), cardan(a, b, c), euler(a, b, c), "
+                          "angles(xyz, a, b, c) or dcm([[...], [...], [...]])", node.span)
+        fn, args = node.func.dotted, node.args
+
+        def angle(a):
+            value, dim = r.scalar(a)
+            r.expect(dim, U.ANGLE, a.span, "an angle")
+            return value
+        if fn == "axis_angle" and len(args) == 2:
+            return G.axis_rotation(self.axis(scope, args[0], "a rotation axis"), angle(args[1]))
+        if fn in ("cardan", "euler") and len(args) == 3:
+            return G.sequence_rotation("xyz" if fn == "cardan" else "zxz", tuple(angle(a) for a in args))
+        if fn == "angles" and len(args) == 4:
+            seq = args[0].ref.dotted if isinstance(args[0], ast.Name) else ""
+            if len(seq) != 3 or any(c not in "xyz" for c in seq) or seq[0] == seq[1] or seq[1] == seq[2]:
+                raise r.error("a rotation sequence is three axes such as xyz, zyx or zxz", args[0].span)
+            return G.sequence_rotation(seq, tuple(angle(a) for a in args[1:]))
+        if fn == "dcm" and len(args) == 1:
+            return self.dcm(r, args[0])
+        raise r.error(f"unknown rotation '{fn}' with {len(args)} arguments; use axis_angle(axis, angle), "
+                      f"cardan(a, b, c), euler(a, b, c), angles(seq, a, b, c) or dcm([[...]])", node.span)
+
+    def dcm(self, r: ExprResolver, node) -> M.Mat3:
+        rows = self.matrix(r, node, "a direction-cosine matrix")
+        values = [[self.constant(e, r.scope, node.span) for e in row] for row in rows]
+        import numpy as np
+        a = np.array(values)
+        if not np.allclose(a @ a.T, np.eye(3), atol=1e-6) or np.linalg.det(a) < 0:
+            raise r.error("a direction-cosine matrix must be a proper rotation (orthonormal, determinant +1)",
+                          node.span)
+        return rows
+
+    def matrix(self, r: ExprResolver, node, what: str) -> M.Mat3:
+        factor, unit_dim, inner = 1.0, None, node
+        if isinstance(node, ast.WithUnit):
+            factor, unit_dim = r.unit(node.unit, node.unit_span)
+            inner = node.expr
+        if not (isinstance(inner, ast.Matrix) and len(inner.items) == 3 and
+                all(isinstance(row, ast.Matrix) and len(row.items) == 3 for row in inner.items)):
+            raise r.error(f"{what} is a 3x3 matrix [[a, b, c], [d, e, f], [g, h, i]]", node.span)
+        rows = []
+        for row in inner.items:
+            rows.append(tuple(X.mul(r.scalar(c)[0], X.const(factor)) for c in row.items))
+        self._matrix_dim = unit_dim
+        return tuple(rows)  # type: ignore[return-value]
+
+    def axis(self, scope: Scope, node: ast.Expr, what: str, axial: bool = False) -> M.Vec3:
+        """x, y, z, -x, ... or a vector; normalised (with a note when the user's vector was not unit)."""
+        r = ExprResolver(self, scope, allow_state=False, what=what)
+        negate = False
+        inner = node
+        if isinstance(inner, ast.Unary) and inner.op == "-":
+            negate, inner = True, inner.operand
+        if isinstance(inner, ast.Name) and inner.ref.dotted in G.UNIT_AXES:
+            vec = G.const_vec(tuple(-c if negate else c for c in G.UNIT_AXES[inner.ref.dotted]))
+        else:
+            vec, _ = r.vector(node, what)
+            if all(isinstance(c, X.Const) for c in vec):
+                values = tuple(c.value for c in vec)
+                unit = G.normalise_constant(values)
+                if unit is None:
+                    raise r.error(f"{what} must not be zero", node.span)
+                if abs(sum(v * v for v in values) - 1.0) > 1e-12:
+                    self.diags.note(f"{what} normalised to ({', '.join('%.6g' % v for v in unit)})",
+                                    scope.at(node.span))
+                vec = G.const_vec(unit)
+            else:
+                vec = G.normalise(vec)
+        return G.mirror_axial(scope.signs, vec) if axial else G.mirror_vec(scope.signs, vec)
+
+    def build_body(self, scope: Scope, st: ast.Part) -> M.Body | None:
+        settings = {}
+        for s in st.body.settings:
+            if s.name.text not in catalog.BODY_SETTINGS:
+                self.diags.error(f"unknown body property '{s.name.text}'"
+                                 f"{did_you_mean(s.name.text, catalog.BODY_SETTINGS)}", scope.at(s.name.span))
+            elif s.name.text in settings:
+                self.diags.error(f"'{s.name.text}' is given twice", scope.at(s.name.span))
+            else:
+                settings[s.name.text] = s
+        for required in ("mass", "inertia"):
+            if required not in settings:
+                self.diags.error(f"body of '{st.name.text}' has no {required}", scope.at(st.body.span))
+        if len(settings) != len(st.body.settings) or "mass" not in settings or "inertia" not in settings:
+            return None
+        r = ExprResolver(self, scope, allow_state=False, what="a body property")
+        try:
+            mass, dim = r.scalar(settings["mass"].value)
+            r.expect(dim, U.MASS, settings["mass"].value.span, "mass")
+            com = G.ZERO_VEC
+            if "com" in settings:
+                com, dim = r.vector(settings["com"].value, "the centre of mass")
+                r.expect(dim, U.LENGTH, settings["com"].value.span, "the centre of mass")
+            inertia = self.inertia(scope, r, settings["inertia"])
+        except Invalid:
+            return None
+        return M.Body(mass, G.mirror_vec(scope.signs, com), G.mirror_mat(scope.signs, inertia),
+                      scope.at(st.body.span))
+
+    def inertia(self, scope: Scope, r: ExprResolver, s: ast.Setting) -> M.Mat3:
+        node = s.value
+        factor, unit_dim, inner = 1.0, None, node
+        if isinstance(node, ast.WithUnit):
+            factor, unit_dim = r.unit(node.unit, node.unit_span)
+            inner = node.expr
+        if isinstance(inner, ast.Call) and inner.func.dotted == "diag" and len(inner.args) == 3:
+            diag = []
+            for a in inner.args:
+                value, dim = r.scalar(a)
+                if unit_dim is not None:
+                    value, dim = X.mul(value, X.const(factor)), unit_dim
+                r.expect(dim, U.INERTIA, a.span, "an inertia")
+                diag.append(value)
+            tensor = tuple(tuple(diag[i] if i == j else X.ZERO for j in range(3)) for i in range(3))
+        elif isinstance(inner, ast.Matrix):
+            tensor = self.matrix(r, node, "an inertia tensor")
+            r.expect(self._matrix_dim, U.INERTIA, node.span, "an inertia")
+        else:
+            raise r.error("an inertia is diag(Ixx, Iyy, Izz) or a symmetric 3x3 matrix [[..], [..], [..]] "
+                          "(about the centre of mass)", node.span)
+        if s.frame is not None:
+            # components given in the axes of a frame of this part: I_part = R I R^T
+            frame = next((f for f in _part_frames(s, scope) if f.name.text == s.frame.dotted.split(".")[-1]), None)
+            if frame is None or frame.rotate is None:
+                if frame is None:
+                    raise r.error(f"no frame '{s.frame.dotted}' on this part", s.frame.span)
+            else:
+                R = self.rotation(scope, frame.rotate)
+                tensor = G.matmul(G.matmul(R, tensor), G.transpose(R))
+        return tensor  # type: ignore[return-value]
+
+    # ====================================================================================== interactions
+    def build_interaction(self, scope: Scope, st: ast.Interact) -> M.Interaction | None:
+        entry = scope.entries.get(st.name.text)
+        if not isinstance(entry, InteractEntry) or entry.decl is not st:
+            return None
+        connects = [m for m in st.members if isinstance(m, ast.Connect)]
+        joints = [m for m in st.members if isinstance(m, ast.Joint)]
+        if not connects:
+            self.diags.error(f"interaction '{st.name.text}' has no 'connect a.frame -> b.frame'", scope.at(st.name.span))
+            return None
+        for extra in connects[1:]:
+            self.diags.error("an interaction connects exactly two frames; this is a second 'connect'",
+                             scope.at(extra.span))
+        for extra in joints[1:]:
+            self.diags.error("an interaction has at most one joint; this is a second one", scope.at(extra.span))
+        a, b = self.frame_ref(scope, connects[0].a), self.frame_ref(scope, connects[0].b)
+        if a is None or b is None:
+            return None
+        if joints:
+            # If the joint turns out to be invalid, connectivity checks must not report its parts again.
+            self.broken_links.add((a.part, b.part))
+        if a.part == b.part:
+            self.diags.error(f"an interaction joins two different parts; both frames are on '{a.part}'",
+                             scope.at(connects[0].span))
+            return None
+        from .members import build_forces, build_joint, build_sensors
+        joint = build_joint(self, scope, entry, joints[0]) if joints else None
+        if joint is not None:
+            self.broken_links.discard((a.part, b.part))
+        forces = build_forces(self, scope, entry, st, a)
+        sensors = build_sensors(self, scope, entry, st)
+        return M.Interaction(entry.full, a, b, joint, forces, sensors, st.description, scope.at(st.span))
+
+    # ====================================================================================== parameters
+    def param_dimension(self, entry: ParamEntry):
+        key = id(entry)
+        if key in self._param_dims:
+            return self._param_dims[key]
+        if key in self._resolving:
+            self.diags.error(f"parameter '{entry.full}' depends on itself", self._entry_scope_span(entry))
+            self._cyclic.add(entry.full)
+            return None
+        self._resolving.add(key)
+        try:
+            expr_node, scope = entry.decl.value, self._scope_of_entry(entry)
+            if entry.override is not None:
+                expr_node, scope = entry.override, entry.override_scope
+            r = ExprResolver(self, scope, allow_state=False, what=f"parameter '{entry.full}'")
+            value, dim = r.scalar(expr_node)
+            if entry.override is not None:
+                own_dim = ExprResolver(self, self._scope_of_entry(entry), allow_state=False,
+                                       what=f"parameter '{entry.full}'").scalar(entry.decl.value)[1]
+                r.expect(dim, own_dim, expr_node.span, f"parameter '{entry.decl.name.text}'")
+                dim = own_dim if own_dim is not None else dim
+        except Invalid:
+            value, dim = X.ZERO, None
+        finally:
+            self._resolving.discard(key)
+        self._param_dims[key] = dim
+        self._param_exprs[entry.full] = value
+        self._param_spans[entry.full] = (self._entry_scope_span(entry), entry.decl.description, dim)
+        return dim
+
+    def module_param(self, module: Module, name: str, span, scope: Scope):
+        """A file-level parameter: shared by every block of the file (and of files that import it)."""
+        decl = module.params[name]
+        full = name if module.path == self.root.module.path else f"{module.dotted}.{name}"
+        entry = self._module_entries().setdefault(full, ParamEntry(full, decl))
+        entry.used = True
+        if id(entry) not in self._param_dims:
+            self._module_param_scope[id(entry)] = self.module_scope(module)
+        return X.Sym("param", full), self.param_dimension(entry)
+
+    def _module_entries(self) -> dict:
+        if not hasattr(self, "_module_param_entries"):
+            self._module_param_entries: dict[str, ParamEntry] = {}
+            self._module_param_scope: dict[int, Scope] = {}
+        return self._module_param_entries
+
+    def _scope_of_entry(self, entry: ParamEntry) -> Scope:
+        self._module_entries()
+        if id(entry) in self._module_param_scope:
+            return self._module_param_scope[id(entry)]
+        return self._find_scope(self.root, entry) or self.root
+
+    def _find_scope(self, scope: Scope, entry) -> Scope | None:
+        if any(e is entry for e in scope.entries.values()):
+            return scope
+        for e in scope.entries.values():
+            if isinstance(e, InstanceEntry):
+                found = self._find_scope(e.scope, entry)
+                if found:
+                    return found
+        return None
+
+    def _entry_scope_span(self, entry: ParamEntry) -> Span:
+        scope = self._scope_of_entry(entry)
+        return scope.at(entry.decl.name.span)
+
+    def input_dimension(self, entry: InputEntry):
+        scope = self._find_scope(self.root, entry) or self.root
+        try:
+            return ExprResolver(self, scope, what=f"input '{entry.full}'").scalar(entry.decl.value)[1]
+        except Invalid:
+            return None
+
+    def constant(self, e: X.E, scope: Scope, span) -> float:
+        """Numeric value of a constant expression with parameter defaults (for checks and tables)."""
+        try:
+            return X.evaluate(e, self.values_for(e))
+        except X.EvaluationError as exc:
+            self.diags.error(f"cannot evaluate this value: {exc}", scope.at(span))
+            raise Invalid() from None
+
+    def values_for(self, e: X.E) -> dict[str, float]:
+        env: dict[str, float] = {}
+        for sym in X.symbols(e):
+            if sym.kind == "param":
+                env[sym.name] = self.param_value(sym.name)
+        return env
+
+    def param_value(self, full: str, depth: int = 0) -> float:
+        if full in self._values:
+            return self._values[full]
+        e = self._param_exprs.get(full, X.ZERO)
+        if depth > 200:
+            raise X.EvaluationError(f"parameter '{full}' depends on itself")
+        env = {s.name: self.param_value(s.name, depth + 1) for s in X.symbols(e) if s.kind == "param"}
+        value = X.evaluate(e, env)
+        self._values[full] = value
+        return value
+
+    def parameters(self) -> tuple[M.Parameter, ...]:
+        out = []
+        for full, e in self._param_exprs.items():
+            span, description, dim = self._param_spans[full]
+            try:
+                value = self.param_value(full)
+            except X.EvaluationError as exc:
+                if not self._cyclic:  # a cycle is reported once, where it is found
+                    self.diags.error(f"parameter '{full}' cannot be evaluated: {exc}", span)
+                value = float("nan")
+            out.append(M.Parameter(full, e, value, dim, description, span))
+        return tuple(out)
+
+    # ====================================================================================== block I/O
+    def inputs(self, scope: Scope):
+        for entry in scope.entries.values():
+            if isinstance(entry, InputEntry):
+                inner = self._find_scope(self.root, entry) or self.root
+                try:
+                    value, dim = ExprResolver(self, inner, what=f"input '{entry.full}'").scalar(entry.decl.value)
+                except Invalid:
+                    continue
+                yield M.Input(entry.full, value, dim, entry.decl.description, inner.at(entry.decl.span))
+            elif isinstance(entry, InstanceEntry):
+                yield from self.inputs(entry.scope)
+
+    def outputs(self, scope: Scope) -> list[M.Output]:
+        """Outputs of the model and of every component instance (prefixed: fl.travel)."""
+        out = []
+        for st in scope.block.statements:
+            if isinstance(st, ast.Output):
+                built = self.output(scope, st)
+                if built is not None:
+                    out.append(built)
+            elif isinstance(st, ast.Use):
+                inst = scope.entries.get(st.alias.text)
+                if isinstance(inst, InstanceEntry) and inst.decl is st:
+                    out.extend(self.outputs(inst.scope))
+        return out
+
+    def output(self, scope: Scope, st: ast.Output) -> M.Output | None:
+        r = ExprResolver(self, scope, allow_acceleration=True, what="an output")
+        try:
+            value = r.scalar(st.value if st.value is not None else ast.Name(st.name, st.name.span))[0]
+        except Invalid:
+            return None
+        return M.Output(scope.full(st.name.dotted), value, st.description, scope.at(st.span))
+
+    def output_value(self, entry: OutputEntry, span) -> tuple[X.E, object]:
+        """An output used in another expression (another output, or a scene's output list)."""
+        if getattr(entry, "_resolving", False):
+            self.diags.error(f"output '{entry.full}' depends on itself", entry.scope.at(span))
+            raise Invalid()
+        entry._resolving = True  # type: ignore[attr-defined]
+        try:
+            return ExprResolver(self, entry.scope, allow_acceleration=True, what="an output").scalar(entry.decl.value)
+        finally:
+            entry._resolving = False  # type: ignore[attr-defined]
+
+    def warn_unused(self, scope: Scope) -> None:
+        if self.diags.error_count:
+            return  # warnings about a model that does not compile are noise
+        for name, entry in scope.entries.items():
+            if isinstance(entry, ParamEntry) and not entry.used and entry.override is None:
+                self.diags.warning(f"parameter '{name}' is never used", scope.at(entry.decl.name.span))
+            elif isinstance(entry, InstanceEntry):
+                self.warn_unused(entry.scope)
+
+
+def _decl_span(entry, fallback: Span) -> Span:
+    decl = getattr(entry, "decl", None)
+    if decl is not None and hasattr(decl, "name") and hasattr(decl.name, "span"):
+        return decl.name.span
+    return fallback
+
+
+def _word_arg(args, name: str) -> str | None:
+    for a in args:
+        if isinstance(a, ast.Kwarg) and a.name.text == name and isinstance(a.value, ast.Name):
+            return a.value.ref.dotted
+    return None
+
+
+def _part_frames(setting: ast.Setting, scope: Scope):
+    for st in scope.block.statements:
+        if isinstance(st, ast.Part) and st.body is not None and any(s is setting for s in st.body.settings):
+            return st.frames
+    return ()

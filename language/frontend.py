@@ -1,0 +1,124 @@
+"""The front end's public face: a file in, validated models out (or every located error of the file).
+
+    load(path)                       -> the model of a file (its scenes attached)
+    check(path)                      -> every model of a file, with warnings and notes
+    load_text(text)                  -> the same for text in memory (tests, tools)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+from . import ast
+from . import model as M
+from .diagnostics import Diagnostic, Diagnostics, MbsError, Source, Span
+from .elaborate import Elaborator
+from .loader import Loader
+from .parser import parse_source
+from .rules import check_model
+from .scenes import build_scene, scene_model_name
+from .scope import Module
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    models: tuple[M.Model, ...]
+    components: tuple[str, ...]
+    diagnostics: tuple[Diagnostic, ...]
+
+    def model(self, name: str | None = None) -> M.Model:
+        if name is None:
+            return self.models[0]
+        for m in self.models:
+            if m.name == name:
+                return m
+        raise KeyError(name)
+
+
+def check(path: str | Path) -> CheckResult:
+    """Validate every model and component of a file; raise MbsError listing all errors if any."""
+    diags = Diagnostics()
+    loader = Loader(diags)
+    module = loader.load_path(Path(path))
+    return _check_module(module, loader, diags)
+
+
+def check_text(text: str, path: str = "<string>", directory: str | Path = ".") -> CheckResult:
+    diags = Diagnostics()
+    loader = Loader(diags)
+    source = Source(path, text)
+    try:
+        file = parse_source(source, diags)
+    except MbsError:
+        raise MbsError(diags.items) from None
+    module = Module(path=Path(directory).resolve() / Path(path).name, dotted=Path(path).stem, file=file)
+    loader._declare(module)
+    return _check_module(module, loader, diags)
+
+
+def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> CheckResult:
+    if module is None:
+        raise MbsError(diags.items)
+    models, components = [], []
+    for name, block in module.blocks.items():
+        elab = Elaborator(loader, diags)
+        built = elab.model(module, block, harness=block.kind == "component")
+        if built is None:
+            continue
+        check_model(built, diags, component=block.kind == "component", assumed_links=elab.broken_links)
+        if block.kind == "component":
+            components.append(name)
+            continue
+        scenes = []
+        for scene in module.scenes.values():
+            target, where = scene_model_name(scene)
+            if target == name or (target is None and _only_model(module) == name):
+                built_scene = build_scene(elab, elab.root, built, scene)
+                if built_scene is not None:
+                    scenes.append(built_scene)
+        models.append(dataclasses.replace(built, scenes=tuple(scenes)))
+    for scene in module.scenes.values():
+        target, where = scene_model_name(scene)
+        if target is not None and target not in module.blocks:
+            diags.error(f"scene '{scene.name.text}' names an unknown model '{target}'", _span(where))
+        elif target is None and _only_model(module) is None:
+            diags.error(f"scene '{scene.name.text}' must say which model it runs: model = name", scene.name.span)
+    diags.check()
+    return CheckResult(tuple(models), tuple(components), tuple(diags.items))
+
+
+def _only_model(module: Module) -> str | None:
+    names = [n for n, b in module.blocks.items() if b.kind == "model"]
+    return names[0] if len(names) == 1 else None
+
+
+def _span(node) -> Span | None:
+    return getattr(node, "span", None)
+
+
+def load(path: str | Path, model: str | None = None) -> M.Model:
+    """The named model of a file (or its only one)."""
+    result = check(path)
+    return _pick(result, model, str(path))
+
+
+def load_text(text: str, path: str = "<string>", model: str | None = None, directory: str | Path = ".") -> M.Model:
+    return _pick(check_text(text, path, directory), model, path)
+
+
+def _pick(result: CheckResult, name: str | None, path: str) -> M.Model:
+    if name is not None:
+        try:
+            return result.model(name)
+        except KeyError:
+            names = ", ".join(m.name for m in result.models) or "none"
+            raise MbsError([Diagnostic("error", f"{path}: no model '{name}' (models: {names})", None)]) from None
+    if not result.models:
+        raise MbsError([Diagnostic("error", f"{path}: the file defines no model (only components: "
+                                            f"{', '.join(result.components) or 'none'})", None)])
+    return result.models[0]
+
+
+__all__ = ["check", "check_text", "load", "load_text", "CheckResult", "ast"]

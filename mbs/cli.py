@@ -1,0 +1,61 @@
+"""The ``mbs`` command. Exit status: 0 success, 1 a model or run failed, 2 bad usage, 3 internal error.
+
+Every command turns our own errors (MbsError) into located messages on stderr; anything else is a bug and
+is reported as one, with the traceback only under --debug.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from .commands import COMMANDS
+
+EXIT_OK, EXIT_MODEL, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="mbs", description="Baukasten multibody compiler for vehicle dynamics.")
+    parser.add_argument("--debug", action="store_true", help="show Python tracebacks of internal errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, command in COMMANDS.items():
+        p = sub.add_parser(name, help=command.help, description=command.help)
+        command.arguments(p)
+        p.set_defaults(run=command.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "run", None):
+        parser.print_help(sys.stderr)
+        return EXIT_USAGE
+    from mbs.language.diagnostics import MbsError
+    try:
+        return args.run(args)
+    except MbsError as err:
+        print(_render(err), file=sys.stderr)
+        return EXIT_MODEL
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return EXIT_OK
+    except Exception as exc:  # noqa: BLE001 - the last line of defence against tracebacks
+        if args.debug:
+            traceback.print_exc()
+        print(f"mbs: internal error: {type(exc).__name__}: {exc}\n(this is a bug in mbs; rerun with --debug "
+              "for the traceback and report it)", file=sys.stderr)
+        return EXIT_INTERNAL
+
+
+def _render(err) -> str:
+    errors = sum(1 for d in err.diagnostics if d.severity == "error")
+    text = "\n".join(d.render() for d in err.diagnostics)
+    return f"{text}\n{errors} error{'s' if errors != 1 else ''}" if errors else text
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,68 @@
+/* Baukasten run-time support shared by every compiled model (C99, no allocation on the hot path).
+ *
+ * A generated model defines functions of one fixed shape (see mbs_fn below).  The integrators in this
+ * directory drive such a function through an mbs_ode: the problem (function, parameters, caller work
+ * memory), the settings (tolerances, step limits), the state (t, y, last step) and the counters.  A
+ * method fills in three hooks (step, dense, release); everything else -- sampling output times,
+ * step-size bookkeeping, failure codes -- is shared in ode.c.
+ *
+ * All functions here are static: the build includes these files into one translation unit together
+ * with the generated model, so nothing but the module init function is exported from the library.
+ */
+#ifndef MBS_RUNTIME_H
+#define MBS_RUNTIME_H
+
+#include <stddef.h>
+
+/* The one signature of every generated model function: out = f(t, x, p); work is caller memory of
+ * MBS_NWORK doubles.  Returns MBS_OK or a model status below. */
+typedef int (*mbs_fn)(double t, const double *x, const double *p, double *out, double *work);
+
+/* Model status codes (returned by generated functions). */
+#define MBS_OK 0
+#define MBS_SINGULAR_MASS 1
+#define MBS_NONFINITE 2
+
+/* Integrator outcome codes (never returned by a model; > 100 so the two cannot be confused). */
+#define MBS_ODE_RUNNING 0
+#define MBS_ODE_FINISHED 101        /* t reached t_bound */
+#define MBS_ODE_STEP_COLLAPSED 102  /* step size fell below h_min or below round-off of t */
+#define MBS_ODE_TOO_MANY_STEPS 103  /* max_steps accepted + rejected steps used up */
+#define MBS_ODE_MODEL_FAILED 104    /* the model failed at the initial point (no step can help) */
+#define MBS_ODE_SINGULAR 105        /* iteration matrix singular at every step size tried */
+#define MBS_ODE_BAD_SAMPLE 106      /* output times not increasing or before the current step */
+
+typedef struct mbs_ode mbs_ode;
+
+struct mbs_ode {
+    /* problem */
+    int n;                  /* state size */
+    mbs_fn fn;              /* ydot = fn(t, y) */
+    const double *p;        /* parameters, borrowed */
+    double *work;           /* model work memory, borrowed */
+    /* settings */
+    double rtol;            /* relative tolerance */
+    double *atol;           /* absolute tolerance per component [n], owned */
+    double t_bound;         /* integrate forward up to here, never beyond */
+    double h_max, h_min;    /* step limits [s] */
+    long max_steps;         /* limit on attempted steps (accepted + rejected) */
+    /* state */
+    double t, t_old;        /* current time and start of the last accepted step */
+    double h;               /* size of the next step to try */
+    double *y;              /* state at t [n], owned */
+    double *f;              /* fn(t, y) [n], owned (valid after the first step or init) */
+    int status;             /* MBS_ODE_* */
+    int model_status;       /* last non-zero model status seen (0 if none) */
+    double fail_h;          /* step size when the run failed */
+    /* counters */
+    long nfev, njev, nlu, nsteps, naccept, nreject;
+    /* method hooks */
+    int (*step)(mbs_ode *);                               /* one accepted step; returns status */
+    void (*dense)(const mbs_ode *, double t, double *out);  /* interpolate within the last step */
+    void (*release)(mbs_ode *);                           /* free method memory */
+    size_t ncont;           /* doubles of dense-output coefficients (a multiple of n) */
+    double *cont;           /* dense-output coefficients of the last step, owned */
+    void *impl;             /* method memory, owned */
+};
+
+#endif

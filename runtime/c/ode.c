@@ -1,0 +1,155 @@
+/* Shared integrator machinery: set-up, error norm, initial step, step-size guards, output sampling.
+ * Every method (dopri5.c, rodas4.c) builds on these; see mbs_runtime.h for the mbs_ode contract. */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mbs_runtime.h"
+
+/* Grow the step by at most this factor when the error estimate is tiny (Hairer's FAC2 for DOPRI5). */
+#define MBS_ODE_MAX_GROWTH 10.0
+/* Shrink the step by this factor after the model reported a failure (e.g. non-finite values):
+ * stronger than an ordinary rejection because the failure carries no error estimate. */
+#define MBS_ODE_MODEL_FAILURE_SHRINK 0.25
+
+static void mbs_ode_free(mbs_ode *o)
+{
+    if (o->release) o->release(o);
+    free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl);
+    memset(o, 0, sizeof *o);
+}
+
+/* Evaluate the model; remember any failure status so a later message can name it. */
+static int mbs_ode_eval(mbs_ode *o, double t, const double *y, double *out)
+{
+    int s = o->fn(t, y, o->p, out, o->work);
+    o->nfev++;
+    if (s != MBS_OK) o->model_status = s;
+    return s;
+}
+
+/* Allocate the shared arrays and evaluate f(t0, y0).  Returns 0, or -1 if memory ran out.  A model
+ * failure at the initial point is not an error here: it sets status = MBS_ODE_MODEL_FAILED. */
+static int mbs_ode_setup(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0,
+                         const double *y0, double t_bound, double rtol, const double *atol, int natol,
+                         double h0, double h_max, double h_min, long max_steps, size_t ncont)
+{
+    int i;
+    memset(o, 0, sizeof *o);
+    o->n = n; o->fn = fn; o->p = p; o->work = work;
+    o->rtol = rtol; o->t_bound = t_bound;
+    o->h_max = h_max > 0 ? h_max : fabs(t_bound - t0);
+    o->h_min = h_min > 0 ? h_min : 0.0;
+    o->max_steps = max_steps;
+    o->t = o->t_old = t0;
+    o->h = h0;
+    o->ncont = ncont;
+    /* calloc(0) may return NULL: allocate at least one element so NULL always means "out of memory" */
+    o->atol = calloc((size_t)n + 1, sizeof(double));
+    o->y = calloc((size_t)n + 1, sizeof(double));
+    o->f = calloc((size_t)n + 1, sizeof(double));
+    o->cont = calloc(ncont + 1, sizeof(double));
+    if (!o->atol || !o->y || !o->f || !o->cont) return -1;
+    for (i = 0; i < n; i++) {
+        o->atol[i] = natol == 1 ? atol[0] : atol[i];
+        o->y[i] = y0[i];
+    }
+    o->status = mbs_ode_eval(o, t0, o->y, o->f) == MBS_OK ? MBS_ODE_RUNNING : MBS_ODE_MODEL_FAILED;
+    if (t0 >= t_bound && o->status == MBS_ODE_RUNNING) o->status = MBS_ODE_FINISHED;
+    return 0;
+}
+
+/* Weighted RMS norm of an error vector e with scale atol + rtol*max(|y0|, |y1|).  A non-finite norm
+ * becomes +inf so that comparisons reject the step instead of silently passing. */
+static double mbs_ode_error_norm(const mbs_ode *o, const double *e, const double *y0, const double *y1)
+{
+    double sum = 0.0;
+    int i;
+    for (i = 0; i < o->n; i++) {
+        double sk = o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i]));
+        double r = e[i] / sk;
+        sum += r * r;
+    }
+    sum = o->n > 0 ? sqrt(sum / o->n) : 0.0;
+    return sum <= DBL_MAX ? sum : HUGE_VAL;
+}
+
+/* Starting step of Hairer & Wanner (Solving ODEs I, II.4): balance the first two Taylor terms.
+ * scratch must hold 2n doubles.  Returns a positive step even if the model fails on the trial point. */
+static double mbs_ode_initial_step(mbs_ode *o, int order, double *scratch)
+{
+    int i, n = o->n;
+    double dnf = 0.0, dny = 0.0, der2 = 0.0, h, h1, der12;
+    double *y1 = scratch, *f1 = scratch + n;
+    for (i = 0; i < n; i++) {
+        double sk = o->atol[i] + o->rtol * fabs(o->y[i]);
+        dnf += (o->f[i] / sk) * (o->f[i] / sk);
+        dny += (o->y[i] / sk) * (o->y[i] / sk);
+    }
+    h = (dnf <= 1e-10 || dny <= 1e-10) ? 1e-6 : sqrt(dny / dnf) * 0.01;
+    h = fmin(h, o->h_max);
+    for (i = 0; i < n; i++) y1[i] = o->y[i] + h * o->f[i];
+    if (mbs_ode_eval(o, o->t + h, y1, f1) != MBS_OK) return fmax(h * 1e-3, 1e-10);
+    for (i = 0; i < n; i++) {
+        double sk = o->atol[i] + o->rtol * fabs(o->y[i]);
+        der2 += ((f1[i] - o->f[i]) / sk) * ((f1[i] - o->f[i]) / sk);
+    }
+    der2 = sqrt(der2) / h;
+    der12 = fmax(fabs(der2), sqrt(dnf));
+    h1 = der12 <= 1e-15 ? fmax(1e-6, h * 1e-3) : pow(0.01 / der12, 1.0 / order);
+    h = fmin(fmin(100.0 * h, h1), o->h_max);
+    return h > 0 && h <= DBL_MAX ? h : 1e-6;
+}
+
+/* Size of the next attempt, clipped to the end of the interval; sets *last when it lands on t_bound.
+ * Returns 0, or sets the status and returns it when the step has collapsed or the budget is used. */
+static int mbs_ode_next_h(mbs_ode *o, double *h, int *last)
+{
+    *h = fmin(o->h, o->h_max);
+    *last = 0;
+    if (o->t + 1.01 * *h >= o->t_bound) { *h = o->t_bound - o->t; *last = 1; }
+    if (o->nsteps >= o->max_steps) {
+        o->fail_h = *h;
+        return o->status = MBS_ODE_TOO_MANY_STEPS;
+    }
+    if (*h < o->h_min || 0.1 * *h <= fabs(o->t) * DBL_EPSILON || !(*h > 0)) {
+        o->fail_h = *h;
+        return o->status = MBS_ODE_STEP_COLLAPSED;
+    }
+    o->nsteps++;
+    return 0;
+}
+
+/* Bookkeeping of an accepted step [t, t + h]. */
+static void mbs_ode_accept(mbs_ode *o, double h, int last)
+{
+    o->t_old = o->t;
+    o->t = last ? o->t_bound : o->t + h;
+    o->naccept++;
+    if (last) o->status = MBS_ODE_FINISHED;
+}
+
+/* Fill out[i*n .. i*n+n) with y(t_eval[i]) for i from *index on, stepping as needed.  Stops when all
+ * samples are filled (returns the status, RUNNING or FINISHED) or the run fails (returns the failure;
+ * *index is then the first unfilled sample).  No Python, no allocation. */
+static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *index, double *out)
+{
+    long i = *index;
+    int n = o->n;
+    for (;;) {
+        while (i < n_eval && t_eval[i] <= o->t) {
+            double *row = out + (size_t)i * (size_t)n;
+            if (t_eval[i] == o->t) memcpy(row, o->y, (size_t)n * sizeof(double));
+            else if (o->naccept > 0 && t_eval[i] >= o->t_old && (i == 0 || t_eval[i] >= t_eval[i - 1]))
+                o->dense(o, t_eval[i], row);
+            else { *index = i; return o->status = MBS_ODE_BAD_SAMPLE; }
+            i++;
+        }
+        *index = i;
+        if (i >= n_eval) return o->status;
+        if (o->status == MBS_ODE_FINISHED) return o->status = MBS_ODE_BAD_SAMPLE;  /* beyond t_bound */
+        if (o->status != MBS_ODE_RUNNING) return o->status;
+        o->step(o);
+    }
+}

@@ -1,0 +1,233 @@
+/* RODAS4: L-stable, stiffly accurate Rosenbrock method of order 4(3) with six stages, for stiff models
+ * (tyre contact, stiff bushings).
+ *
+ * Coefficients and step control follow E. Hairer, G. Wanner, Solving Ordinary Differential Equations II,
+ * IV.7 and the authors' rodas.f (method 1), in the form that needs no matrix-vector products:
+ *     (1/(h gamma) I - J) k_i = f(t + c_i h, y + sum_j a_ij k_j) + sum_j (c_ij / h) k_j + h d_i df/dt
+ *     y1 = y + sum_j a_5j k_j + k_5 + k_6,   error estimate k_6.
+ * The Jacobian J and df/dt are finite differences, refreshed after every accepted step and reused
+ * after a rejection; the iteration matrix is factored by dense LU (dense_lu.c).  Dense output is the
+ * cubic Hermite interpolant through (y0, f0) and (y1, f1): order 3, C1 across steps, and f1 is needed
+ * by the next step anyway.
+ */
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+
+#include "mbs_runtime.h"
+
+static const double RO_GAMMA = 0.25;
+static const double RO_C2 = 0.386, RO_C3 = 0.21, RO_C4 = 0.63;
+static const double RO_D1 = 0.25, RO_D2 = -0.1043, RO_D3 = 0.1035, RO_D4 = -0.0362;
+static const double RO_A21 = 1.544;
+static const double RO_A31 = 0.9466785280815826, RO_A32 = 0.2557011698983284;
+static const double RO_A41 = 3.314825187068521, RO_A42 = 2.896124015972201, RO_A43 = 0.9986419139977817;
+static const double RO_A51 = 1.221224509226641, RO_A52 = 6.019134481288629, RO_A53 = 12.53708332932087,
+                    RO_A54 = -0.6878860361058950;
+static const double RO_C21 = -5.6688;
+static const double RO_C31 = -2.430093356833875, RO_C32 = -0.2063599157091915;
+static const double RO_C41 = -0.1073529058151375, RO_C42 = -9.594562251023355, RO_C43 = -20.47028614809616;
+static const double RO_C51 = 7.496443313967647, RO_C52 = -10.24680431464352, RO_C53 = -33.99990352819905,
+                    RO_C54 = 11.70890893206160;
+static const double RO_C61 = 8.083246795921522, RO_C62 = -7.981132988064893, RO_C63 = -31.52159432874371,
+                    RO_C64 = 16.31930543123136, RO_C65 = -6.058818238834054;
+
+#define RO_SAFE 0.9
+#define RO_FAC_MIN (1.0 / 6)  /* h_new >= h/6 ... */
+#define RO_FAC_MAX 6.0        /* ... and h_new <= 6 h (rodas.f: FAC1 = 0.2, FAC2 = 6) */
+#define RO_FAC_SHRINK 5.0     /* a rejected step shrinks by at most 5 */
+#define RO_FIRST_REJECT 0.1   /* a rejected first step: the initial guess was far off */
+#define RO_SINGULAR_SHRINK 0.5
+#define RO_MAX_SINGULAR 5     /* give up after this many singular iteration matrices in a row */
+
+typedef struct {
+    double hacc, erracc;  /* last accepted step and error, for Gustafsson's predictive controller */
+    int reject, need_jac, nsing;
+    int *piv;
+    double *jac, *lu, *k1, *k2, *k3, *k4, *k5, *k6, *ynew, *dy, *fx;
+} ro_mem;
+
+/* Finite-difference Jacobian (column j from a perturbation of y_j) and time derivative at (t, y). */
+static int ro_jacobian(mbs_ode *o, ro_mem *m)
+{
+    const int n = o->n;
+    double *y = o->y;
+    double delt;
+    int i, j;
+    for (j = 0; j < n; j++) {
+        double ysafe = y[j];
+        delt = sqrt(DBL_EPSILON * fmax(1e-5, fabs(ysafe)));
+        y[j] = ysafe + delt;
+        if (mbs_ode_eval(o, o->t, y, m->dy) != MBS_OK) {  /* try the other side of y_j */
+            delt = -delt;
+            y[j] = ysafe + delt;
+            if (mbs_ode_eval(o, o->t, y, m->dy) != MBS_OK) { y[j] = ysafe; return -1; }
+        }
+        y[j] = ysafe;
+        for (i = 0; i < n; i++) m->jac[i * n + j] = (m->dy[i] - o->f[i]) / delt;
+    }
+    delt = sqrt(DBL_EPSILON * fmax(1e-5, fabs(o->t)));
+    if (mbs_ode_eval(o, o->t + delt, y, m->dy) != MBS_OK) {
+        delt = -delt;
+        if (mbs_ode_eval(o, o->t + delt, y, m->dy) != MBS_OK) return -1;
+    }
+    for (i = 0; i < n; i++) m->fx[i] = (m->dy[i] - o->f[i]) / delt;
+    o->njev++;
+    return 0;
+}
+
+/* One stage: k = (1/(h gamma) I - J)^-1 (dy + sum_j cs[j]/h k_j + h d fx). */
+static void ro_stage(const mbs_ode *o, ro_mem *m, double h, double d, int nk, const double *cs,
+                     double *const *ks, double *k)
+{
+    int i, j;
+    for (i = 0; i < o->n; i++) {
+        double s = m->dy[i] + h * d * m->fx[i];
+        for (j = 0; j < nk; j++) s += cs[j] / h * ks[j][i];
+        k[i] = s;
+    }
+    mbs_lu_solve(o->n, m->lu, m->piv, k);
+}
+
+static int ro_step(mbs_ode *o)
+{
+    ro_mem *m = o->impl;
+    const int n = o->n;
+    double *y = o->y;
+    double *const ks[5] = {m->k1, m->k2, m->k3, m->k4, m->k5};
+    int i, j;
+    while (o->status == MBS_ODE_RUNNING) {
+        double h, t = o->t, err, fac, h_new;
+        int last, s = MBS_OK;
+        if (m->need_jac) {
+            if (ro_jacobian(o, m)) { o->fail_h = o->h; o->status = MBS_ODE_MODEL_FAILED; break; }
+            m->need_jac = 0;
+        }
+        if (mbs_ode_next_h(o, &h, &last)) break;
+        for (i = 0; i < n; i++) {
+            for (j = 0; j < n; j++) m->lu[i * n + j] = -m->jac[i * n + j];
+            m->lu[i * n + i] += 1.0 / (h * RO_GAMMA);
+        }
+        o->nlu++;
+        if (mbs_lu_factor(n, m->lu, m->piv)) {
+            o->h = h * RO_SINGULAR_SHRINK;
+            o->nreject++;
+            m->reject = 1;
+            if (++m->nsing >= RO_MAX_SINGULAR) { o->fail_h = h; o->status = MBS_ODE_SINGULAR; }
+            continue;
+        }
+        m->nsing = 0;
+        {
+            const double c2[] = {RO_C21}, c3[] = {RO_C31, RO_C32}, c4[] = {RO_C41, RO_C42, RO_C43},
+                                c5[] = {RO_C51, RO_C52, RO_C53, RO_C54},
+                                c6[] = {RO_C61, RO_C62, RO_C63, RO_C64, RO_C65};
+            for (i = 0; i < n; i++) m->dy[i] = o->f[i];
+            ro_stage(o, m, h, RO_D1, 0, NULL, ks, m->k1);
+            for (i = 0; i < n; i++) m->ynew[i] = y[i] + RO_A21 * m->k1[i];
+            s = mbs_ode_eval(o, t + RO_C2 * h, m->ynew, m->dy);
+            if (s == MBS_OK) {
+                ro_stage(o, m, h, RO_D2, 1, c2, ks, m->k2);
+                for (i = 0; i < n; i++) m->ynew[i] = y[i] + RO_A31 * m->k1[i] + RO_A32 * m->k2[i];
+                s = mbs_ode_eval(o, t + RO_C3 * h, m->ynew, m->dy);
+            }
+            if (s == MBS_OK) {
+                ro_stage(o, m, h, RO_D3, 2, c3, ks, m->k3);
+                for (i = 0; i < n; i++)
+                    m->ynew[i] = y[i] + RO_A41 * m->k1[i] + RO_A42 * m->k2[i] + RO_A43 * m->k3[i];
+                s = mbs_ode_eval(o, t + RO_C4 * h, m->ynew, m->dy);
+            }
+            if (s == MBS_OK) {
+                ro_stage(o, m, h, RO_D4, 3, c4, ks, m->k4);
+                for (i = 0; i < n; i++)
+                    m->ynew[i] = y[i] + RO_A51 * m->k1[i] + RO_A52 * m->k2[i] + RO_A53 * m->k3[i]
+                                 + RO_A54 * m->k4[i];
+                s = mbs_ode_eval(o, t + h, m->ynew, m->dy);
+            }
+            if (s == MBS_OK) {
+                ro_stage(o, m, h, 0.0, 4, c5, ks, m->k5);
+                for (i = 0; i < n; i++) m->ynew[i] += m->k5[i];  /* embedded 3rd-order solution */
+                s = mbs_ode_eval(o, t + h, m->ynew, m->dy);
+            }
+            if (s == MBS_OK) {
+                ro_stage(o, m, h, 0.0, 5, c6, ks, m->k6);
+                for (i = 0; i < n; i++) m->ynew[i] += m->k6[i];
+                /* f at the new point: the interpolant needs it and so does the next step */
+                s = mbs_ode_eval(o, t + h, m->ynew, m->dy);
+            }
+        }
+        if (s != MBS_OK) {
+            o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
+            o->nreject++;
+            m->reject = 1;
+            continue;
+        }
+        err = mbs_ode_error_norm(o, m->k6, y, m->ynew);
+        fac = fmax(1.0 / RO_FAC_MAX, fmin(RO_FAC_SHRINK, pow(err, 0.25) / RO_SAFE));
+        h_new = h / fac;
+        if (err <= 1.0) {
+            double *c = o->cont;
+            if (o->naccept > 0) {  /* Gustafsson: also look at the trend of the error */
+                double facgus = (m->hacc / h) * pow(err * err / m->erracc, 0.25) / RO_SAFE;
+                facgus = fmax(1.0 / RO_FAC_MAX, fmin(RO_FAC_SHRINK, facgus));
+                h_new = h / fmax(fac, facgus);
+            }
+            m->hacc = h;
+            m->erracc = fmax(1e-2, err);
+            for (i = 0; i < n; i++) {
+                c[i] = y[i];
+                c[n + i] = m->ynew[i];
+                c[2 * n + i] = h * o->f[i];
+                c[3 * n + i] = h * m->dy[i];
+                y[i] = m->ynew[i];
+                o->f[i] = m->dy[i];
+            }
+            c[4 * n] = h;
+            if (m->reject) h_new = fmin(h_new, h);
+            m->reject = 0;
+            m->need_jac = 1;
+            o->h = h_new;
+            mbs_ode_accept(o, h, last);
+            break;
+        }
+        o->h = o->naccept == 0 ? h * RO_FIRST_REJECT : h_new;
+        o->nreject++;
+        m->reject = 1;
+    }
+    return o->status;
+}
+
+/* Cubic Hermite interpolation through (y0, h f0) and (y1, h f1). */
+static void ro_dense(const mbs_ode *o, double t, double *out)
+{
+    const double *c = o->cont;
+    const int n = o->n;
+    double s = (t - o->t_old) / c[4 * n], s2 = s * s, s3 = s2 * s;
+    double h00 = 2 * s3 - 3 * s2 + 1, h10 = s3 - 2 * s2 + s, h01 = -2 * s3 + 3 * s2, h11 = s3 - s2;
+    int i;
+    for (i = 0; i < n; i++) out[i] = h00 * c[i] + h01 * c[n + i] + h10 * c[2 * n + i] + h11 * c[3 * n + i];
+}
+
+/* Set up a RODAS4 run; h0 <= 0 chooses the first step automatically.  Returns 0 or -1 (no memory). */
+static int mbs_rodas4_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0,
+                           const double *y0, double t_bound, double rtol, const double *atol, int natol,
+                           double h0, double h_max, double h_min, long max_steps)
+{
+    ro_mem *m;
+    double *a;
+    size_t nn = (size_t)n * (size_t)n;
+    if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
+                      4 * (size_t)n + 1)) return -1;
+    m = calloc(1, sizeof(ro_mem) + (2 * nn + 9 * (size_t)n + 1) * sizeof(double) + ((size_t)n + 1) * sizeof(int));
+    if (!m) return -1;
+    o->impl = m;
+    a = (double *)(m + 1);
+    m->jac = a; m->lu = a + nn; a += 2 * nn;
+    m->k1 = a; m->k2 = a + n; m->k3 = a + 2 * n; m->k4 = a + 3 * n; m->k5 = a + 4 * n; m->k6 = a + 5 * n;
+    m->ynew = a + 6 * n; m->dy = a + 7 * n; m->fx = a + 8 * n;
+    m->piv = (int *)(a + 9 * n);
+    m->need_jac = 1;
+    o->step = ro_step;
+    o->dense = ro_dense;
+    if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, 4, m->k1);
+    return 0;
+}
