@@ -1,0 +1,1 @@
+"""Code generation stage: validated model -> topology -> symbolic equations -> C."""

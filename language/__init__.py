@@ -1,1 +1,1 @@
-X=1
+"""The .mbs language front end: source text -> AST -> validated data model (see frontend.py)."""
