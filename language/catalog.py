@@ -8,7 +8,7 @@ a fixed set of names), 'law' (an expression that may use the kind's local variab
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from . import units as U
 
