@@ -1,5 +1,5 @@
 /* Shared integrator machinery: set-up, error norm, initial step, step-size guards, output sampling.
- * Every method (dopri5.c, rodas4.c) builds on these; see mbs_runtime.h for the mbs_ode contract. */
+ * Every method (dopri5.c, rodasp.c) builds on these; see mbs_runtime.h for the mbs_ode contract. */
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>

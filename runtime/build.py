@@ -1,0 +1,186 @@
+"""Compile a generated model to a CPython extension module, cache it, and load it.
+
+One translation unit is compiled per model: ``<Python.h>``, the generated C source, then the glue
+template ``c/mbs_glue.c`` (which includes the integrators in ``c/``).  One unit lets the compiler inline
+the model into the integrators' inner loops, and keeps every run-time symbol static.
+
+The result is cached under a hash of everything that can change the binary: the model source, the
+run-time C files, the flags, the compiler's version, the Python and NumPy versions.  A fresh build is
+made in a temporary directory inside the cache and moved into place with ``os.replace``, so processes
+compiling the same model at once each end up with a complete file (the last rename wins; both are
+identical).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib.util
+import os
+import platform
+import shlex
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from .errors import BuildError, EvaluationError
+
+#: Bump when the layout of the build unit changes in a way the hashed inputs do not show.
+BUILD_FORMAT = 1
+C_DIR = Path(__file__).resolve().parent / "c"
+#: The run-time C files compiled into every model (all hashed).
+RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c", "mbs_glue.c")
+#: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
+FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
+#: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
+PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
+CACHE_ENV = "MBS_CACHE_DIR"
+
+_LOADED: dict[str, ModuleType] = {}
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """A compiled model on disk."""
+
+    path: Path          #: the extension module file
+    module_name: str    #: its import name (unique per hash)
+    key: str            #: hex SHA-256 of all inputs
+    cached: bool        #: True when the file was already in the cache (no compiler run)
+    warnings: str       #: compiler messages of a fresh build ('' when cached or clean)
+
+
+def default_cache_dir() -> Path:
+    """``$MBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/baukasten``, else ``~/.cache/baukasten``."""
+    if os.environ.get(CACHE_ENV):
+        return Path(os.environ[CACHE_ENV]).expanduser()
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base).expanduser() / "baukasten"
+
+
+def compiler_command() -> list[str]:
+    """The C compiler as a command prefix: ``$CC`` if set, else the one Python was built with."""
+    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
+    return shlex.split(cc)
+
+
+@functools.lru_cache(maxsize=8)
+def compiler_version(cc: tuple[str, ...]) -> str:
+    """The compiler's ``--version`` text; raises BuildError when it cannot be run."""
+    try:
+        proc = subprocess.run([*cc, "--version"], capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise BuildError(f"no usable C compiler ({shlex.join(cc)}: {exc}); install one (e.g. gcc) "
+                         "or use the NumPy back end") from None
+    if proc.returncode != 0:
+        raise BuildError(f"the C compiler {shlex.join(cc)} does not run", proc.stderr, tuple(cc))
+    return proc.stdout.strip()
+
+
+def have_c_compiler() -> bool:
+    """True when a C compiler can be run (the C back end is then available)."""
+    try:
+        compiler_version(tuple(compiler_command()))
+    except BuildError:
+        return False
+    return True
+
+
+def _unit_source(model_source: str, filename: str) -> str:
+    # '#line' makes the compiler name the user's file in its messages; Python.h must come first.
+    return ("/* build unit written by mbs.runtime.build: do not edit */\n"
+            "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n"
+            f"#line 1 \"{_c_string(filename)}\"\n{model_source}\n"
+            "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
+
+
+def _c_string(text: str) -> str:
+    return text.replace("\\", "\\\\").replace('"', '\\"')
+
+
+def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
+    h = hashlib.sha256()
+
+    def add(label: str, data: str | bytes) -> None:
+        data = data.encode() if isinstance(data, str) else data
+        h.update(f"{label}:{len(data)}:".encode())
+        h.update(data)
+
+    add("format", str(BUILD_FORMAT))
+    add("unit", unit)
+    for name in RUNTIME_SOURCES:
+        add(name, (C_DIR / name).read_bytes())
+    add("flags", "\0".join(flags))
+    add("cc", "\0".join(cc))
+    add("cc-version", compiler_version(cc))
+    add("python", f"{sys.version}\0{sysconfig.get_config_var('EXT_SUFFIX')}\0{platform.machine()}")
+    add("numpy", np.__version__)
+    return h.hexdigest()
+
+
+def build_file(path: str | os.PathLike, **options) -> BuildResult:
+    """:func:`build` the generated C file at ``path``.  Compiler messages name the file by its base name,
+    which keeps the cache key independent of where the file lies."""
+    options.setdefault("filename", os.path.basename(os.fspath(path)))
+    return build(Path(path).read_text(encoding="utf-8"), **options)
+
+
+def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
+          extra_flags: tuple[str, ...] = ()) -> BuildResult:
+    """Compile generated C source text into a cached extension module.
+
+    ``filename`` is the name compiler messages use for the model.  Raises BuildError with the
+    compiler's messages when compilation fails.
+    """
+    cc = tuple(compiler_command())
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    unit = _unit_source(code, filename)
+    key = _hash(unit, flags, cc)
+    module_name = f"mbs_model_{key[:24]}"
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
+    if target.exists():
+        return BuildResult(target, module_name, key, True, "")
+    cache.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache))
+    try:
+        (tmp / "unit.c").write_text(unit, encoding="utf-8")
+        command = (*cc, *flags, f"-DMBS_MODULE_NAME={module_name}", f"-I{C_DIR}",
+                   f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}",
+                   "unit.c", "-o", "module.so", "-lm")
+        try:
+            proc = subprocess.run(command, cwd=tmp, capture_output=True, text=True)
+        except OSError as exc:
+            raise BuildError(f"cannot run the C compiler {shlex.join(cc)}: {exc}", "", command) from None
+        output = proc.stderr + proc.stdout
+        if proc.returncode != 0:
+            raise BuildError(f"compiling {filename} failed", output, command)
+        # keep the unit beside the module for inspection; both appear atomically
+        os.replace(tmp / "unit.c", cache / (module_name + ".c"))
+        os.replace(tmp / "module.so", target)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return BuildResult(target, module_name, key, False, output.strip())
+
+
+def load(result: BuildResult) -> ModuleType:
+    """Import a built model (once per process; later calls return the same module)."""
+    module = _LOADED.get(result.module_name)
+    if module is None:
+        spec = importlib.util.spec_from_file_location(result.module_name, result.path)
+        if spec is None or spec.loader is None:
+            raise BuildError(f"cannot load {result.path}: not an extension module for this Python")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        module._init(EvaluationError)
+        # registered so that the native integrators can find the module of a model function
+        sys.modules[result.module_name] = module
+        _LOADED[result.module_name] = module
+    return module

@@ -1,0 +1,517 @@
+/* CPython glue for one generated model: the template every compiled model is built with.
+ *
+ * build.py writes a translation unit that includes <Python.h>, then the generated model source (which
+ * defines MBS_NQ, MBS_NV, MBS_NX, MBS_NP, MBS_NWORK and the mbs_* functions), then this file, and
+ * compiles it with -DMBS_MODULE_NAME=<unique name>.  The module exposes:
+ *
+ *   NQ, NV, NX, NP, NWORK, NY      sizes (NY is -1 when the model has no outputs)
+ *   FUNCTIONS                      ((name, output shape), ...) of the table below
+ *   METHODS                        names of the integrators in C
+ *   Function(name, p, work)        a callable f(t, x) -> fresh ndarray bound to one workspace's p and
+ *                                  work arrays (vectorcall: about a microsecond per call)
+ *   Solver(method, rhs, ...)       an integrator run in C (see solver_new)
+ *   _init(error_class)             the exception raised for a model status != 0
+ *
+ * Adding a generated function is one row of MBS_TABLE (guarded by the size macro it needs).
+ */
+#ifndef MBS_MODULE_NAME
+#error "compile with -DMBS_MODULE_NAME=<module name>"
+#endif
+#if !defined(MBS_NQ) || !defined(MBS_NV) || !defined(MBS_NX) || !defined(MBS_NP) || !defined(MBS_NWORK)
+#error "the model must define MBS_NQ, MBS_NV, MBS_NX, MBS_NP and MBS_NWORK"
+#endif
+
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+#include <structmember.h>
+#include <time.h>
+
+#include "mbs_runtime.h"
+#include "ode.c"
+#include "dense_lu.c"
+#include "dopri5.c"
+#include "rodasp.c"
+
+#define MBS_CAT2(a, b) a##b
+#define MBS_CAT(a, b) MBS_CAT2(a, b)
+#define MBS_STR2(a) #a
+#define MBS_STR(a) MBS_STR2(a)
+
+/* ---- the function table ------------------------------------------------------------------------ */
+
+typedef struct {
+    const char *name;
+    mbs_fn fn;
+    int rows, cols;  /* output shape; cols == 0 for a vector */
+} mbs_entry;
+
+static const mbs_entry MBS_TABLE[] = {
+    {"rhs", mbs_rhs, MBS_NX, 0},
+    {"mass_matrix", mbs_mass_matrix, MBS_NV, MBS_NV},
+    {"forces", mbs_forces, MBS_NV, 0},
+    {"qdot", mbs_qdot, MBS_NQ, 0},
+#ifdef MBS_NY
+    {"outputs", mbs_outputs, MBS_NY, 0},
+#endif
+};
+#define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))
+
+typedef int (*mbs_init_fn)(mbs_ode *, int, mbs_fn, const double *, double *, double, const double *, double,
+                           double, const double *, int, double, double, double, long);
+
+static const struct { const char *name; mbs_init_fn init; } MBS_METHODS[] = {
+    {"dopri5", mbs_dopri5_init},
+    {"rodasp", mbs_rodasp_init},
+};
+#define MBS_METHODS_SIZE ((int)(sizeof MBS_METHODS / sizeof MBS_METHODS[0]))
+
+static PyObject *mbs_error_class = NULL;  /* set by _init; RuntimeError until then */
+
+static void raise_status(const char *name, int status, double t)
+{
+    PyObject *cls = mbs_error_class ? mbs_error_class : PyExc_RuntimeError;
+    PyObject *exc = PyObject_CallFunction(cls, "sid", name, status, t);
+    if (exc) {
+        PyErr_SetObject((PyObject *)Py_TYPE(exc), exc);
+        Py_DECREF(exc);
+    }
+}
+
+/* A read-only view of obj as n contiguous doubles; *tmp receives a converted copy to release, if any. */
+static const double *as_vector(PyObject *obj, npy_intp n, const char *what, PyObject **tmp)
+{
+    PyArrayObject *a;
+    *tmp = NULL;
+    if (PyArray_Check(obj)) {
+        a = (PyArrayObject *)obj;
+        if (PyArray_TYPE(a) == NPY_DOUBLE && PyArray_NDIM(a) == 1 && PyArray_DIM(a, 0) == n
+            && PyArray_ISCARRAY_RO(a))
+            return (const double *)PyArray_DATA(a);
+    }
+    *tmp = PyArray_FROMANY(obj, NPY_DOUBLE, 1, 1, NPY_ARRAY_CARRAY_RO);
+    if (!*tmp) return NULL;
+    a = (PyArrayObject *)*tmp;
+    if (PyArray_DIM(a, 0) != n) {
+        PyErr_Format(PyExc_ValueError, "%s must have %zd elements, got %zd", what, (Py_ssize_t)n,
+                     (Py_ssize_t)PyArray_DIM(a, 0));
+        Py_CLEAR(*tmp);
+        return NULL;
+    }
+    return (const double *)PyArray_DATA(a);
+}
+
+/* A writable float64 C-contiguous ndarray of exactly `size` elements, or NULL with an exception. */
+static double *as_buffer(PyObject *obj, npy_intp size, const char *what)
+{
+    PyArrayObject *a = (PyArrayObject *)obj;
+    if (!PyArray_Check(obj) || PyArray_TYPE(a) != NPY_DOUBLE || !PyArray_ISCARRAY(a)
+        || PyArray_SIZE(a) != size) {
+        PyErr_Format(PyExc_TypeError, "%s must be a writable C-contiguous float64 ndarray of %zd elements",
+                     what, (Py_ssize_t)size);
+        return NULL;
+    }
+    return (double *)PyArray_DATA(a);
+}
+
+/* ---- Function: f(t, x) -> fresh ndarray -------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    vectorcallfunc vectorcall;
+    const mbs_entry *entry;
+    PyObject *p_obj, *work_obj;  /* the workspace's arrays, kept alive */
+    const double *p;
+    double *work;
+    unsigned long long calls;
+} FunctionObject;
+
+static PyObject *function_vectorcall(PyObject *self_, PyObject *const *args, size_t nargsf, PyObject *kwnames)
+{
+    FunctionObject *self = (FunctionObject *)self_;
+    const mbs_entry *e = self->entry;
+    Py_ssize_t nargs = PyVectorcall_NARGS(nargsf);
+    npy_intp dims[2] = {e->rows, e->cols};
+    PyObject *tmp, *out;
+    const double *x;
+    double t;
+    int status;
+    if (nargs != 2 || (kwnames && PyTuple_GET_SIZE(kwnames))) {
+        PyErr_Format(PyExc_TypeError, "%s(t, x) takes exactly 2 positional arguments", e->name);
+        return NULL;
+    }
+    t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    x = as_vector(args[1], MBS_NX, "x", &tmp);
+    if (!x) return NULL;
+    out = PyArray_SimpleNew(e->cols ? 2 : 1, dims, NPY_DOUBLE);
+    if (!out) { Py_XDECREF(tmp); return NULL; }
+    status = e->fn(t, x, self->p, (double *)PyArray_DATA((PyArrayObject *)out), self->work);
+    self->calls++;
+    Py_XDECREF(tmp);
+    if (status != MBS_OK) {
+        Py_DECREF(out);
+        raise_status(e->name, status, t);
+        return NULL;
+    }
+    return out;
+}
+
+static PyObject *function_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"name", "p", "work", NULL};
+    const char *name;
+    PyObject *p_obj, *work_obj;
+    FunctionObject *self;
+    int i;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "sOO:Function", kwlist, &name, &p_obj, &work_obj)) return NULL;
+    for (i = 0; i < MBS_TABLE_SIZE; i++)
+        if (strcmp(MBS_TABLE[i].name, name) == 0) break;
+    if (i == MBS_TABLE_SIZE) {
+        PyErr_Format(PyExc_KeyError, "the model has no function '%s'", name);
+        return NULL;
+    }
+    self = (FunctionObject *)type->tp_alloc(type, 0);
+    if (!self) return NULL;
+    self->vectorcall = function_vectorcall;
+    self->entry = &MBS_TABLE[i];
+    if (!(self->p = as_buffer(p_obj, MBS_NP, "p")) || !(self->work = as_buffer(work_obj, MBS_NWORK, "work"))) {
+        Py_DECREF(self);
+        return NULL;
+    }
+    Py_INCREF(p_obj); self->p_obj = p_obj;
+    Py_INCREF(work_obj); self->work_obj = work_obj;
+    return (PyObject *)self;
+}
+
+static void function_dealloc(FunctionObject *self)
+{
+    Py_XDECREF(self->p_obj);
+    Py_XDECREF(self->work_obj);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *function_call(PyObject *self, PyObject *args, PyObject *kwds)
+{
+    return PyVectorcall_Call(self, args, kwds);
+}
+
+/* f.time(x, n, t=0.0) -> seconds per call, n calls timed inside C (no Python in the loop). */
+static PyObject *function_time(FunctionObject *self, PyObject *args)
+{
+    PyObject *x_obj, *tmp;
+    long n, i;
+    double t = 0.0, *out;
+    const double *x;
+    struct timespec t0, t1;
+    int status = MBS_OK;
+    volatile double sink = 0.0;  /* keeps the compiler from dropping the calls */
+    size_t size = (size_t)self->entry->rows * (size_t)(self->entry->cols ? self->entry->cols : 1);
+    if (!PyArg_ParseTuple(args, "Ol|d:time", &x_obj, &n, &t)) return NULL;
+    if (n < 1) { PyErr_SetString(PyExc_ValueError, "n must be positive"); return NULL; }
+    x = as_vector(x_obj, MBS_NX, "x", &tmp);
+    if (!x) return NULL;
+    out = PyMem_Malloc((size + 1) * sizeof(double));
+    if (!out) { Py_XDECREF(tmp); return PyErr_NoMemory(); }
+    Py_BEGIN_ALLOW_THREADS
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    for (i = 0; i < n && status == MBS_OK; i++) {
+        status = self->entry->fn(t, x, self->p, out, self->work);
+        sink += out[0];
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    Py_END_ALLOW_THREADS
+    (void)sink;
+    PyMem_Free(out);
+    Py_XDECREF(tmp);
+    if (status != MBS_OK) { raise_status(self->entry->name, status, t); return NULL; }
+    return PyFloat_FromDouble(((double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n);
+}
+
+static PyObject *function_get_name(FunctionObject *self, void *closure)
+{
+    (void)closure;
+    return PyUnicode_FromString(self->entry->name);
+}
+
+static PyObject *function_get_calls(FunctionObject *self, void *closure)
+{
+    (void)closure;
+    return PyLong_FromUnsignedLongLong(self->calls);
+}
+
+static PyMethodDef function_methods[] = {
+    {"time", (PyCFunction)function_time, METH_VARARGS,
+     "time(x, n, t=0.0) -> seconds per call of n calls made inside C"},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyGetSetDef function_getset[] = {
+    {"name", (getter)function_get_name, NULL, "name in the model's function table", NULL},
+    {"calls", (getter)function_get_calls, NULL, "number of calls from Python so far", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyTypeObject FunctionType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = MBS_STR(MBS_MODULE_NAME) ".Function",
+    .tp_basicsize = sizeof(FunctionObject),
+    .tp_dealloc = (destructor)function_dealloc,
+    .tp_vectorcall_offset = offsetof(FunctionObject, vectorcall),
+    .tp_call = function_call,
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_VECTORCALL,
+    .tp_doc = "Function(name, p, work): f(t, x) -> new ndarray, bound to one workspace's p and work",
+    .tp_methods = function_methods,
+    .tp_getset = function_getset,
+    .tp_new = function_new,
+};
+
+/* ---- Solver: an integrator run in C ------------------------------------------------------------ */
+
+typedef struct {
+    PyObject_HEAD
+    mbs_ode ode;
+    PyObject *function;  /* the FunctionObject whose p and work the run uses */
+    int busy;            /* a call is running with the GIL released */
+} SolverObject;
+
+static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"method", "rhs", "t0", "y0", "t_bound", "rtol", "atol", "first_step",
+                             "max_step", "min_step", "max_steps", NULL};
+    const char *method;
+    PyObject *fn_obj, *y0_obj, *atol_obj, *y0_tmp = NULL, *atol_tmp = NULL;
+    double t0, t_bound, rtol, first_step = 0.0, max_step = 0.0, min_step = 0.0;
+    long max_steps = 1000000;
+    const double *y0, *atol;
+    int natol, i, rc;
+    FunctionObject *fn;
+    SolverObject *self;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "sO!dOddO|dddl:Solver", kwlist, &method, &FunctionType, &fn_obj,
+                                     &t0, &y0_obj, &t_bound, &rtol, &atol_obj, &first_step, &max_step, &min_step,
+                                     &max_steps))
+        return NULL;
+    for (i = 0; i < MBS_METHODS_SIZE; i++)
+        if (strcmp(MBS_METHODS[i].name, method) == 0) break;
+    if (i == MBS_METHODS_SIZE) {
+        PyErr_Format(PyExc_ValueError, "no integrator %s in C", method);
+        return NULL;
+    }
+    fn = (FunctionObject *)fn_obj;
+    if (fn->entry->rows != MBS_NX || fn->entry->cols != 0) {
+        PyErr_Format(PyExc_ValueError, "%s is not a right-hand side x -> xdot", fn->entry->name);
+        return NULL;
+    }
+    if (!(t_bound >= t0)) {
+        PyErr_SetString(PyExc_ValueError, "t_bound must not lie before t0 (integration runs forward)");
+        return NULL;
+    }
+    if (!(y0 = as_vector(y0_obj, MBS_NX, "y0", &y0_tmp))) return NULL;
+    if (PyFloat_Check(atol_obj) || PyLong_Check(atol_obj)) {
+        atol = as_vector(atol_obj = PyTuple_Pack(1, atol_obj), 1, "atol", &atol_tmp);
+        Py_DECREF(atol_obj);
+        natol = 1;
+    } else {
+        atol = as_vector(atol_obj, MBS_NX, "atol", &atol_tmp);
+        natol = MBS_NX;
+    }
+    if (!atol) { Py_XDECREF(y0_tmp); return NULL; }
+    self = (SolverObject *)type->tp_alloc(type, 0);
+    if (!self) { Py_XDECREF(y0_tmp); Py_XDECREF(atol_tmp); return NULL; }
+    Py_INCREF(fn_obj);
+    self->function = fn_obj;
+    rc = MBS_METHODS[i].init(&self->ode, MBS_NX, fn->entry->fn, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
+                             natol, first_step, max_step, min_step, max_steps);
+    Py_XDECREF(y0_tmp);
+    Py_XDECREF(atol_tmp);
+    if (rc) { Py_DECREF(self); return PyErr_NoMemory(); }
+    return (PyObject *)self;
+}
+
+static void solver_dealloc(SolverObject *self)
+{
+    mbs_ode_free(&self->ode);
+    Py_XDECREF(self->function);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int solver_enter(SolverObject *self)
+{
+    if (self->busy) {
+        PyErr_SetString(PyExc_RuntimeError, "this solver is running in another thread");
+        return -1;
+    }
+    self->busy = 1;
+    return 0;
+}
+
+/* s.step() -> status: one accepted step (or a failure) */
+static PyObject *solver_step(SolverObject *self, PyObject *unused)
+{
+    int status;
+    (void)unused;
+    if (solver_enter(self)) return NULL;
+    Py_BEGIN_ALLOW_THREADS
+    status = self->ode.status == MBS_ODE_RUNNING ? self->ode.step(&self->ode) : self->ode.status;
+    Py_END_ALLOW_THREADS
+    self->busy = 0;
+    return PyLong_FromLong(status);
+}
+
+/* s.sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start */
+static PyObject *solver_sample(SolverObject *self, PyObject *args)
+{
+    PyObject *t_obj, *out_obj, *t_tmp = NULL;
+    PyArrayObject *out;
+    const double *t_eval;
+    long start, n_eval;
+    int status;
+    if (!PyArg_ParseTuple(args, "OO!l:sample", &t_obj, &PyArray_Type, &out_obj, &start)) return NULL;
+    t_tmp = PyArray_FROMANY(t_obj, NPY_DOUBLE, 1, 1, NPY_ARRAY_CARRAY_RO);
+    if (!t_tmp) return NULL;
+    t_eval = (const double *)PyArray_DATA((PyArrayObject *)t_tmp);
+    n_eval = (long)PyArray_DIM((PyArrayObject *)t_tmp, 0);
+    out = (PyArrayObject *)out_obj;
+    if (PyArray_TYPE(out) != NPY_DOUBLE || !PyArray_ISCARRAY(out) || PyArray_NDIM(out) != 2
+        || PyArray_DIM(out, 0) != n_eval || PyArray_DIM(out, 1) != MBS_NX || start < 0 || start > n_eval) {
+        Py_DECREF(t_tmp);
+        PyErr_SetString(PyExc_ValueError, "out must be a writable C-contiguous float64 array of shape "
+                                          "(len(t_eval), NX) and 0 <= start <= len(t_eval)");
+        return NULL;
+    }
+    if (solver_enter(self)) { Py_DECREF(t_tmp); return NULL; }
+    Py_BEGIN_ALLOW_THREADS
+    status = mbs_ode_sample(&self->ode, t_eval, n_eval, &start, (double *)PyArray_DATA(out));
+    Py_END_ALLOW_THREADS
+    self->busy = 0;
+    Py_DECREF(t_tmp);
+    return Py_BuildValue("il", status, start);
+}
+
+static PyObject *vector_copy(const double *data, npy_intp n)
+{
+    PyObject *a = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (a) memcpy(PyArray_DATA((PyArrayObject *)a), data, (size_t)n * sizeof(double));
+    return a;
+}
+
+static PyObject *solver_get_y(SolverObject *self, void *c) { (void)c; return vector_copy(self->ode.y, MBS_NX); }
+static PyObject *solver_get_cont(SolverObject *self, void *c)
+{
+    (void)c;
+    return vector_copy(self->ode.cont, (npy_intp)self->ode.ncont);
+}
+
+static PyObject *solver_get_stats(SolverObject *self, void *c)
+{
+    const mbs_ode *o = &self->ode;
+    (void)c;
+    return Py_BuildValue("{sl,sl,sl,sl,sl,sl}", "nfev", o->nfev, "njev", o->njev, "nlu", o->nlu,
+                         "nsteps", o->nsteps, "naccept", o->naccept, "nreject", o->nreject);
+}
+
+static PyMemberDef solver_members[] = {
+    {"t", T_DOUBLE, offsetof(SolverObject, ode.t), READONLY, "current time [s]"},
+    {"t_old", T_DOUBLE, offsetof(SolverObject, ode.t_old), READONLY, "start of the last step [s]"},
+    {"h", T_DOUBLE, offsetof(SolverObject, ode.h), READONLY, "next step size to try [s]"},
+    {"fail_h", T_DOUBLE, offsetof(SolverObject, ode.fail_h), READONLY, "step size at failure [s]"},
+    {"status", T_INT, offsetof(SolverObject, ode.status), READONLY, "0 running, 101 finished, >101 failed"},
+    {"model_status", T_INT, offsetof(SolverObject, ode.model_status), READONLY, "last non-zero model status"},
+    {NULL, 0, 0, 0, NULL},
+};
+
+static PyGetSetDef solver_getset[] = {
+    {"y", (getter)solver_get_y, NULL, "copy of the state at t", NULL},
+    {"cont", (getter)solver_get_cont, NULL, "copy of the dense-output coefficients of the last step", NULL},
+    {"stats", (getter)solver_get_stats, NULL, "counters: nfev, njev, nlu, nsteps, naccept, nreject", NULL},
+    {NULL, NULL, NULL, NULL, NULL},
+};
+
+static PyMethodDef solver_methods[] = {
+    {"step", (PyCFunction)solver_step, METH_NOARGS, "step() -> status: advance by one accepted step"},
+    {"sample", (PyCFunction)solver_sample, METH_VARARGS,
+     "sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start"},
+    {NULL, NULL, 0, NULL},
+};
+
+static PyTypeObject SolverType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = MBS_STR(MBS_MODULE_NAME) ".Solver",
+    .tp_basicsize = sizeof(SolverObject),
+    .tp_dealloc = (destructor)solver_dealloc,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "Solver(method, rhs, t0, y0, t_bound, rtol, atol, first_step=0, max_step=0, min_step=0, "
+              "max_steps=1000000): an integrator running in C",
+    .tp_methods = solver_methods,
+    .tp_members = solver_members,
+    .tp_getset = solver_getset,
+    .tp_new = solver_new,
+};
+
+/* ---- module ------------------------------------------------------------------------------------ */
+
+static PyObject *module_init_errors(PyObject *self, PyObject *cls)
+{
+    (void)self;
+    Py_INCREF(cls);
+    Py_XSETREF(mbs_error_class, cls);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef module_methods[] = {
+    {"_init", module_init_errors, METH_O, "_init(error_class): exception type for a model status != 0"},
+    {NULL, NULL, 0, NULL},
+};
+
+static struct PyModuleDef module_def = {
+    PyModuleDef_HEAD_INIT, MBS_STR(MBS_MODULE_NAME), "A Baukasten model compiled to C.", -1, module_methods,
+    NULL, NULL, NULL, NULL,
+};
+
+PyMODINIT_FUNC MBS_CAT(PyInit_, MBS_MODULE_NAME)(void)
+{
+    PyObject *m, *functions, *methods;
+    int i;
+    import_array();
+    if (PyType_Ready(&FunctionType) < 0 || PyType_Ready(&SolverType) < 0) return NULL;
+    m = PyModule_Create(&module_def);
+    if (!m) return NULL;
+    functions = PyTuple_New(MBS_TABLE_SIZE);
+    methods = PyTuple_New(MBS_METHODS_SIZE);
+    if (!functions || !methods) goto fail;
+    for (i = 0; i < MBS_TABLE_SIZE; i++) {
+        const mbs_entry *e = &MBS_TABLE[i];
+        PyObject *row = e->cols ? Py_BuildValue("(s(ii))", e->name, e->rows, e->cols)
+                                : Py_BuildValue("(s(i))", e->name, e->rows);
+        if (!row) goto fail;
+        PyTuple_SET_ITEM(functions, i, row);
+    }
+    for (i = 0; i < MBS_METHODS_SIZE; i++) {
+        PyObject *name = PyUnicode_FromString(MBS_METHODS[i].name);
+        if (!name) goto fail;
+        PyTuple_SET_ITEM(methods, i, name);
+    }
+    if (PyModule_AddObject(m, "FUNCTIONS", functions) < 0) goto fail;
+    functions = NULL;
+    if (PyModule_AddObject(m, "METHODS", methods) < 0) goto fail;
+    methods = NULL;
+    Py_INCREF(&FunctionType);
+    Py_INCREF(&SolverType);
+    if (PyModule_AddObject(m, "Function", (PyObject *)&FunctionType) < 0
+        || PyModule_AddObject(m, "Solver", (PyObject *)&SolverType) < 0
+        || PyModule_AddIntConstant(m, "NQ", MBS_NQ) < 0 || PyModule_AddIntConstant(m, "NV", MBS_NV) < 0
+        || PyModule_AddIntConstant(m, "NX", MBS_NX) < 0 || PyModule_AddIntConstant(m, "NP", MBS_NP) < 0
+        || PyModule_AddIntConstant(m, "NWORK", MBS_NWORK) < 0
+#ifdef MBS_NY
+        || PyModule_AddIntConstant(m, "NY", MBS_NY) < 0
+#else
+        || PyModule_AddIntConstant(m, "NY", -1) < 0
+#endif
+        || PyModule_AddIntConstant(m, "STATUS_RUNNING", MBS_ODE_RUNNING) < 0)
+        goto fail;
+    return m;
+fail:
+    Py_XDECREF(functions);
+    Py_XDECREF(methods);
+    Py_DECREF(m);
+    return NULL;
+}

@@ -1,0 +1,15 @@
+"""Integrators: one base class (base.py), one file per method, and a registry of names.
+
+Built in: ``dopri5`` and ``rodasp`` (in C, the fast path) and scipy's ``RK45``, ``DOP853``, ``Radau``,
+``BDF``, ``LSODA`` (driven from Python).  Add a method by subclassing OdeSolver and calling ``register``.
+"""
+
+from .base import FAILED, FINISHED, RUNNING, DenseOutput, OdeSolver
+from .dopri5 import Dopri5
+from .native import NativeSolver
+from .registry import available, get_integrator, register
+from .rodasp import Rodasp
+from .scipy_methods import BDF, DOP853, LSODA, RK45, Radau, ScipyMethod
+
+__all__ = ["OdeSolver", "DenseOutput", "NativeSolver", "ScipyMethod", "Dopri5", "Rodasp", "RK45", "DOP853",
+           "Radau", "BDF", "LSODA", "register", "get_integrator", "available", "RUNNING", "FINISHED", "FAILED"]

@@ -1,0 +1,97 @@
+"""Integrators that run inside the compiled C library (c/ode.c and one C file per method).
+
+The Python class only drives C: ``sample()`` hands C a whole array of output times and C integrates
+across all of them without calling back into Python or allocating (the hot path of a simulation);
+``step()`` takes one step in C, for callers that need step-by-step control.  The GIL is released while
+C runs, so runs in separate threads (one workspace each) proceed in parallel.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import ClassVar
+
+import numpy as np
+
+from ..errors import UsageError, status_text
+from .base import FAILED, FINISHED, DenseOutput, OdeSolver
+
+# outcome codes of c/mbs_runtime.h (MBS_ODE_*)
+_C_RUNNING, _C_FINISHED, _C_COLLAPSED, _C_TOO_MANY = 0, 101, 102, 103
+_C_MODEL, _C_SINGULAR, _C_BAD_SAMPLE = 104, 105, 106
+
+
+def native_module(fun):
+    """The compiled model module a C model function belongs to, or None."""
+    module = sys.modules.get(type(fun).__module__)
+    if module is not None and isinstance(getattr(module, "Function", None), type) \
+            and isinstance(fun, module.Function) and hasattr(module, "Solver"):
+        return module
+    return None
+
+
+class NativeSolver(OdeSolver):
+    """Base of the C integrators: ``native_method`` names the entry in the C method table, and
+    ``dense_class`` turns the C dense-output coefficients into a DenseOutput."""
+
+    native_method: ClassVar[str]
+    dense_class: ClassVar[type[DenseOutput]]
+
+    def __init__(self, fun, t0, y0, t_bound, **options):
+        super().__init__(fun, t0, y0, t_bound, **options)
+        module = native_module(fun)
+        if module is None or self.native_method not in module.METHODS:
+            raise UsageError(f"integrator '{self.name}' runs in C and needs the right-hand side of a model "
+                             "built with the C back end; use 'RK45' or 'Radau' with the NumPy back end")
+        self._c = module.Solver(self.native_method, fun, self.t0, self.y, self.t_bound, self.rtol,
+                                float(self.atol) if self.atol.ndim == 0 else self.atol,
+                                first_step=self.first_step or 0.0,
+                                max_step=0.0 if not np.isfinite(self.max_step) else self.max_step,
+                                min_step=self.min_step, max_steps=self.max_steps)
+        self._sync()
+
+    def _sync(self) -> None:
+        c = self._c
+        stats = c.stats
+        self.t, self.y = c.t, c.y
+        if stats["naccept"] > 0:
+            self.t_old = c.t_old
+        self.nfev, self.njev, self.nlu = stats["nfev"], stats["njev"], stats["nlu"]
+        self.nsteps, self.nreject = stats["nsteps"], stats["nreject"]
+        if c.status == _C_FINISHED:
+            self.status = FINISHED
+        elif c.status == _C_BAD_SAMPLE:
+            raise UsageError("output times must increase and lie within [t0, t_bound]")
+        elif c.status != _C_RUNNING:
+            self._fail(self._reason(c))
+
+    def _reason(self, c) -> str:
+        model = f" (the model returned {status_text(c.model_status)})" if c.model_status else ""
+        if c.status == _C_COLLAPSED:
+            return f"step size collapsed to {c.fail_h:.3g} s{model}"
+        if c.status == _C_TOO_MANY:
+            return f"too many steps (max_steps = {self.max_steps}){model}"
+        if c.status == _C_MODEL:
+            return f"the model returned {status_text(c.model_status)} at t = {c.t:.6g} s"
+        if c.status == _C_SINGULAR:
+            return f"the iteration matrix is singular at every step size tried{model}"
+        return f"unknown integrator status {c.status}"
+
+    def _step_impl(self):
+        self._c.step()
+        self._sync()  # a failure is recorded here, with the reason from C
+        return self.status != FAILED, self.message
+
+    def _fail(self, reason: str) -> str:
+        if self.status == FAILED:  # already failed in _sync; keep the first message
+            return self.status
+        return super()._fail(reason)
+
+    def sample(self, t_eval, out, start=0):
+        t_eval = np.ascontiguousarray(t_eval, dtype=float)
+        status, index = self._c.sample(t_eval, out, int(start))
+        self._sync()
+        return index
+
+    def _dense_output_impl(self):
+        return self.dense_class(self.t_old, self.t, self._c.cont, self.n)

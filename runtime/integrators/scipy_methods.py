@@ -1,0 +1,91 @@
+"""scipy's solve_ivp methods behind our base class: RK45, DOP853, Radau, BDF, LSODA.
+
+The adapter drives one scipy OdeSolver with the model's right-hand side (a C function called from
+Python, or the NumPy back end) and translates its status into ours.  Each method is one line of data.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+from scipy import integrate
+
+from ..errors import EvaluationError, status_text
+from .base import DenseOutput, OdeSolver
+from .registry import register
+
+_SCIPY_TOO_SMALL = "Required step size is less than spacing between numbers."
+
+
+class _ScipyDense(DenseOutput):
+    def __init__(self, inner):
+        super().__init__(inner.t_old, inner.t)
+        self._inner = inner
+
+    def _call_impl(self, t):
+        return self._inner(t)
+
+
+class ScipyMethod(OdeSolver):
+    """Adapter for one scipy.integrate OdeSolver class (``scipy_class``)."""
+
+    scipy_class: ClassVar[type]
+
+    def __init__(self, fun, t0, y0, t_bound, **options):
+        super().__init__(fun, t0, y0, t_bound, **options)
+        kwargs = {"rtol": self.rtol, "atol": self.atol, "max_step": self.max_step}
+        if self.first_step is not None:
+            kwargs["first_step"] = min(self.first_step, max(t_bound - t0, 1e-300))
+        if self.min_step > 0 and self.scipy_class is integrate.LSODA:
+            kwargs["min_step"] = self.min_step
+        self._solver = None
+        if self.status != "running":
+            return
+        try:
+            self._solver = self.scipy_class(fun, t0, self.y, t_bound, **kwargs)
+        except EvaluationError as exc:  # scipy evaluates f(t0, y0) while setting up
+            self._fail(f"the model returned {status_text(exc.status)} at the initial state")
+
+    def _step_impl(self):
+        s = self._solver
+        try:
+            message = s.step()
+        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+            if isinstance(exc, EvaluationError):
+                raise
+            # scipy's implicit methods raise from their linear algebra on NaN/inf (e.g. BDF's lu_factor)
+            return False, f"{self.name} could not continue: {exc}"
+        self.t, self.y, self.t_old = s.t, s.y, s.t_old
+        self.nfev, self.njev, self.nlu = int(s.nfev), int(s.njev), int(s.nlu)
+        self.nsteps += 1
+        if s.status == "failed":
+            if message == _SCIPY_TOO_SMALL:
+                return False, f"step size collapsed to {_step_size(s):.3g} s"
+            return False, str(message)
+        h = s.t - s.t_old
+        if h < self.min_step and s.t < self.t_bound:  # only LSODA knows min_step itself
+            return False, f"step size collapsed to {h:.3g} s (min_step = {self.min_step:g} s)"
+        return True, None
+
+    def _dense_output_impl(self):
+        return _ScipyDense(self._solver.dense_output())
+
+
+def _step_size(s) -> float:
+    h = getattr(s, "h_abs", None) or s.step_size or 0.0
+    return float(np.abs(h))
+
+
+def _adapter(scipy_class: type, name: str, description: str) -> type[ScipyMethod]:
+    cls = type(name, (ScipyMethod,), {"scipy_class": scipy_class, "name": name, "description": description,
+                                      "__doc__": f"scipy's {name} through the common interface: {description}."})
+    cls.__module__ = __name__
+    return register(cls)
+
+
+RK45 = _adapter(integrate.RK45, "RK45", "explicit Runge-Kutta 5(4), Python loop")
+DOP853 = _adapter(integrate.DOP853, "DOP853", "explicit Runge-Kutta 8(5,3), Python loop")
+Radau = _adapter(integrate.Radau, "Radau", "implicit Runge-Kutta Radau IIA order 5, stiff")
+BDF = _adapter(integrate.BDF, "BDF", "backward differentiation formulas, stiff")
+LSODA = _adapter(integrate.LSODA, "LSODA", "Adams/BDF with automatic stiffness switching")

@@ -1,0 +1,163 @@
+"""Simulation results: named columns (time, states, outputs) with the run's metadata.
+
+Files are written atomically (a temporary file in the same directory, fsync, os.replace): a reader
+sees the old file or the complete new one, never a partial one.
+
+CSV layout: metadata lines ``# key: <JSON value>``, one header line of column names, then rows with
+17 significant digits (exact round trip of float64).  NPZ layout: arrays ``data`` (n, ncols), ``names``
+(ncols,) and ``metadata`` (a JSON string); readable with ``allow_pickle=False``.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+from pathlib import Path
+from typing import Iterable, Mapping
+
+import numpy as np
+
+from mbs.atomic import atomic_path
+
+from .errors import SimulationError, UsageError
+
+TIME = "time"
+
+
+def _jsonable(value):
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"cannot store {type(value).__name__} in result metadata")
+
+
+class Results:
+    """A table of samples: ``names`` (ncols,) column names, ``data`` (n, ncols) values in SI units.
+
+    ``res["hinge.phi"]`` is one column (read-only view), ``res.t`` the time column [s].  ``metadata``
+    holds model, integrator, tolerances, status ("finished", "failed", "stopped") and message.
+    """
+
+    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None):
+        self.names = tuple(str(n) for n in names)
+        data = np.array(data, dtype=float, ndmin=2)
+        if data.size == 0:
+            data = data.reshape(0, len(self.names))
+        if data.ndim != 2 or data.shape[1] != len(self.names):
+            raise UsageError(f"data of shape {data.shape} does not match {len(self.names)} column names")
+        if len(set(self.names)) != len(self.names):
+            raise UsageError("column names must be unique")
+        for name in self.names:
+            if "," in name or "\n" in name or not name:
+                raise UsageError(f"column name {name!r} must be non-empty without commas or newlines")
+        data.flags.writeable = False
+        self.data = data
+        self.metadata = dict(metadata or {})
+        self._index = {n: i for i, n in enumerate(self.names)}
+
+    # -- access ----------------------------------------------------------------------------------
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.data[:, self._index[name]]
+        except KeyError:
+            raise KeyError(f"no column '{name}' (columns: {', '.join(self.names)})") from None
+
+    def __contains__(self, name: str) -> bool:
+        return name in self._index
+
+    def __len__(self) -> int:
+        return self.data.shape[0]
+
+    @property
+    def t(self) -> np.ndarray:
+        return self[TIME]
+
+    def columns(self, names: Iterable[str]) -> np.ndarray:
+        """(n, len(names)) array of the named columns."""
+        return np.column_stack([self[n] for n in names]) if names else np.empty((len(self), 0))
+
+    @property
+    def success(self) -> bool:
+        return self.metadata.get("status", "finished") == "finished"
+
+    @property
+    def message(self) -> str:
+        return self.metadata.get("message", "")
+
+    def check(self) -> "Results":
+        """Raise SimulationError with the run's message unless it finished; returns self."""
+        if not self.success:
+            raise SimulationError(self.message or f"the run ended with status {self.metadata.get('status')}")
+        return self
+
+    def __repr__(self) -> str:
+        return f"Results({len(self)} rows, columns={list(self.names)}, status={self.metadata.get('status')!r})"
+
+    # -- files -------------------------------------------------------------------------------------
+
+    def to_csv(self, path: str | os.PathLike) -> Path:
+        """Write CSV atomically; returns the path."""
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="\n") as f:
+            for key, value in self.metadata.items():
+                f.write(f"# {key}: {json.dumps(value, default=_jsonable)}\n")
+            f.write(",".join(self.names) + "\n")
+            np.savetxt(f, self.data, delimiter=",", fmt="%.17g")
+        return Path(path)
+
+    @classmethod
+    def from_csv(cls, path: str | os.PathLike) -> "Results":
+        metadata, header, rows = {}, None, []
+        with open(path, encoding="utf-8") as f:
+            for line in f:
+                if header is None and line.startswith("# "):
+                    key, _, value = line[2:].rstrip("\n").partition(": ")
+                    metadata[key] = json.loads(value)
+                elif header is None:
+                    header = line.rstrip("\n").split(",")
+                else:
+                    rows.append(line)
+        if header is None:
+            raise UsageError(f"{path}: no header line; not a results CSV file")
+        data = np.loadtxt(io.StringIO("".join(rows)), delimiter=",", ndmin=2) if rows else np.empty((0, len(header)))
+        return cls(header, data, metadata)
+
+    def to_npz(self, path: str | os.PathLike) -> Path:
+        """Write NPZ atomically (written through a file object, so no '.npz' is appended); returns the path."""
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            np.savez(f, data=self.data, names=np.array(self.names, dtype=str),
+                     metadata=np.array(json.dumps(self.metadata, default=_jsonable)))
+        return Path(path)
+
+    @classmethod
+    def from_npz(cls, path: str | os.PathLike) -> "Results":
+        with np.load(path, allow_pickle=False) as z:
+            return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])))
+
+    def plot(self, names: Iterable[str] | str, path: str | os.PathLike, *, title: str | None = None) -> Path:
+        """Plot the named columns over time into an image file (format from the suffix), atomically.
+
+        Uses matplotlib's object API with the Agg canvas: no global pyplot state, no display needed.
+        """
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        names = [names] if isinstance(names, str) else list(names)
+        units = self.metadata.get("units", {})
+        fig = Figure(figsize=(8, 2.2 + 1.6 * len(names)), layout="constrained")
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
+        for ax, name in zip(axes, names):
+            ax.plot(self.t, self[name])
+            ax.set_ylabel(f"{name} [{units[name]}]" if name in units else name)
+            ax.grid(True, alpha=0.3)
+        axes[-1].set_xlabel("time [s]")
+        fig.suptitle(title or self.metadata.get("model", ""))
+        if not self.success:
+            axes[0].set_title(self.message, fontsize=8, color="tab:red")
+        fmt = Path(path).suffix.lstrip(".") or "png"
+        with atomic_path(path) as tmp, open(tmp, "wb") as f:
+            fig.savefig(f, format=fmt)
+        return Path(path)

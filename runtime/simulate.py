@@ -1,0 +1,133 @@
+"""The simulation driver: integrate a model from its workspace's state and sample the result.
+
+    res = simulate(model, data, t_end=10.0, sample=0.01)          # dopri5 in C by default
+    res = simulate(model, data, 2.0, integrator="rodasp", rtol=1e-8)
+
+A failed run does not raise: the results keep every sample up to the failure time, and
+``res.message`` says what happened ("integration failed at t = 1.234 s: step size collapsed to ...").
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Callable
+
+import numpy as np
+
+from .errors import EvaluationError, UsageError, status_text
+from .integrators import FAILED, FINISHED, get_integrator
+from .model import CompiledModel
+from .results import TIME, Results
+from .workspace import Workspace, check_workspace
+
+#: Samples when neither t_eval nor sample is given.
+DEFAULT_SAMPLES = 501
+#: With a progress callback, C integrates this many output chunks between calls (at least).
+PROGRESS_CHUNKS = 100
+
+Progress = Callable[[float, float], "bool | None"]
+
+
+def default_integrator(model: CompiledModel) -> str:
+    """"dopri5" (in C) when the back end has it, else scipy's "RK45"."""
+    return "dopri5" if "dopri5" in model.backend.native_methods else "RK45"
+
+
+def output_times(t0: float, t_end: float, t_eval=None, sample: float | None = None) -> np.ndarray:
+    """Output times: ``t_eval`` as given (checked), or every ``sample`` seconds from t0 with t_end
+    appended when it is off the grid, or DEFAULT_SAMPLES evenly spaced times."""
+    if t_eval is not None and sample is not None:
+        raise UsageError("give t_eval or sample, not both")
+    if t_eval is not None:
+        times = np.array(t_eval, dtype=float).reshape(-1)
+        if times.size and (np.any(np.diff(times) < 0) or times[0] < t0 or times[-1] > t_end):
+            raise UsageError(f"t_eval must be non-decreasing within [{t0:g}, {t_end:g}] s")
+        return times
+    if sample is not None:
+        if not sample > 0:
+            raise UsageError(f"sample interval must be positive, got {sample}")
+        n = int(math.floor((t_end - t0) / sample * (1 + 1e-12))) + 1
+        times = t0 + sample * np.arange(n)
+        if times[-1] < t_end - 1e-9 * sample:
+            times = np.append(times, t_end)
+        times[-1] = min(times[-1], t_end)
+        return times
+    return np.linspace(t0, t_end, DEFAULT_SAMPLES)
+
+
+def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None, sample: float | None = None,
+             integrator=None, rtol: float = 1e-6, atol=1e-9, first_step: float | None = None,
+             max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
+             outputs: bool = True, progress: Progress | None = None) -> Results:
+    """Integrate from (data.t, data.x) to t_end [s] and return sampled results.
+
+    Columns: "time", the state names (q then v), then the model outputs (when ``outputs`` and the model
+    has them).  ``progress(t, t_end)`` is called about PROGRESS_CHUNKS times; returning False stops the
+    run (status "stopped").  On return data.t, data.x hold the last state reached and data.stats the
+    integrator's counters.
+    """
+    check_workspace(model, data)
+    t0 = float(data.t)
+    t_end = float(t_end)
+    if not t_end >= t0:
+        raise UsageError(f"t_end = {t_end:g} s lies before the workspace time t = {t0:g} s")
+    times = output_times(t0, t_end, t_eval, sample)
+    cls = get_integrator(integrator or default_integrator(model))
+    started = time.perf_counter()
+    solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
+                 max_step=max_step, min_step=min_step, max_steps=max_steps)
+    states = np.empty((times.size, model.nx))
+    status, filled = _run(solver, times, states, progress, t_end)
+    message = solver.message if status == FAILED else ""
+    if status == "stopped":
+        message = f"stopped by the progress callback at t = {solver.t:.6g} s"
+    columns = [times[:filled, None], states[:filled]]
+    names = [TIME, *model.x_names]
+    if outputs and model.ny and "outputs" in model.functions:
+        ys, error = _outputs(data, times[:filled], states[:filled], model.ny)
+        if error is not None:  # keep the rows before the failing one
+            filled = ys.shape[0]
+            columns = [c[:filled] for c in columns]
+            status = FAILED
+            message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
+                       f"{status_text(error.status)}")
+        columns.append(ys)
+        names += list(model.y_names)
+    data.t, data.x = solver.t, solver.y
+    data.stats = dict(solver.stats)
+    metadata = {
+        "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,
+        "atol": atol, "t0": t0, "t_end": t_end, "status": status, "message": message,
+        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+    }
+    return Results(names, np.hstack(columns), metadata)
+
+
+def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):
+    """Sample all times (in chunks when reporting progress).  Returns (status, rows filled)."""
+    if progress is None:
+        filled = solver.sample(times, states, 0)
+        return (FINISHED if filled == times.size and solver.status != FAILED else solver.status), filled
+    filled = 0
+    chunk = max(1, math.ceil(times.size / PROGRESS_CHUNKS))
+    while filled < times.size:
+        stop = min(times.size, filled + chunk)
+        filled = solver.sample(times[:stop], states[:stop], filled)
+        if solver.status == FAILED:
+            return FAILED, filled
+        if progress(float(times[filled - 1]), t_end) is False and filled < times.size:
+            return "stopped", filled
+    return FINISHED, filled
+
+
+def _outputs(data: Workspace, times: np.ndarray, states: np.ndarray, ny: int):
+    """Model outputs per sample; stops at the first failure and returns it."""
+    f = data.function("outputs")
+    ys = np.empty((times.size, ny))
+    for i, (t, x) in enumerate(zip(times, states)):
+        try:
+            ys[i] = f(t, x)
+        except EvaluationError as exc:
+            return ys[:i], exc
+    return ys, None

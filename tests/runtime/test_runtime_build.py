@@ -1,0 +1,113 @@
+"""Building: cache hits and misses, concurrent builds, compiler errors, warning-free runtime C."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from mbs.language.diagnostics import MbsError
+from mbs.runtime import build
+from mbs.runtime.errors import BuildError
+
+FIXTURES = Path(__file__).parent / "fixtures"
+
+PENDULUM = FIXTURES / "pendulum.c"
+
+
+def test_second_build_is_a_cache_hit(builds, cache_dir):
+    first = builds["pendulum.c"]  # built fresh by the session fixture
+    assert not first.cached and first.path.exists()
+    mtime = first.path.stat().st_mtime_ns
+    second = build.build_file(PENDULUM, cache_dir=cache_dir)
+    assert second.cached and second.path == first.path and second.key == first.key
+    assert second.path.stat().st_mtime_ns == mtime  # not rewritten
+
+
+def test_changed_source_misses_the_cache(builds, cache_dir):
+    text = PENDULUM.read_text()
+    assert build.build(text, filename="pendulum.c", cache_dir=cache_dir).cached  # same text, same key
+    edited = build.build(text + "\n/* edited */\n", filename="pendulum.c", cache_dir=cache_dir)
+    assert not edited.cached and edited.key != builds["pendulum.c"].key
+    assert edited.module_name != builds["pendulum.c"].module_name
+    assert build.build(text + "\n/* edited */\n", filename="pendulum.c", cache_dir=cache_dir).cached
+
+
+def test_flags_and_compiler_enter_the_key():
+    unit, cc = "int x;", tuple(build.compiler_command())
+    keys = {build._hash(unit, build.FLAGS, cc), build._hash(unit, build.FLAGS + ("-DX",), cc),
+            build._hash(unit + " ", build.FLAGS, cc)}
+    assert len(keys) == 3
+
+
+def test_cache_dir_from_environment(builds, tmp_path, monkeypatch):
+    monkeypatch.setenv(build.CACHE_ENV, str(tmp_path / "env-cache"))
+    assert build.default_cache_dir() == tmp_path / "env-cache"
+    # seed the environment's cache with the session's module: the build is then a hit there
+    (tmp_path / "env-cache").mkdir()
+    shutil.copy(builds["pendulum.c"].path, tmp_path / "env-cache")
+    result = build.build_file(PENDULUM)
+    assert result.cached and result.path.parent == tmp_path / "env-cache"
+
+
+def test_runtime_and_fixtures_compile_without_warnings(builds):
+    assert set(builds) == {"pendulum.c", "pendulum_failing.c", "quarter_car.c"}
+    for name, result in builds.items():
+        assert not result.cached, name  # a fresh build, so the compiler's messages were seen
+        assert result.warnings == "", result.warnings
+
+
+def test_two_processes_building_at_once(tmp_path):
+    script = textwrap.dedent(f"""
+        import sys
+        from pathlib import Path
+        from mbs.runtime import build
+        r = build.build_file(Path({str(PENDULUM)!r}), cache_dir={str(tmp_path)!r})
+        m = build.load(r)
+        import numpy as np
+        f = m.Function("rhs", np.array([1.0, 1.0, 9.81]), np.zeros(m.NWORK))
+        print(r.cached, f(0.0, [0.5, 0.0])[1])
+    """)
+    procs = [subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True) for _ in range(2)]
+    outputs = [p.communicate(timeout=120) for p in procs]
+    for p, (out, err) in zip(procs, outputs):
+        assert p.returncode == 0, err
+        assert out.split()[1] == repr(-9.81 * __import__("math").sin(0.5))
+    modules = [p for p in tmp_path.iterdir() if p.name.endswith(".so")]
+    assert len(modules) == 1
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".build-")]  # temp dirs cleaned up
+
+
+def test_compiler_error_raises_build_error_with_the_message(tmp_path):
+    bad = "#define MBS_NQ 1\nint mbs_rhs(double t) { return undefined_name; }\n"
+    with pytest.raises(BuildError) as info:
+        build.build(bad, filename="broken_model.c", cache_dir=tmp_path)
+    err = info.value
+    assert isinstance(err, MbsError)  # rendered by the CLI without a traceback
+    assert "compiling broken_model.c failed" in str(err)
+    assert "broken_model.c:2" in err.compiler_output and "undefined_name" in err.compiler_output
+    assert str(err).startswith("error: compiling broken_model.c failed")
+    assert not list(tmp_path.iterdir())  # no module, no leftover build directory
+
+
+def test_missing_sizes_are_reported(tmp_path):
+    with pytest.raises(BuildError, match="MBS_NQ, MBS_NV, MBS_NX, MBS_NP and MBS_NWORK"):
+        build.build("int x;\n", cache_dir=tmp_path)
+
+
+def test_missing_compiler(tmp_path, monkeypatch):
+    monkeypatch.setenv("CC", "/nonexistent/cc-for-test")
+    with pytest.raises(BuildError, match="no usable C compiler"):
+        build.build_file(PENDULUM, cache_dir=tmp_path)
+    assert not build.have_c_compiler()
+
+
+def test_load_twice_returns_the_same_module(cache_dir):
+    result = build.build_file(PENDULUM, cache_dir=cache_dir)
+    assert build.load(result) is build.load(result)
+    assert result.module_name in sys.modules

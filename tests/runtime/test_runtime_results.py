@@ -1,0 +1,97 @@
+"""Results: access by name, CSV/NPZ round trips, atomic files, plots."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mbs.runtime import results as results_module
+from mbs.runtime.errors import UsageError
+from mbs.runtime.results import Results
+from mbs.runtime.simulate import simulate
+from mbs.runtime.workspace import Workspace
+
+
+@pytest.fixture(scope="module")
+def res(pendulum):
+    return simulate(pendulum, Workspace(pendulum), 2.0, sample=0.01, rtol=1e-9, atol=1e-11)
+
+
+def test_columns_by_name(res, pendulum):
+    assert res.names == ("time", "hinge.phi", "hinge.phi_dot", "angle", "energy")
+    np.testing.assert_array_equal(res["angle"], res["hinge.phi"])
+    assert res["hinge.phi"][0] == pytest.approx(np.radians(30))
+    assert res.t[-1] == 2.0 and len(res) == 201
+    assert res.columns(["time", "energy"]).shape == (201, 2)
+    with pytest.raises(KeyError, match="no column 'nope'"):
+        res["nope"]
+    with pytest.raises(ValueError):
+        res["angle"][0] = 1.0  # read-only
+    meta = res.metadata
+    assert (meta["model"], meta["integrator"], meta["rtol"], meta["status"]) == ("pendulum", "dopri5", 1e-9, "finished")
+
+
+@pytest.mark.parametrize("suffix", ["csv", "npz"])
+def test_round_trip_is_exact(res, tmp_path, suffix):
+    path = tmp_path / f"run.{suffix}"
+    getattr(res, f"to_{suffix}")(path)
+    back = getattr(Results, f"from_{suffix}")(path)
+    assert back.names == res.names
+    np.testing.assert_array_equal(back.data, res.data)  # %.17g is exact for float64
+    assert back.metadata == res.metadata
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary files left
+
+
+def test_round_trip_of_a_failed_empty_run(tmp_path):
+    empty = Results(["time", "x"], np.empty((0, 2)), {"status": "failed", "message": "integration failed at t = 0 s"})
+    for suffix in ("csv", "npz"):
+        back = getattr(Results, f"from_{suffix}")(getattr(empty, f"to_{suffix}")(tmp_path / f"e.{suffix}"))
+        assert len(back) == 0 and back.names == ("time", "x") and not back.success
+
+
+def test_npz_name_is_kept_exactly(res, tmp_path):
+    path = tmp_path / "run.data"  # np.savez would append .npz to a path
+    res.to_npz(path)
+    assert path.exists() and Results.from_npz(path).names == res.names
+
+
+@pytest.mark.parametrize("suffix", ["csv", "npz"])
+def test_failed_write_leaves_no_partial_file(res, tmp_path, monkeypatch, suffix):
+    path = tmp_path / f"run.{suffix}"
+    path.write_text("previous contents")
+
+    def broken(f, *args, **kwargs):
+        f.write(b"partial" if "b" in getattr(f, "mode", "b") else "partial")
+        raise OSError("disk full (simulated)")
+
+    monkeypatch.setattr(results_module.np, "savetxt" if suffix == "csv" else "savez", broken)
+    with pytest.raises(OSError, match="disk full"):
+        getattr(res, f"to_{suffix}")(path)
+    assert path.read_text() == "previous contents"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]
+    monkeypatch.undo()
+    new = tmp_path / f"new.{suffix}"
+    monkeypatch.setattr(results_module.np, "savetxt" if suffix == "csv" else "savez", broken)
+    with pytest.raises(OSError):
+        getattr(res, f"to_{suffix}")(new)
+    assert not new.exists()
+
+
+def test_plot_writes_an_image_atomically(res, tmp_path):
+    path = res.plot(["hinge.phi", "energy"], tmp_path / "plot.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["plot.png"]
+    with pytest.raises(KeyError):
+        res.plot(["missing"], tmp_path / "bad.png")
+    assert not (tmp_path / "bad.png").exists()
+    svg = res.plot("angle", tmp_path / "plot.svg", title="swing")
+    assert b"<svg" in svg.read_bytes()[:500]
+
+
+def test_bad_tables_are_rejected():
+    with pytest.raises(UsageError):
+        Results(["time", "a"], np.zeros((3, 3)))
+    with pytest.raises(UsageError):
+        Results(["time", "a,b"], np.zeros((3, 2)))
+    with pytest.raises(UsageError):
+        Results(["time", "time"], np.zeros((3, 2)))
