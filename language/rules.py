@@ -51,8 +51,9 @@ def check_body(part: M.Part, values, diags: Diagnostics) -> None:
         diags.error(f"the inertia tensor of '{part.name}' must be symmetric", body.span)
         return
     principal = np.linalg.eigvalsh(tensor)
-    if principal.min() < -INERTIA_REL_TOL * scale or (principal.min() <= 0 and principal.max() <= 0):
-        diags.error(f"the inertia tensor of '{part.name}' must be positive definite (principal moments "
+    # Zero moments are allowed: point masses and thin rods are standard idealisations (as in Pinocchio).
+    if principal.min() < -INERTIA_REL_TOL * scale:
+        diags.error(f"the inertia tensor of '{part.name}' must be positive semi-definite (principal moments "
                     f"{', '.join('%.6g' % v for v in principal)} kg*m^2)", body.span)
         return
     a, b, c = principal

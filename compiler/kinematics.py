@@ -1,0 +1,253 @@
+"""Forward kinematics of a `Tree` on a `Tape`, and the applied loads attached to it.
+
+`Kinematics(tree)` runs the outward recursion once (joint transforms, body placements, spatial velocities and the
+velocity-product terms), each body in its own frame. World quantities (positions, rotations and velocities of
+frames, for springs, dampers, tyres, sensors) are built on request from the same tape.
+
+Loads are attached with `add_force`, `add_torque`, `add_generalized_force` and `add_line_force`; the derivation
+(`mbs.compiler.equations.derive_equations`) reads them when it runs, so attach all loads before deriving.
+
+Units: m, rad, s, N, N*m. Bodies are given by index (0-based, -1 = ground) or by name ("ground" = -1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import sympy as sp
+
+from .joints import combine, joint_kind
+from .spatial import (IDENTITY, ZERO3, ZERO6, RigidInertia, add, cross, dot, force_cross, matmul, matTvec,
+                      matvec, motion_cross, motion_from_frame, motion_to_child, mul, transpose)
+from .tape import Tape
+from .tree import Tree, coordinate_names, t, velocity_of_coordinate
+
+
+@dataclass(frozen=True)
+class BodyKinematics:
+    """Kinematic quantities of one body on the tape; 6-vectors (omega; v) in the body frame at its origin.
+
+    X: (R, r) placement of the body frame in the parent body's frame (R: body -> parent components).
+    q, v: the joint's coordinates and velocities (state symbols, or expressions of t when prescribed).
+    qdot: time derivatives of the joint's coordinates (length nq of the joint).
+    S: one motion vector per joint velocity; free: local indices of the velocities that are states.
+    vJ: joint velocity S v; vel: the body's spatial velocity.
+    bias: acceleration terms that do not depend on the state accelerations: c_J + S_p vdot_p + vel x vJ
+        (velocity products and prescribed accelerations).
+    """
+
+    X: tuple
+    q: tuple
+    v: tuple
+    qdot: tuple
+    S: tuple
+    free: tuple
+    vJ: tuple
+    vel: tuple
+    bias: tuple
+
+
+class Kinematics:
+    """The kinematics of `tree` on `tape` (a new tape if None), with the loads attached so far."""
+
+    def __init__(self, tree: Tree, tape: Tape | None = None):
+        self.tree = tree
+        self.tape = tape if tape is not None else Tape()
+        self.bodies: list[BodyKinematics] = []
+        for i in range(len(tree.bodies)):
+            self.bodies.append(self._outward(i))
+        self._world: dict[int, tuple] = {-1: (IDENTITY, ZERO3)}
+        self._inertia: dict[int, RigidInertia] = {}
+        self._gyroscopic: dict[int, tuple] = {}
+        self._wrenches: dict[int, list] = {}
+        self._generalized: dict[int, list] = {}
+
+    # ---- the outward recursion ----------------------------------------------------------------------------------
+
+    def _outward(self, i: int) -> BodyKinematics:
+        tree, tape = self.tree, self.tape
+        body, n = tree.bodies[i], i + 1
+        tape.section(f"body {n} ({body.name}): {body.joint.kind} joint")
+        names = coordinate_names(body.joint)
+        q, v, vdot = [], [None] * body.joint.nv, {}
+        for k, e in enumerate(body.prescribed):
+            if e is None:
+                q.append(tree.q_symbols[tree.q_slots[i][k]])
+                continue
+            kv = velocity_of_coordinate(body.joint, k)
+            q.append(tape.temp(e, f"{names[k]}{n}"))
+            v[kv] = tape.temp(sp.diff(e, t), f"d{names[k]}{n}")
+            vdot[kv] = tape.temp(sp.diff(e, t, 2), f"dd{names[k]}{n}")
+        for k in body.free_velocities:
+            v[k] = tree.v_symbols[tree.v_slots[i][k]]
+        motion = joint_kind(body.joint, tape, str(n)).motion(tuple(q), tuple(v))
+
+        # Placement of the body in its parent: R = Ra R_J Rb^T, r = ra + Ra p_J - R rb.
+        (Ra, ra), (Rb, rb) = (_tuples(X) for X in (body.X_parent_joint, body.X_child_joint))
+        R = matmul(tape, matmul(tape, Ra, motion.R, f"E{n}a"), transpose(Rb), f"E{n}")
+        Rrb = [dot(row, rb) for row in R]
+        r = tape.vector([add(x, y, -z) for x, y, z in zip(ra, [dot(row, motion.p) for row in Ra], Rrb)], f"r{n}")
+        S = tuple(motion_from_frame(tape, (Rb, rb), s, f"S{n}{k}") for k, s in enumerate(motion.S))
+        cJ = motion_from_frame(tape, (Rb, rb), motion.c, f"cJ{n}")
+
+        tape.section(f"body {n} ({body.name}): velocity")
+        vJ = tape.vector(combine(S, v), f"vJ{n}")
+        if body.parent < 0:
+            vel = vJ
+        else:
+            vel = motion_to_child(tape, (R, r), self.bodies[body.parent].vel, f"vp{n}")
+            vel = tape.vector([add(x, y) for x, y in zip(vel, vJ)], f"v{n}")
+        a_presc = combine([S[k] for k in vdot], list(vdot.values()))
+        cross_term = motion_cross(tape, vel, vJ, f"vx{n}")
+        bias = tape.vector([add(x, y, z) for x, y, z in zip(cJ, a_presc, cross_term)], f"cv{n}")
+        return BodyKinematics((R, r), tuple(q), tuple(v), motion.qdot, S, tuple(body.free_velocities), vJ, vel,
+                              bias)
+
+    # ---- body-frame quantities used by the dynamics -------------------------------------------------------------
+
+    def inertia(self, i: int) -> RigidInertia:
+        """Spatial inertia of body i about its frame origin (computed once, on first use)."""
+        if i not in self._inertia:
+            b = self.tree.bodies[i]
+            self.tape.section(f"body {i + 1} ({b.name}): spatial inertia")
+            Ic = tuple(tuple(b.inertia[r, c] for c in range(3)) for r in range(3))
+            self._inertia[i] = RigidInertia.of_body(self.tape, b.mass, tuple(b.com), Ic, f"I{i + 1}")
+        return self._inertia[i]
+
+    def gyroscopic(self, i: int) -> tuple:
+        """v x* (I v): the centrifugal and gyroscopic force of body i (body frame), computed once."""
+        if i not in self._gyroscopic:
+            inertia = self.inertia(i)
+            vel = self.bodies[i].vel
+            self.tape.section(f"body {i + 1} ({self.tree.bodies[i].name}): momentum and gyroscopic force")
+            self._gyroscopic[i] = force_cross(self.tape, vel, inertia.apply(self.tape, vel, f"h{i + 1}"),
+                                              f"vxh{i + 1}")
+        return self._gyroscopic[i]
+
+    def external_wrench(self, i: int) -> tuple:
+        """Sum of the applied loads on body i as a force vector (n; f) in the body frame at its origin."""
+        parts = self._wrenches.get(i)
+        if not parts:
+            return ZERO6
+        self.tape.section(f"body {i + 1} ({self.tree.bodies[i].name}): applied loads")
+        return self.tape.vector([add(*(p[k] for p in parts)) for k in range(6)], f"fe{i + 1}")
+
+    def generalized_forces(self) -> tuple:
+        """Applied generalized forces, one per free velocity (state order)."""
+        return tuple(add(*self._generalized.get(k, ())) for k in range(self.tree.nv))
+
+    @cached_property
+    def qdot(self) -> tuple:
+        """Time derivatives of the free coordinates (state order), length nq."""
+        out = []
+        for i, body in enumerate(self.tree.bodies):
+            out += [self.bodies[i].qdot[k] for k in body.free_coordinates]
+        return tuple(out)
+
+    # ---- world quantities (built on request) --------------------------------------------------------------------
+
+    def world_pose(self, body: int | str) -> tuple:
+        """(R, r): rotation body -> world components and the body origin in world components [m]."""
+        i = self.tree.body_index(body)
+        if i not in self._world:
+            parent = self.tree.bodies[i].parent
+            R_p, r_p = self.world_pose(parent)
+            R, r = self.bodies[i].X
+            self.tape.section(f"body {i + 1} ({self.tree.bodies[i].name}): world pose")
+            self._world[i] = (matmul(self.tape, R_p, R, f"R0{i + 1}"),
+                              self.tape.vector([add(x, dot(row, r)) for x, row in zip(r_p, R_p)], f"r0{i + 1}"))
+        return self._world[i]
+
+    def frame_position(self, body: int | str, r_local) -> tuple:
+        """World position of the point with body coordinates r_local [m]."""
+        R, r = self.world_pose(body)
+        return self.tape.vector([add(x, dot(row, _sym(r_local))) for x, row in zip(r, R)], "pos")
+
+    def frame_rotation(self, body: int | str, R_local=None) -> tuple:
+        """Rotation (frame -> world components) of a frame with orientation R_local in the body (identity)."""
+        R, _ = self.world_pose(body)
+        return R if R_local is None else matmul(self.tape, R, _tuples((R_local, ZERO3))[0], "rot")
+
+    def body_angular_velocity(self, body: int | str) -> tuple:
+        """Angular velocity of the body in world components [rad/s]."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return ZERO3
+        return matvec(self.tape, self.world_pose(i)[0], self.bodies[i].vel[:3], f"w0{i + 1}")
+
+    def frame_velocity(self, body: int | str, r_local) -> tuple:
+        """World velocity of the point with body coordinates r_local, world components [m/s]."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return ZERO3
+        vel = self.bodies[i].vel
+        local = [add(x, y) for x, y in zip(vel[3:], cross(vel[:3], _sym(r_local)))]
+        return matvec(self.tape, self.world_pose(i)[0], local, "vel")
+
+    def joint_coordinate(self, body: int | str, k: int) -> sp.Expr:
+        """Coordinate k of the body's joint: its state symbol, or its expression of t when prescribed."""
+        return self.bodies[self.tree.body_index(body)].q[k]
+
+    def joint_velocity(self, body: int | str, k: int) -> sp.Expr:
+        """Velocity k of the body's joint (see `tree.velocity_names`)."""
+        return self.bodies[self.tree.body_index(body)].v[k]
+
+    # ---- applied loads ------------------------------------------------------------------------------------------
+
+    def add_force(self, body: int | str, point, force) -> None:
+        """A force (world components) [N] acting at the point with body coordinates `point` [m]."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return  # the ground takes any load
+        f = matTvec(self.tape, self.world_pose(i)[0], _sym(force), f"fb{i + 1}")
+        self._wrenches.setdefault(i, []).append(tuple(cross(_sym(point), f)) + f)
+
+    def add_torque(self, body: int | str, torque) -> None:
+        """A torque (world components) [N*m] acting on the body."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return
+        n = matTvec(self.tape, self.world_pose(i)[0], _sym(torque), f"nb{i + 1}")
+        self._wrenches.setdefault(i, []).append(n + ZERO3)
+
+    def add_generalized_force(self, body: int | str, k: int, value) -> None:
+        """A generalized force [N or N*m] on velocity k of the body's joint (doing work with that velocity).
+        On a prescribed coordinate it only changes the (not computed) drive reaction, so it is dropped."""
+        i = self.tree.body_index(body)
+        slot = self.tree.v_slots[i][k]
+        if slot is not None:
+            self._generalized.setdefault(slot, []).append(sp.sympify(value))
+
+    def add_line_force(self, body_a: int | str, point_a, body_b: int | str, point_b,
+                       tension: Callable[[sp.Expr, sp.Expr], sp.Expr]) -> tuple:
+        """A force along the line between two points (spring, damper, rope, actuator).
+
+        tension(length, rate) -> tension [N], positive pulling the points together; length [m] is the distance
+        and rate [m/s] its time derivative. Returns (length, rate, tension) as tape expressions. The direction is
+        undefined when the points coincide (the generated code then reports a non-finite result).
+        """
+        tape = self.tape
+        pa, pb = self.frame_position(body_a, point_a), self.frame_position(body_b, point_b)
+        d = tape.vector([add(y, -x) for x, y in zip(pa, pb)], "ld")
+        length = tape.temp(sp.sqrt(dot(d, d)), "len")
+        e = tape.vector([mul(x, tape.temp(1 / length, "ilen")) for x in d], "le")
+        va, vb = self.frame_velocity(body_a, point_a), self.frame_velocity(body_b, point_b)
+        rate = tape.temp(dot(e, [add(y, -x) for x, y in zip(va, vb)]), "rate")
+        T = tape.temp(sp.sympify(tension(length, rate)), "tension")
+        force_on_a = tape.vector([mul(T, x) for x in e], "lf")
+        self.add_force(body_a, point_a, force_on_a)
+        self.add_force(body_b, point_b, [-x for x in force_on_a])
+        return length, rate, T
+
+
+def _sym(v) -> tuple:
+    return tuple(sp.sympify(x) for x in v)
+
+
+def _tuples(X) -> tuple:
+    """(R, r) with sympy matrices -> tuples of rows and a tuple."""
+    R, r = X
+    R = tuple(tuple(sp.sympify(R[i][j] if isinstance(R, tuple) else R[i, j]) for j in range(3)) for i in range(3))
+    return R, tuple(sp.sympify(x) for x in r)

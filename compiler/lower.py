@@ -1,0 +1,303 @@
+"""Validated model (+ scene) -> a Tree with its loads and outputs: the input of the symbolic derivation.
+
+Each tree body is one part; it carries the name of the interaction whose joint moves it, so that the state
+symbols come out as the language names them (``hinge.phi``). Frames become joint placements, bodies become
+mass geometry, force elements become loads on the kinematics, sensors and outputs become expressions of the
+state. Only what the scene asks for is lowered: a scene that wants two outputs does not pay for the rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sp
+
+from mbs.language import expr as X
+from mbs.language import model as M
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+from .kinematics import Kinematics
+from .spatial import cross, dot
+from .symbolic import TableRegistry, ToSympy, parameter_symbol
+from .topology import Topology, build_topology
+from .tree import JointSpec, Tree, TreeBody
+
+UNSUPPORTED_SENSORS = ("acceleration", "reaction")  # need the accelerations: solved with the loop stage
+
+
+@dataclass(frozen=True)
+class Lowered:
+    """The derivation's input: kinematics with loads attached, wanted outputs, and naming metadata."""
+
+    model: M.Model
+    scene: M.Scene | None
+    topology: Topology
+    kinematics: Kinematics
+    outputs: tuple[tuple[str, sp.Expr], ...]   # (name, expression of state, t, parameters)
+    tables: TableRegistry
+
+    @property
+    def tree(self) -> Tree:
+        return self.kinematics.tree
+
+
+def _error(message: str, span) -> MbsError:
+    return MbsError([Diagnostic("error", message, span)])
+
+
+class _Lowering:
+    def __init__(self, model: M.Model, scene: M.Scene | None):
+        self.model, self.scene = model, scene
+        self.tables = TableRegistry()
+        self.inputs = {i.name: i.value for i in model.inputs}
+        if scene is not None:
+            self.inputs.update(dict(scene.inputs))
+        self.geometry = ToSympy(self._no_state, self.tables)
+        self.topology = build_topology(model)
+        if self.topology.has_loops:
+            cuts = ", ".join(c.name for c in self.topology.cuts)
+            raise _error(f"closed kinematic loops (closed by {cuts}) are not supported by the tree compiler yet",
+                         self.topology.cuts[0].span)
+        self.body_of_part = {M.INERTIAL: -1}
+        self.body_of_interaction: dict[str, int] = {}
+        for i, (part, joint) in enumerate(zip(self.topology.bodies, self.topology.joints)):
+            self.body_of_part[part] = i
+            self.body_of_interaction[joint.interaction.name] = i
+        tree = Tree(tuple(self._tree_body(i) for i in range(len(self.topology.bodies))),
+                    tuple(self.geometry(g) for g in model.gravity))
+        self.kin = Kinematics(tree)
+        self.state = ToSympy(self._state_symbol, self.tables)
+        self._sensor_cache: dict[str, sp.Expr] = {}
+
+    # ---------------------------------------------------------------------------------------- tree
+    def _no_state(self, sym: X.Sym) -> sp.Expr:
+        if sym.kind == "input":
+            return self.geometry(self.inputs[sym.name])
+        raise _error(f"'{sym.name}' cannot appear in geometry or mass data", self.model.span)
+
+    def _pose(self, ref: M.FrameRef):
+        frame = self.model.part_map[ref.part].frame_map[ref.frame]
+        R = sp.Matrix(3, 3, [self.geometry(c) for row in frame.rotation for c in row])
+        r = sp.Matrix([self.geometry(c) for c in frame.position])
+        return R, r
+
+    def _tree_body(self, i: int) -> TreeBody:
+        tj = self.topology.joints[i]
+        inter = tj.interaction
+        joint = inter.joint
+        parent_frame, child_frame = (inter.b, inter.a) if tj.flipped else (inter.a, inter.b)
+        sign = -1 if tj.flipped else 1
+        axes = tuple(tuple(sign * self.geometry(c) for c in axis) for axis in joint.axes)
+        spec = JointSpec(joint.kind, axes, joint.rotation or "quaternion")
+        part = self.model.part_map[tj.child]
+        if part.body is not None:
+            mass = self.geometry(part.body.mass)
+            com = [self.geometry(c) for c in part.body.com]
+            inertia = sp.Matrix(3, 3, [self.geometry(c) for row in part.body.inertia for c in row])
+        else:
+            mass, com, inertia = sp.Integer(0), [0, 0, 0], sp.zeros(3, 3)
+        prescribed = tuple(None if c.prescribed is None else self.geometry(c.prescribed) for c in joint.coordinates)
+        parent = self.topology.parent_index[i]
+        return TreeBody(inter.name, parent, spec, self._pose(parent_frame), self._pose(child_frame), mass,
+                        com, inertia, prescribed)
+
+    # ---------------------------------------------------------------------------------------- state
+    def _state_symbol(self, sym: X.Sym) -> sp.Expr:
+        if sym.kind == "input":
+            return self.state(self.inputs[sym.name])
+        if sym.kind in ("coord", "speed"):
+            inter_name, local = sym.name.rsplit(".", 1)
+            body = self.body_of_interaction.get(inter_name)
+            if body is None:
+                raise _error(f"'{sym.name}' belongs to a joint that closes a loop", self.model.span)
+            joint = self.model.interaction_map[inter_name].joint
+            locals_ = [c.local for c in joint.coordinates]
+            if sym.kind == "coord":
+                return self.kin.joint_coordinate(body, locals_.index(local))
+            return self.kin.joint_velocity(body, _speed_index(joint, local))
+        if sym.kind == "sensor":
+            return self.sensor_value(sym.name)
+        raise _error(f"'{sym.name}' cannot be used here", self.model.span)
+
+    def body(self, part: str) -> int:
+        return self.body_of_part[part]
+
+    def frame_world(self, ref: M.FrameRef):
+        frame = self.model.part_map[ref.part].frame_map[ref.frame]
+        local_p = [self.geometry(c) for c in frame.position]
+        local_R = tuple(tuple(self.geometry(c) for c in row) for row in frame.rotation)
+        b = self.body(ref.part)
+        return b, local_p, self.kin.frame_position(b, local_p), self.kin.frame_rotation(b, local_R)
+
+    # ---------------------------------------------------------------------------------------- sensors
+    def sensor_value(self, name: str) -> sp.Expr:
+        """``inter.sensor`` or ``inter.sensor.component`` as a tape expression (computed once)."""
+        if name in self._sensor_cache:
+            return self._sensor_cache[name]
+        parts = name.split(".")
+        for cut in range(len(parts) - 1, 0, -1):
+            inter = self.model.interaction_map.get(".".join(parts[:cut]))
+            if inter is not None:
+                break
+        sensor_name = f"{inter.name}.{parts[cut]}"
+        sensor = next(s for s in inter.sensors if s.name == sensor_name)
+        component = parts[cut + 1] if len(parts) > cut + 1 else ""
+        values = self._sensor_values(inter, sensor)
+        for comp, value in zip(sensor.components, values):
+            self._sensor_cache[sensor_name + (f".{comp}" if comp else "")] = value
+        return self._sensor_cache[name if component else sensor_name]
+
+    def _sensor_values(self, inter: M.Interaction, sensor: M.Sensor):
+        if sensor.kind in UNSUPPORTED_SENSORS:
+            raise _error(f"{sensor.kind} sensors need the accelerations and are computed by the loop stage, "
+                         "which this compiler does not have yet", sensor.span)
+        tape = self.kin.tape
+        _, _, pa, Ra = self.frame_world(inter.a)
+        bb, pb_local, pb, _ = self.frame_world(inter.b)
+        ba = self.body(inter.a.part)
+        d = [y - x for x, y in zip(pa, pb)]
+        in_ref = sensor.arg("in") or inter.a
+        if sensor.kind == "distance":
+            return (tape.temp(sp.sqrt(dot(d, d)), "dist"),)
+        if sensor.kind == "position":
+            R_in = self.frame_world(in_ref)[3]
+            return tuple(tape.temp(dot([R_in[k][c] for k in range(3)], d), "pos") for c in range(3))
+        if sensor.kind == "velocity":
+            a_local = [self.geometry(c) for c in self.model.part_map[inter.a.part].frame_map[inter.a.frame].position]
+            va = self.kin.frame_velocity(ba, a_local)
+            vb = self.kin.frame_velocity(bb, pb_local)
+            R_in = self.frame_world(in_ref)[3]
+            dv = [y - x for x, y in zip(va, vb)]
+            return tuple(tape.temp(dot([R_in[k][c] for k in range(3)], dv), "vel") for c in range(3))
+        if sensor.kind == "angles":
+            Rb = self.frame_world(inter.b)[3]
+            Rrel = [[tape.temp(dot([Ra[k][i] for k in range(3)], [Rb[k][j] for k in range(3)]), "rrel")
+                     for j in range(3)] for i in range(3)]
+            return _angles(Rrel, sensor.arg("sequence") or "xyz")
+        if sensor.kind == "joint":
+            body = self.body_of_interaction[inter.name]
+            return tuple(self.kin.joint_coordinate(body, k) for k in range(len(inter.joint.coordinates)))
+        if sensor.kind == "force":
+            element = sensor.arg("element")
+            return (self._force_values[element],)
+        raise _error(f"sensor kind '{sensor.kind}' is not supported by the compiler", sensor.span)
+
+    # ---------------------------------------------------------------------------------------- forces
+    def attach_forces(self) -> None:
+        self._force_values: dict[str, sp.Expr] = {}
+        for inter in self.model.interactions:
+            for force in inter.forces:
+                self._attach(inter, force)
+
+    def _attach(self, inter: M.Interaction, force: M.Force) -> None:
+        kind = force.kind
+        if kind == "joint":
+            self._joint_force(inter, force)
+            return
+        ba, pa_local, pa, Ra = self.frame_world(inter.a)
+        bb, pb_local, pb, _ = self.frame_world(inter.b)
+        if kind == "point":
+            self._point_force(inter, force, ba, bb, pb_local, pb)
+            return
+        law = self._line_law(force)
+        along = force.arg("along")
+        if along is None:
+            length, rate, tension = self.kin.add_line_force(ba, pa_local, bb, pb_local, law)
+            self._force_values[force.name] = tension
+            return
+        # along a fixed axis of frame a: deflection = projection of b - a on it
+        tape = self.kin.tape
+        axis_local = [self.geometry(c) for c in along]
+        e = [tape.temp(dot(Ra[k], axis_local), "ax") for k in range(3)]
+        d = [y - x for x, y in zip(pa, pb)]
+        va = self.kin.frame_velocity(ba, pa_local)
+        vb = self.kin.frame_velocity(bb, pb_local)
+        omega_a = self.kin.body_angular_velocity(ba)
+        de = cross(omega_a, e)
+        length = tape.temp(dot(e, d), "proj")
+        rate = tape.temp(dot(e, [y - x for x, y in zip(va, vb)]) + dot(de, d), "projrate")
+        tension = tape.temp(law(length, rate), "tension")
+        self._force_values[force.name] = tension
+        self.kin.add_force(bb, pb_local, [-tension * c for c in e])
+        if ba >= 0:
+            self.kin.add_force(ba, pa_local, [tension * c for c in e])
+
+    def _line_law(self, force: M.Force):
+        kind = force.kind
+
+        def law(length, rate):
+            locals_ = {"l": length, "v": rate}
+            conv = ToSympy(lambda s: locals_[s.name] if s.kind == "local" else self._state_symbol(s), self.tables)
+            if kind == "line":
+                return conv(force.arg("f"))
+            value = sp.Integer(0)
+            if kind in ("spring", "spring_damper"):
+                value += conv(force.arg("k")) * (length - conv(force.arg("l0")))
+            if kind in ("damper", "spring_damper"):
+                value += conv(force.arg("d")) * rate
+            return value
+        return law
+
+    def _point_force(self, inter, force, ba, bb, pb_local, pb) -> None:
+        in_ref = force.arg("in") or inter.a
+        R_in = self.frame_world(in_ref)[3]
+        world = lambda vec: [sum((R_in[r][c] * self.state(vec[c]) for c in range(3)), sp.Integer(0))  # noqa
+                             for r in range(3)]
+        F = world(force.arg("force")) if force.arg("force") is not None else None
+        T = world(force.arg("torque")) if force.arg("torque") is not None else None
+        if F is not None:
+            self.kin.add_force(bb, pb_local, F)
+            if ba >= 0:  # the reaction acts on a at the same point in space
+                Rwa, rwa = self.kin.world_pose(ba)
+                local = [dot([Rwa[k][c] for k in range(3)], [p - r for p, r in zip(pb, rwa)]) for c in range(3)]
+                self.kin.add_force(ba, local, [-f for f in F])
+            self._force_values[force.name] = sp.sqrt(dot(F, F))
+        if T is not None:
+            self.kin.add_torque(bb, T)
+            if ba >= 0:
+                self.kin.add_torque(ba, [-x for x in T])
+
+    def _joint_force(self, inter: M.Interaction, force: M.Force) -> None:
+        body = self.body_of_interaction.get(inter.name)
+        if body is None:
+            raise _error("joint forces on a loop-closing joint are not supported yet", force.span)
+        joint = inter.joint
+        total = sp.Integer(0)
+        for local, value in force.args:
+            k = _speed_index(joint, local)
+            expr = self.state(value)
+            self.kin.add_generalized_force(body, k, expr)
+            total += expr
+        self._force_values[force.name] = total
+
+    # ---------------------------------------------------------------------------------------- outputs
+    def outputs(self) -> tuple[tuple[str, sp.Expr], ...]:
+        wanted = self.scene.outputs if self.scene is not None and self.scene.outputs else self.model.outputs
+        return tuple((o.name, self.state(o.value)) for o in wanted)
+
+
+def _speed_index(joint: M.Joint, local: str) -> int:
+    """Velocity index of a coordinate's speed (quaternion joints: wx, wy, wz after the translations)."""
+    names = [c.local for c in joint.coordinates if c.local != "qw"]
+    names = [{"qx": "wx", "qy": "wy", "qz": "wz"}.get(n, n) for n in names]
+    return names.index(local)
+
+
+def _angles(R, sequence: str):
+    """Angles of a rotation matrix for the sequences the sensor offers (principal branch)."""
+    if sequence == "xyz":
+        return (sp.atan2(-R[1][2], R[2][2]), sp.asin(R[0][2]), sp.atan2(-R[0][1], R[0][0]))
+    if sequence == "zyx":
+        return (sp.atan2(R[1][0], R[0][0]), sp.asin(-R[2][0]), sp.atan2(R[2][1], R[2][2]))
+    return (sp.atan2(R[0][2], -R[1][2]), sp.acos(R[2][2]), sp.atan2(R[2][0], R[2][1]))  # zxz
+
+
+def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
+    """The tree, loads and outputs of a model; raises MbsError (located) for what the compiler cannot do."""
+    lowering = _Lowering(model, scene)
+    lowering.attach_forces()
+    outputs = lowering.outputs()
+    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables)
+
+
+__all__ = ["Lowered", "lower", "parameter_symbol"]

@@ -1,0 +1,163 @@
+"""A tape of named temporaries: the straight-line program the recursive algorithms are executed on.
+
+Every intermediate quantity of the symbolic O(n) algorithms (a rotation-matrix entry, a component of a spatial
+velocity, ...) is a small sympy expression of earlier temporaries. `Tape.temp` assigns it to a fresh symbol, unless
+
+* it folds to a number or a plain symbol (`0`, `1`, `q1`, `-w3`, `2*m`): then it is returned as it is, so that no
+  temporary ever stands for a constant or a copy, and `0*x`/`1*x` vanish in sympy's own arithmetic;
+* the same expression (or its negative) is already on the tape: then the existing temporary is returned, which is
+  the common-subexpression elimination (by hashing, before a temporary is created).
+
+Expressions are therefore never expanded: the size of the tape grows with the number of operations of the
+algorithm, not with the size of the written-out equations. The tape also records guards: a temporary that divides
+(1/D in the articulated-body algorithm) is only computed after checking that D > 0, which the C emitter turns into
+an early `return 1`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+ZERO, ONE = sp.S.Zero, sp.S.One
+
+
+@dataclass
+class Entry:
+    """One assignment `symbol = expr` of the tape.
+
+    name: the temporary's identifier (unique on the tape; the C emitter uses it).
+    section: a human-readable label of the algorithm step that created it (becomes a comment in C).
+    guard: None, or an expression that must be > 0 before this entry is evaluated.
+    """
+
+    symbol: sp.Dummy
+    expr: sp.Expr
+    name: str
+    section: str
+    guard: sp.Expr | None = None
+    _deps: frozenset | None = field(default=None, repr=False)
+
+
+def is_trivial(expr: sp.Expr) -> bool:
+    """True for a number, a symbol, or a number times a symbol: values not worth a temporary."""
+    if expr.is_Atom:
+        return True
+    args = expr.args
+    return expr.is_Mul and len(args) == 2 and args[0].is_Number and args[1].is_Atom
+
+
+class Tape:
+    """An append-only list of assignments to named temporaries, with hashing-based sharing.
+
+    The temporaries are `sympy.Dummy` symbols, so they can never be confused with parameters or coordinates of the
+    same name. Use `temp`, `vector` and `inverse` to add entries, `entries_for` to slice out what some outputs
+    need, and `expand` to substitute everything back (only sensible for small models).
+    """
+
+    def __init__(self):
+        self.entries: list[Entry] = []
+        self._by_expr: dict[sp.Expr, sp.Dummy] = {}
+        self._entry_of: dict[sp.Dummy, Entry] = {}
+        self._names: set[str] = set()
+        self._section = ""
+
+    def __len__(self) -> int:
+        return len(self.entries)
+
+    def section(self, label: str) -> None:
+        """Label the entries created from now on (e.g. "body 3 (link3): velocity")."""
+        self._section = label
+
+    def is_temp(self, symbol) -> bool:
+        return symbol in self._entry_of
+
+    def entry(self, symbol: sp.Dummy) -> Entry:
+        return self._entry_of[symbol]
+
+    def temp(self, expr, name: str) -> sp.Expr:
+        """The value of `expr` as a temporary named like `name` (or `expr` itself when trivial)."""
+        expr = sp.sympify(expr)
+        if is_trivial(expr):
+            return expr
+        hit = self._by_expr.get(expr)
+        if hit is not None:
+            return hit
+        # x and -x share one temporary; a new one holds the value as asked, so that its name tells the truth.
+        hit = self._by_expr.get(-expr)
+        if hit is not None:
+            return -hit
+        return self._add(expr, name)
+
+    def vector(self, exprs, name: str) -> tuple:
+        """Temporaries `name_0`, `name_1`, ... for the entries of a vector."""
+        return tuple(self.temp(e, f"{name}_{k}") for k, e in enumerate(exprs))
+
+    def inverse(self, expr, name: str) -> sp.Expr:
+        """1/expr as a temporary guarded by `expr > 0` (the caller guarantees positivity mathematically, e.g. a
+        pivot of a positive definite matrix; the guard catches degenerate parameters at run time)."""
+        expr = sp.sympify(expr)
+        if expr.is_number:
+            if not expr > 0:
+                raise ZeroDivisionError(f"{name}: structurally singular (pivot {expr})")
+            return 1 / expr
+        inv = self._by_expr.get(1 / expr) or self._add(1 / expr, name)
+        self._entry_of[inv].guard = expr
+        return inv
+
+    def _add(self, expr: sp.Expr, name: str) -> sp.Dummy:
+        name = self._unique(name)
+        symbol = sp.Dummy(name)
+        entry = Entry(symbol, expr, name, self._section)
+        self.entries.append(entry)
+        self._by_expr[expr] = symbol
+        self._entry_of[symbol] = entry
+        return symbol
+
+    def _unique(self, name: str) -> str:
+        if name not in self._names:
+            self._names.add(name)
+            return name
+        k = 2
+        while f"{name}x{k}" in self._names:
+            k += 1
+        self._names.add(f"{name}x{k}")
+        return f"{name}x{k}"
+
+    def dependencies(self, entry: Entry) -> frozenset:
+        """The temporaries `entry` reads (its expression's and its guard's)."""
+        if entry._deps is None:
+            symbols = entry.expr.free_symbols
+            if entry.guard is not None:
+                symbols = symbols | entry.guard.free_symbols
+            entry._deps = frozenset(s for s in symbols if s in self._entry_of)
+        return entry._deps
+
+    def entries_for(self, outputs) -> list[Entry]:
+        """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order."""
+        needed = set()
+        for e in outputs:
+            needed |= {s for s in sp.sympify(e).free_symbols if s in self._entry_of}
+        for entry in reversed(self.entries):
+            if entry.symbol in needed:
+                needed |= self.dependencies(entry)
+        return [entry for entry in self.entries if entry.symbol in needed]
+
+    def free_symbols(self, outputs) -> set:
+        """The non-temporary symbols (coordinates, parameters, t) that `outputs` depend on."""
+        outputs = [sp.sympify(e) for e in outputs]
+        found = set().union(*(e.free_symbols for e in outputs)) if outputs else set()
+        for entry in self.entries_for(outputs):
+            found |= entry.expr.free_symbols
+            if entry.guard is not None:
+                found |= entry.guard.free_symbols
+        return {s for s in found if s not in self._entry_of}
+
+    def expand(self, outputs) -> list[sp.Expr]:
+        """`outputs` with every temporary substituted back: the fully written expressions (small models only)."""
+        outputs = [sp.sympify(e) for e in outputs]
+        values: dict = {}
+        for entry in self.entries_for(outputs):
+            values[entry.symbol] = entry.expr.xreplace(values)
+        return [e.xreplace(values) for e in outputs]
