@@ -135,5 +135,5 @@ SCENE_SETTINGS = {
     "model": "word", "t_end": U.TIME, "sample": U.TIME, "integrator": "word", "rtol": U.DIMENSIONLESS,
     "atol": U.DIMENSIONLESS, "start": "word",
 }
-INTEGRATORS = ("RK45", "DOP853", "Radau", "BDF", "LSODA", "dopri5", "rodas")
-SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "DOP853", "rtol": 1e-8, "atol": 1e-10, "start": "initial"}
+INTEGRATORS = ("dopri5", "rodasp", "RK45", "DOP853", "Radau", "BDF", "LSODA")  # dopri5, rodasp: in C
+SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "dopri5", "rtol": 1e-8, "atol": 1e-10, "start": "initial"}

@@ -1,9 +1,15 @@
 """Source text -> AST, with every syntax error of a file reported as a located diagnostic.
 
-lark does the parsing (LALR, contextual lexer, grammar in grammar.lark). This module owns three things lark
-does not: the newline rules (a post-lexer), the translation of lark's exceptions into our own words
-(terminal names become "a name", "'{'"; long "expected one of" lists are capped), and recovery, so that one
-run reports all syntax errors of a file rather than the first.
+lark does the parsing (LALR, grammar in grammar.lark) with our lexer (lexer.py: the parser-context rules for
+keywords and units, and the newline rules). This module owns three things lark does not: building the AST,
+the translation of lark's exceptions into our own words (terminal names become "a name", "'{'"; long
+"expected one of" lists are capped), and recovery, so that one run reports all syntax errors of a file
+rather than the first.
+
+The AST is built while parsing, by our own function for each grammar rule, called by lark's LALR loop with
+the rule's raw children (keywords and punctuation included, so spans come from the tokens). lark's tree
+builder with positions followed by a Transformer walk cost a tree node per reduction and a second pass, more
+than half of the front end's time on a large model.
 """
 
 from __future__ import annotations
@@ -11,310 +17,55 @@ from __future__ import annotations
 import functools
 from pathlib import Path
 
-from lark import Lark, Token, Transformer, v_args
+from lark import Lark, Token
 from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput, UnexpectedToken
 
 from . import ast
 from .diagnostics import Diagnostics, MbsError, Source, Span
+from .lexer import MbsLexer
 
 GRAMMAR_FILE = Path(__file__).with_name("grammar.lark")
 MAX_SYNTAX_ERRORS = 20  # beyond this, recovery mostly reports consequences of earlier errors
 
-_BRACKETS_OPEN = {"LPAR", "LSQB"}
-_BRACKETS_CLOSE = {"RPAR", "RSQB"}
-
-
-class _NewlinePostLexer:
-    """Statements end at newlines, except inside (...) and [...]; blank lines and leading ones vanish."""
-
-    always_accept = ("_NL",)
-
-    def process(self, stream):
-        depth = 0
-        previous = None
-        for tok in stream:
-            if tok.type == "_NL":
-                if depth > 0 or previous in ("_NL", "LBRACE"):
-                    continue
-            elif tok.type in _BRACKETS_OPEN:
-                depth += 1
-            elif tok.type in _BRACKETS_CLOSE:
-                depth = max(0, depth - 1)
-            previous = tok.type
-            yield tok
-
 
 @functools.lru_cache(maxsize=1)
 def _lark() -> Lark:
-    return Lark(GRAMMAR_FILE.read_text(), parser="lalr", lexer="contextual", postlex=_NewlinePostLexer(),
-                start=["start", "expr_only"], propagate_positions=True, maybe_placeholders=False,
-                cache=False)
+    lark = Lark(GRAMMAR_FILE.read_text(), parser="lalr", lexer=MbsLexer, start=["start", "expr_only"],
+                maybe_placeholders=False, cache=False)
+    # lark names rules by Tokens, whose Python-level __eq__ then runs in the goto lookup after every
+    # reduction (~8 % of parsing); plain strings are equal and hash the same.
+    for rule in lark.rules:
+        rule.origin.name = str(rule.origin.name)
+    return lark
 
 
-# ------------------------------------------------------------------------------------------ lark -> AST
-class _ToAst(Transformer):
-    """Mechanical translation of lark trees into ast dataclasses (STYLE.md point 5)."""
+# ------------------------------------------------------------------------------------------ values of a parse
+class _Part:
+    """A value on the parser's stack that is not an AST node (a description, an argument list, a parenthesised
+    expression, ...), with the text it covers: the spans of the nodes around it are made from it.
+    ``head`` is (offset, line, column) of its first character, ``end`` the offset after its last."""
 
-    def __init__(self, source: Source):
-        super().__init__()
-        self.source = source
+    __slots__ = ("kind", "value", "head", "end")
 
-    def _span(self, meta) -> Span:
-        if getattr(meta, "empty", True):
-            return Span.at(self.source, 0, 0)
-        return Span.at(self.source, meta.start_pos, meta.end_pos)
+    def __init__(self, kind: str, value, head: tuple[int, int, int], end: int):
+        self.kind, self.value, self.head, self.end = kind, value, head, end
 
-    def _tok_span(self, tok: Token) -> Span:
-        return Span.at(self.source, tok.start_pos, tok.end_pos)
 
-    # -- names
-    @v_args(meta=True)
-    def ident(self, meta, children):
-        tok = children[0]
-        return ast.Ident(str(tok), self._tok_span(tok))
+class _List(list):
+    """The values of a list rule (statements of a block, ``("," expr)*``): lark's helper rules extend it."""
 
-    @v_args(meta=True)
-    def ref(self, meta, children):
-        return ast.Ref(tuple(children), self._span(meta))
 
-    dotted = ref
+class _Chain(list):
+    """A flat operand, operator, operand, ... list (grammar rules arith and expr), not yet a tree."""
 
-    @v_args(meta=True)
-    def dotted_ident(self, meta, children):
-        """Dotted names are allowed where a scene overrides a parameter of a component instance."""
-        return ast.Ident(".".join(c.text for c in children), self._span(meta))
 
-    def description(self, children):
-        return _unquote(children[0])
+class _Prefix:
+    """A unary + or - waiting for precedence climbing: it takes every '^' after its operand."""
 
-    # -- expressions
-    @v_args(meta=True)
-    def number(self, meta, children):
-        return ast.Number(str(children[0]), None, self._span(meta))
+    __slots__ = ("op", "operand")
 
-    @v_args(meta=True)
-    def quantity(self, meta, children):
-        num, unit = children
-        return ast.Number(str(num), str(unit), self._span(meta), self._tok_span(unit))
-
-    @v_args(meta=True)
-    def _with_unit(self, meta, children):
-        expr, unit = children
-        return ast.WithUnit(expr, str(unit), self._span(meta), self._tok_span(unit))
-
-    quantity_call = quantity_paren = quantity_vector = quantity_matrix = _with_unit
-
-    @v_args(meta=True)
-    def name(self, meta, children):
-        return ast.Name(children[0], self._span(meta))
-
-    @v_args(meta=True)
-    def string(self, meta, children):
-        return ast.String(_unquote(children[0]), self._span(meta))
-
-    @v_args(meta=True)
-    def call(self, meta, children):
-        func, *args = children
-        positional = tuple(a for a in args if not isinstance(a, ast.Kwarg))
-        keywords = tuple(a for a in args if isinstance(a, ast.Kwarg))
-        return ast.Call(func, positional, keywords, self._span(meta))
-
-    @v_args(meta=True)
-    def kwarg(self, meta, children):
-        return ast.Kwarg(children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def arglist(self, meta, children):
-        return tuple(children)
-
-    @v_args(meta=True)
-    def vector(self, meta, children):
-        return ast.Vector(tuple(children), self._span(meta))
-
-    @v_args(meta=True)
-    def matrix(self, meta, children):
-        return ast.Matrix(tuple(children), self._span(meta))
-
-    @v_args(meta=True)
-    def unary(self, meta, children):
-        op, operand = children
-        return ast.Unary(str(op), operand, self._span(meta))
-
-    @v_args(meta=True)
-    def not_op(self, meta, children):
-        return ast.Unary("not", children[0], self._span(meta))
-
-    @v_args(meta=True)
-    def binop(self, meta, children):
-        left, op, right = children
-        return ast.Binary(str(op), left, right, self._span(meta))
-
-    compare = binop
-
-    @v_args(meta=True)
-    def pow_op(self, meta, children):
-        return ast.Binary("^", children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def and_op(self, meta, children):
-        return ast.Binary("and", children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def or_op(self, meta, children):
-        return ast.Binary("or", children[0], children[1], self._span(meta))
-
-    def expr_only(self, children):
-        return children[0]
-
-    # -- declarations
-    @v_args(meta=True)
-    def import_decl(self, meta, children):
-        return ast.Import(children[0], children[1] if len(children) > 1 else None, self._span(meta))
-
-    @v_args(meta=True)
-    def param_decl(self, meta, children):
-        return ast.Param(children[0], children[1], _opt(children, 2), self._span(meta))
-
-    @v_args(meta=True)
-    def input_decl(self, meta, children):
-        return ast.Input(children[0], children[1], _opt(children, 2), self._span(meta))
-
-    @v_args(meta=True)
-    def output_decl(self, meta, children):
-        name, rest = children[0], children[1:]
-        description = rest.pop() if rest and isinstance(rest[-1], str) else None
-        return ast.Output(name, rest[0] if rest else None, description, self._span(meta))
-
-    @v_args(meta=True)
-    def func_decl(self, meta, children):
-        description = children.pop() if isinstance(children[-1], str) else None
-        name, *params, body = children
-        return ast.Func(name, tuple(params), body, description, self._span(meta))
-
-    @v_args(meta=True)
-    def setting(self, meta, children):
-        return ast.Setting(children[0], children[1], _opt(children, 2), self._span(meta))
-
-    def frame_at(self, children):
-        return ("at", children[0])
-
-    def frame_rotate(self, children):
-        return ("rotate", children[0])
-
-    @v_args(meta=True)
-    def frame_decl(self, meta, children):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop() if rest and isinstance(rest[-1], str) else None
-        parts = dict(rest)
-        return ast.Frame(name, parts.get("at"), parts.get("rotate"), description, self._span(meta))
-
-    @v_args(meta=True)
-    def body_decl(self, meta, children):
-        return ast.Body(tuple(children), self._span(meta))
-
-    def _part(self, meta, children, rigid):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop(0) if rest and isinstance(rest[0], str) else None
-        bodies = [c for c in rest if isinstance(c, ast.Body)]
-        frames = tuple(c for c in rest if isinstance(c, ast.Frame))
-        return ast.Part(name, rigid, bodies[0] if bodies else None, frames, description, self._span(meta)), bodies
-
-    @v_args(meta=True)
-    def part_decl(self, meta, children):
-        return self._part(meta, children, rigid=False)[0]
-
-    @v_args(meta=True)
-    def rigid_decl(self, meta, children):
-        part, bodies = self._part(meta, children, rigid=True)
-        if len(bodies) > 1:
-            return _Repeated(part, "body", bodies[1].span)
-        return part
-
-    @v_args(meta=True)
-    def port_decl(self, meta, children):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop(0) if rest and isinstance(rest[0], str) else None
-        return ast.Port(name, tuple(rest), description, self._span(meta))
-
-    @v_args(meta=True)
-    def connect_stmt(self, meta, children):
-        return ast.Connect(children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def target(self, meta, children):
-        return (children[0], False)
-
-    @v_args(meta=True)
-    def der_target(self, meta, children):
-        return (children[0], True)
-
-    @v_args(meta=True)
-    def init_stmt(self, meta, children):
-        (ref, derivative), value = children
-        return ast.Init(ref, derivative, value, self._span(meta))
-
-    @v_args(meta=True)
-    def prescribe_stmt(self, meta, children):
-        return ast.Prescribe(children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def joint_decl(self, meta, children):
-        kind, rest = children[0], list(children[1:])
-        args = rest.pop(0) if rest and isinstance(rest[0], tuple) else ()
-        block = rest[0] if rest else None
-        return ast.Joint(kind, args, tuple(block or ()), block is not None, self._span(meta))
-
-    def joint_block(self, children):
-        return list(children)
-
-    @v_args(meta=True)
-    def force_decl(self, meta, children):
-        if len(children) == 3:
-            return ast.Force(children[0], children[1], children[2], self._span(meta))
-        return ast.Force(None, children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def sensor_decl(self, meta, children):
-        return ast.Sensor(children[0], children[1], children[2], self._span(meta))
-
-    @v_args(meta=True)
-    def interact_decl(self, meta, children):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop(0) if rest and isinstance(rest[0], str) else None
-        return ast.Interact(name, description, tuple(rest), self._span(meta))
-
-    @v_args(meta=True)
-    def binding(self, meta, children):
-        return ast.Binding(children[0], children[1], self._span(meta))
-
-    @v_args(meta=True)
-    def use_decl(self, meta, children):
-        component, alias, rest = children[0], children[1], list(children[2:])
-        args = rest.pop(0) if rest and isinstance(rest[0], tuple) else ()
-        return ast.Use(component, alias, args, tuple(rest), self._span(meta))
-
-    def _model(self, meta, children, kind):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop(0) if rest and isinstance(rest[0], str) else None
-        return ast.Model(kind, name, description, tuple(rest), self._span(meta))
-
-    @v_args(meta=True)
-    def model_decl(self, meta, children):
-        return self._model(meta, children, "model")
-
-    @v_args(meta=True)
-    def component_decl(self, meta, children):
-        return self._model(meta, children, "component")
-
-    @v_args(meta=True)
-    def scene_decl(self, meta, children):
-        name, rest = children[0], list(children[1:])
-        description = rest.pop(0) if rest and isinstance(rest[0], str) else None
-        return ast.Scene(name, description, tuple(rest), self._span(meta))
-
-    @v_args(meta=True)
-    def start(self, meta, children):
-        return ast.File(self.source.path, tuple(children), Span.at(self.source, 0, len(self.source.text)))
+    def __init__(self, op: Token, operand):
+        self.op, self.operand = op, operand
 
 
 class _Repeated:
@@ -324,12 +75,376 @@ class _Repeated:
         self.node, self.what, self.span = node, what, span
 
 
-def _opt(children, index):
-    return children[index] if len(children) > index else None
+def _head(value) -> tuple[int, int, int]:
+    """(offset, line, column) where the text of a stack value starts; a parenthesised expression starts at
+    its '('. Tokens and spans know their line, so spans are made without searching the line table."""
+    kind = type(value)
+    if kind is Token:
+        return value.start_pos, value.line, value.column
+    if kind is _Part:
+        return value.head
+    if kind is _Chain:
+        return _head(value[0])
+    if kind is _Prefix:
+        return _head(value.op)
+    span = value.span
+    return span.start, span.line, span.col
+
+
+def _end(value) -> int:
+    kind = type(value)
+    if kind is Token:
+        return value.end_pos
+    if kind is _Part:
+        return value.end
+    if kind is _Chain:
+        return _end(value[-1])
+    return value.span.end
+
+
+def _node(value):
+    """The AST node of an expression value (a parenthesised one is its content)."""
+    return value.value if type(value) is _Part else value
+
+
+def _description(children):
+    last = children[-1]
+    return last.value if type(last) is _Part and last.kind == "description" else None
 
 
 def _unquote(tok) -> str:
     return str(tok)[1:-1].replace('\\"', '"').replace("\\\\", "\\")
+
+
+# Binding power of the binary operators (higher binds tighter). Unary + and - bind between * / and ^, so
+# -x^2 is -(x^2) and -a*b is (-a)*b; ^ is right-associative. Comparisons never meet another operator here:
+# the grammar builds them from finished operands.
+_BINDING = {"or": 1, "and": 2, "+": 3, "-": 3, "*": 4, "/": 4, "^": 6}
+_UNARY_BINDING = 5
+_RIGHT_ASSOCIATIVE = frozenset({"^"})
+
+
+# ------------------------------------------------------------------------------------------ lark -> AST
+class _AstBuilder:
+    """The AST of one source, built bottom-up from lark's reductions (STYLE.md point 5, done while parsing).
+
+    Each method is named after a grammar rule (or its alias) and gets that rule's children as lark's parser
+    has them: tokens, AST nodes, _Part, _List, _Chain or _Prefix values; lark expands optional parts of a
+    rule into alternatives, so the number of children tells which alternative matched.
+    """
+
+    def __init__(self, source: Source):
+        self.source = source
+
+    def _span(self, first, last) -> Span:
+        start, line, col = _head(first)
+        return Span(self.source, start, _end(last), line, col)
+
+    def _tok_span(self, tok: Token) -> Span:
+        return Span(self.source, tok.start_pos, tok.end_pos, tok.line, tok.column)
+
+    def _climb(self, items: _Chain):
+        """The tree of a flat operand, operator, operand, ... list, by precedence climbing."""
+        pos = 0
+
+        def operand():
+            nonlocal pos
+            item = items[pos]
+            if type(item) is not _Prefix:
+                pos += 1
+                return item
+            items[pos] = item.operand  # the prefix applies to its operand and to any tighter operator after it
+            inner = climb(_UNARY_BINDING + 1)
+            return ast.Unary(item.op.value, _node(inner), self._span(item.op, inner))
+
+        def climb(min_binding: int):
+            nonlocal pos
+            left = operand()
+            while pos < len(items):
+                op = items[pos].value
+                binding = _BINDING[op]
+                if binding < min_binding:
+                    break
+                pos += 1
+                right = climb(binding if op in _RIGHT_ASSOCIATIVE else binding + 1)
+                left = ast.Binary(op, _node(left), _node(right), self._span(left, right))
+            return left
+
+        return climb(0)
+
+    # -- names
+    def ident(self, c):
+        tok = c[0]
+        return ast.Ident(tok.value, self._tok_span(tok))
+
+    def ref(self, c):
+        parts = (c[0], *c[1]) if len(c) > 1 else (c[0],)
+        return ast.Ref(parts, self._span(parts[0], parts[-1]))
+
+    dotted = ref
+
+    def dotted_ident(self, c):
+        """Dotted names are allowed where a scene overrides a parameter of a component instance."""
+        parts = (c[0], *c[1])
+        return ast.Ident(".".join(p.text for p in parts), self._span(parts[0], parts[-1]))
+
+    def description(self, c):
+        tok = c[0]
+        return _Part("description", _unquote(tok), _head(tok), tok.end_pos)
+
+    # -- expressions: expr or test -> logic -> arith -> operand
+    def arith(self, c):
+        return c[0]
+
+    operand = arith
+
+    def chain(self, c):
+        """arith and logic: one more operator and operand for the flat list."""
+        left = c[0]
+        if type(left) is _Chain:
+            left += c[1:]
+            return left
+        return _Chain(c)
+
+    def test(self, c):
+        """expr and test: the tree of a finished list (or of a lone prefixed operand)."""
+        value = c[0]
+        kind = type(value)
+        if kind is _Chain or kind is _Prefix:
+            return self._climb(_Chain([value]) if kind is _Prefix else value)
+        return value
+
+    expr = test
+
+    def compare(self, c):
+        left, op, right = self.test(c[:1]), c[1], self.test(c[2:])
+        return ast.Binary(op.value, _node(left), _node(right), self._span(left, right))
+
+    def not_op(self, c):
+        return ast.Unary("not", _node(c[1]), self._span(c[0], c[1]))
+
+    def prefix(self, c):
+        return _Prefix(c[0], c[1])
+
+    def number(self, c):
+        return ast.Number(c[0].value, None, self._tok_span(c[0]))
+
+    def quantity(self, c):
+        num, unit = c
+        return ast.Number(num.value, unit.value, self._span(num, unit), self._tok_span(unit))
+
+    def name(self, c):
+        return ast.Name(c[0], c[0].span)
+
+    def string(self, c):
+        return ast.String(_unquote(c[0]), self._tok_span(c[0]))
+
+    def with_unit(self, c):
+        expr, unit = c
+        return ast.WithUnit(expr, unit.value, self._span(expr, unit), self._tok_span(unit))
+
+    def parens(self, c):
+        return _Part("parens", _node(c[1]), _head(c[0]), c[2].end_pos)
+
+    def parens_unit(self, c):
+        unit = c[3]
+        return ast.WithUnit(_node(c[1]), unit.value, self._span(c[0], unit), self._tok_span(unit))
+
+    def _args(self, c) -> tuple:
+        """Arguments from the children between '(' and ')': nothing, or _arg and maybe a _List of more."""
+        if not c:
+            return ()
+        args = [c[0], *c[1]] if len(c) > 1 else c
+        return tuple(a if type(a) is ast.Kwarg else _node(a) for a in args)
+
+    def call(self, c):
+        args = self._args(c[2:-1])
+        positional = tuple(a for a in args if type(a) is not ast.Kwarg)
+        keywords = tuple(a for a in args if type(a) is ast.Kwarg)
+        return ast.Call(c[0], positional, keywords, self._span(c[0], c[-1]))
+
+    def kwarg(self, c):
+        return ast.Kwarg(c[0], _node(c[2]), self._span(c[0], c[2]))
+
+    def arglist(self, c):
+        return _Part("args", self._args(c[1:-1]), _head(c[0]), c[-1].end_pos)
+
+    def vector(self, c):
+        return ast.Vector(tuple(_node(e) for e in (c[1], *c[2])), self._span(c[0], c[-1]))
+
+    def matrix(self, c):
+        items = [x for x in c[1:-1] if type(x) is not Token]
+        items = [items[0], *items[1]] if len(items) > 1 else items
+        return ast.Matrix(tuple(_node(e) for e in items), self._span(c[0], c[-1]))
+
+    def expr_only(self, c):
+        return _node(c[0])
+
+    # -- declarations
+    def import_decl(self, c):
+        return ast.Import(c[1], c[3] if len(c) > 2 else None, self._span(c[0], c[-1]))
+
+    def param_decl(self, c):
+        return ast.Param(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]))
+
+    def input_decl(self, c):
+        return ast.Input(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]))
+
+    def output_decl(self, c):
+        value = _node(c[3]) if len(c) > 3 else None
+        return ast.Output(c[1], value, _description(c), self._span(c[0], c[-1]))
+
+    def func_decl(self, c):
+        description = _description(c)
+        rest = [x for x in c[1:-1 if description is not None else None] if type(x) is not Token]
+        body = rest.pop()
+        params = (*rest[1:2], *(rest[2] if len(rest) > 2 else ()))
+        return ast.Func(rest[0], params, _node(body), description, self._span(c[0], c[-1]))
+
+    def setting(self, c):
+        return ast.Setting(c[0], _node(c[2]), c[4] if len(c) > 3 else None, self._span(c[0], c[-1]))
+
+    def frame_at(self, c):
+        return _Part("at", _node(c[1]), _head(c[0]), _end(c[1]))
+
+    def frame_rotate(self, c):
+        return _Part("rotate", _node(c[1]), _head(c[0]), _end(c[1]))
+
+    def frame_decl(self, c):
+        parts = {p.kind: p.value for p in c[2:]}
+        return ast.Frame(c[1], parts.get("at"), parts.get("rotate"), parts.get("description"),
+                         self._span(c[0], c[-1]))
+
+    def body_decl(self, c):
+        return ast.Body(tuple(c[2]), self._span(c[0], c[-1]))
+
+    def _part(self, c, rigid):
+        """part, port and rigid: keyword name description? ("{" statements "}")?"""
+        description = c[2].value if len(c) > 2 and type(c[2]) is _Part else None
+        statements = c[-2] if type(c[-1]) is Token else ()
+        bodies = [s for s in statements if type(s) is ast.Body]
+        frames = tuple(s for s in statements if type(s) is ast.Frame)
+        part = ast.Part(c[1], rigid, bodies[0] if bodies else None, frames, description, self._span(c[0], c[-1]))
+        return part, bodies, statements, description
+
+    def part_decl(self, c):
+        return self._part(c, rigid=False)[0]
+
+    def rigid_decl(self, c):
+        part, bodies, _, _ = self._part(c, rigid=True)
+        return _Repeated(part, "body", bodies[1].span) if len(bodies) > 1 else part
+
+    def port_decl(self, c):
+        _, _, frames, description = self._part(c, rigid=False)
+        return ast.Port(c[1], tuple(frames), description, self._span(c[0], c[-1]))
+
+    def _block(self, c):
+        """model, component, interact, scene: keyword name description? "{" statements "}" """
+        return c[1], (c[2].value if type(c[2]) is _Part else None), tuple(c[-2]), self._span(c[0], c[-1])
+
+    def model_decl(self, c):
+        name, description, statements, span = self._block(c)
+        return ast.Model("model", name, description, statements, span)
+
+    def component_decl(self, c):
+        name, description, statements, span = self._block(c)
+        return ast.Model("component", name, description, statements, span)
+
+    def interact_decl(self, c):
+        return ast.Interact(*self._block(c))
+
+    def scene_decl(self, c):
+        return ast.Scene(*self._block(c))
+
+    def connect_stmt(self, c):
+        return ast.Connect(c[1], c[3], self._span(c[0], c[-1]))
+
+    def joint_decl(self, c):
+        parts = {p.kind: p.value for p in c[2:]}
+        block = parts.get("block")
+        return ast.Joint(c[1], parts.get("args", ()), tuple(block or ()), block is not None,
+                         self._span(c[0], c[-1]))
+
+    def joint_block(self, c):
+        return _Part("block", c[1], _head(c[0]), c[-1].end_pos)
+
+    def target(self, c):
+        return _Part("target", (c[0], False), _head(c[0]), c[0].span.end)
+
+    def der_target(self, c):
+        return _Part("target", (c[2], True), _head(c[0]), c[-1].end_pos)
+
+    def init_stmt(self, c):
+        ref, derivative = c[1].value
+        return ast.Init(ref, derivative, _node(c[3]), self._span(c[0], c[-1]))
+
+    def prescribe_stmt(self, c):
+        return ast.Prescribe(c[1], _node(c[3]), self._span(c[0], c[-1]))
+
+    def force_decl(self, c):
+        name = c[1] if len(c) == 5 else None
+        return ast.Force(name, c[-2], c[-1].value, self._span(c[0], c[-1]))
+
+    def sensor_decl(self, c):
+        return ast.Sensor(c[1], c[3], c[4].value, self._span(c[0], c[-1]))
+
+    def use_decl(self, c):
+        args = c[4].value if len(c) > 4 and type(c[4]) is _Part else ()
+        bindings = tuple(c[-2]) if type(c[-1]) is Token else ()
+        return ast.Use(c[1], c[3], args, bindings, self._span(c[0], c[-1]))
+
+    def binding(self, c):
+        return ast.Binding(c[0], c[2], self._span(c[0], c[-1]))
+
+    def start(self, c):
+        return ast.File(self.source.path, tuple(c[0]), Span.at(self.source, 0, len(self.source.text)))
+
+
+def _pass_on(c):
+    """A rule lark would inline that has one child (a statement kind, an argument): its value."""
+    return c[0]
+
+
+def _collect(c):
+    """A rule lark would inline that repeats (statements and newlines, ``("," x)*``): its values in order."""
+    if c and type(c[0]) is _List:
+        items = c[0]
+        items.extend(x for x in c[1:] if type(x) is not Token)
+        return items
+    return _List(x for x in c if type(x) is not Token)
+
+
+@functools.lru_cache(maxsize=1)
+def _reductions() -> tuple[dict, tuple]:
+    """lark's rules with how each is reduced: rules lark would inline (names starting with '_') by a generic
+    function, the others by the _AstBuilder method named after the rule or its alias."""
+    rules = _lark().rules
+    generic, named = {}, []
+    by_origin: dict[str, list] = {}
+    for rule in rules:
+        by_origin.setdefault(rule.origin.name, []).append(rule)
+    for origin, alternatives in by_origin.items():
+        if origin.startswith("_"):
+            single = all(len(r.expansion) == 1 and not r.expansion[0].is_term for r in alternatives)
+            generic.update((r, _pass_on if single else _collect) for r in alternatives)
+        else:
+            for r in alternatives:
+                name = r.alias or origin
+                if not callable(getattr(_AstBuilder, name, None)):
+                    raise RuntimeError(f"grammar rule {name!r} has no _AstBuilder method")
+                named.append((r, name))
+    return generic, tuple(named)
+
+
+def _start_parse(source: Source, start: str):
+    """A lark interactive parser over the source, building our AST."""
+    generic, named = _reductions()
+    builder = _AstBuilder(source)
+    callbacks = dict(generic)
+    callbacks.update((rule, getattr(builder, name)) for rule, name in named)
+    parser = _lark().parse_interactive(source.text, start=start)
+    parser.parser_state.parse_conf.callbacks = callbacks  # a fresh ParseConf per parse: nothing shared
+    return parser
 
 
 # ------------------------------------------------------------------------------------------ errors
@@ -399,16 +514,20 @@ class _PanicRecovery:
 
     def __init__(self, source: Source, diags: Diagnostics):
         self.source, self.diags, self.count = source, diags, 0
-        self.reported: set[int] = set()
 
-    def report(self, err: UnexpectedInput) -> None:
-        if id(err) not in self.reported:
-            self.reported.add(id(err))
-            self.count += 1
-            _syntax_diagnostic(err, self.source, self.diags)
+    def parse(self, parser):
+        """Run the interactive parser to the end of the text; None if it had to give up."""
+        while True:
+            try:
+                return parser.resume_parse()
+            except UnexpectedInput as err:
+                self.count += 1
+                _syntax_diagnostic(err, self.source, self.diags)
+                if not self.recover(err):
+                    return None
 
-    def __call__(self, err: UnexpectedInput) -> bool:
-        self.report(err)
+    def recover(self, err: UnexpectedInput) -> bool:
+        """Move lexer and parser to the end of the erroneous statement; False where that is not possible."""
         if self.count >= MAX_SYNTAX_ERRORS:
             return False
         parser = getattr(err, "interactive_parser", None)
@@ -473,13 +592,9 @@ def parse_source(source: Source, diags: Diagnostics | None = None) -> ast.File:
     """Parse a whole file; raise MbsError with all syntax errors found."""
     diags = diags if diags is not None else Diagnostics()
     recovery = _PanicRecovery(source, diags)
-    try:
-        tree = _lark().parse(source.text, start="start", on_error=recovery)
-    except UnexpectedInput as err:
-        recovery.report(err)
+    result = recovery.parse(_start_parse(source, "start"))
     if recovery.count:
         raise MbsError(diags.items)
-    result = _ToAst(source).transform(tree)
     _report_repeated(result, diags)
     return result
 
@@ -503,13 +618,12 @@ def parse_text(text: str, path: str = "<string>") -> ast.File:
 def parse_expression(text: str, path: str = "<expr>") -> ast.Expr:
     """Parse one expression (used by tests and by command-line overrides such as --param m=2kg)."""
     source = Source(path, text)
-    diags = Diagnostics()
     try:
-        tree = _lark().parse(text, start="expr_only")
+        return _start_parse(source, "expr_only").resume_parse()
     except UnexpectedInput as err:
+        diags = Diagnostics()
         _syntax_diagnostic(err, source, diags)
         raise MbsError(diags.items) from None
-    return _ToAst(source).transform(tree)
 
 
 def read_source(path: str | Path, shown_path: str | None = None) -> Source:

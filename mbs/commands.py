@@ -103,3 +103,214 @@ class Export:
 
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export}
+
+
+# ------------------------------------------------------------------------------------------ compiling and running
+def _model_args(p):
+    p.add_argument("file", metavar="FILE")
+    p.add_argument("--model", help="model name when the file has several")
+
+
+def _parse_param(text: str, model):
+    """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
+    from mbs.language import units as U
+    from mbs.language.diagnostics import Diagnostic, MbsError
+    import re
+    name, _, value = text.partition("=")
+    name = name.strip()
+    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value)
+    if not _ or match is None:
+        raise MbsError([Diagnostic("error", f"--param expects name=value[unit], e.g. l=2m; got '{text}'", None)])
+    if name not in model.parameter_map:
+        from mbs.language.scope import did_you_mean
+        raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{name}'"
+                                            f"{did_you_mean(name, model.parameter_map)}", None)])
+    number, unit = float(match.group(1)), match.group(2)
+    if not unit:
+        return name, number
+    try:
+        factor, dim = U.parse_unit(unit)
+    except U.UnitError as exc:
+        raise MbsError([Diagnostic("error", f"--param {name}: {exc.message}", None)]) from None
+    wanted = model.parameter_map[name].dimension
+    if wanted is not None and dim != wanted:
+        raise MbsError([Diagnostic("error", f"--param {name}: expected {U.describe(wanted)}, got {U.describe(dim)}",
+                                   None)])
+    return name, number * factor
+
+
+class _ProgressBar:
+    """A progress line on stderr for runs that take longer than a second (and only on a terminal)."""
+
+    DELAY = 1.0
+
+    def __init__(self):
+        import time
+        self.start = time.perf_counter()
+        self.shown = False
+        self.enabled = sys.stderr.isatty()
+
+    def __call__(self, t: float, t_end: float):
+        import time
+        if not self.enabled or time.perf_counter() - self.start < self.DELAY:
+            return None
+        fraction = 0.0 if t_end <= 0 else min(1.0, t / t_end)
+        bar = "#" * int(30 * fraction)
+        sys.stderr.write(f"\r[{bar:<30}] {100 * fraction:5.1f} %  t = {t:.4g} / {t_end:.4g} s")
+        sys.stderr.flush()
+        self.shown = True
+        return None
+
+    def close(self):
+        if self.shown:
+            sys.stderr.write("\n")
+
+
+class Simulate:
+    help = "compile (cached) and simulate a model or one of its scenes; write results and plots atomically"
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+        p.add_argument("--scene", help="scene to run (default: the model's first scene, if any)")
+        p.add_argument("--t-end", type=float, help="end time [s]")
+        p.add_argument("--sample", type=float, help="output interval [s]")
+        p.add_argument("--out", help="results file: .csv or .npz")
+        p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG")
+        p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy)")
+        p.add_argument("--rtol", type=float)
+        p.add_argument("--atol", type=float)
+        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                       help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+
+    @staticmethod
+    def run(args) -> int:
+        import mbs
+        system = mbs.load(args.file, args.model)
+        scene = args.scene
+        if scene is None and system.model.scenes:
+            scene = system.model.scenes[0].name
+        params = dict(_parse_param(text, system.model) for text in args.param)
+        progress = _ProgressBar()
+        try:
+            res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
+                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress)
+        finally:
+            progress.close()
+        if args.out:
+            (res.to_npz if args.out.endswith(".npz") else res.to_csv)(args.out)
+        if args.plot:
+            compiled = system.compile(scene)
+            names = list(compiled.y_names) or list(compiled.q_names)
+            res.plot(names, args.plot, title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
+        _summary(system, scene, res, args)
+        if not res.success:
+            print(f"{args.file}: {res.message}", file=sys.stderr)
+            return 1
+        return 0
+
+
+def _summary(system, scene, res, args) -> None:
+    t = res.t
+    head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
+    print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
+    for name in [n for n in res.names if n != "time"][:12]:
+        print(f"  {name:32s} final {res[name][-1]: .6g}")
+    for what, path in (("results", args.out), ("plot", args.plot)):
+        if path:
+            print(f"  {what} written to {path}")
+
+
+class Compile:
+    help = "generate C for a model (or scene) and build it: DIR/<model>.c, .h and lib<model>.so"
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+        p.add_argument("--scene", help="scene whose outputs to generate")
+        p.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: .)")
+
+    @staticmethod
+    def run(args) -> int:
+        import mbs
+        from .standalone import write_standalone
+        system = mbs.load(args.file, args.model)
+        gen = system.generate(args.scene)
+        paths = write_standalone(gen, Path(args.output))
+        for path in paths:
+            print(path)
+        return 0
+
+
+class Eom:
+    help = "print the equations of motion M(y,t) y'' + k(y,y',t) = q(y,y',t) of a small model"
+
+    MAX_VELOCITIES = 6  # beyond this the written-out expressions are too long to read
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+        p.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
+        p.add_argument("--no-simplify", action="store_true", help="skip sympy's simplification (faster)")
+
+    @staticmethod
+    def run(args) -> int:
+        import sympy as sp
+        import mbs
+        from mbs.compiler.equations import display_equations
+        from mbs.compiler.lower import lower
+        from mbs.language.diagnostics import Diagnostic, MbsError
+        system = mbs.load(args.file, args.model)
+        lowered = lower(system.model)
+        tree = lowered.tree
+        if tree.nv > Eom.MAX_VELOCITIES:
+            raise MbsError([Diagnostic("error", f"model '{system.model.name}' has {tree.nv} velocities; mbs eom "
+                                                f"writes equations out for at most {Eom.MAX_VELOCITIES}", None)])
+        M, k, q = display_equations(lowered.kinematics, simplify=not args.no_simplify)
+        from .pipeline import display_name
+        shown = {s: sp.Symbol(display_name(s.name)) for s in tree.q_symbols + tree.v_symbols}
+        M, k, q = (m.xreplace(shown) for m in (M, k, q))
+        y = sp.Matrix([shown[s] for s in tree.q_symbols])
+        v = sp.Matrix([shown[s] for s in tree.v_symbols])
+        if args.latex:
+            print(f"% {system.model.name}: M(y, t) \\dot v + k(y, v, t) = q(y, v, t)")
+            print(f"y = {sp.latex(y)}, \\quad v = {sp.latex(v)}")
+            print(f"M = {sp.latex(M)}")
+            print(f"k = {sp.latex(k)}")
+            print(f"q = {sp.latex(q)}")
+        else:
+            print(f"{system.model.name}: M(y, t) v' + k(y, v, t) = q(y, v, t)")
+            print(f"y = {list(y)}\nv = {list(v)}\n")
+            for label, mat in (("M", M), ("k", k), ("q", q)):
+                print(f"{label} =")
+                print(sp.pretty(mat, use_unicode=False, wrap_line=False))
+                print()
+        return 0
+
+
+class Info:
+    help = "topology, coordinates and degrees of freedom of a model"
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+
+    @staticmethod
+    def run(args) -> int:
+        import mbs
+        from mbs.compiler.topology import build_topology
+        system = mbs.load(args.file, args.model)
+        model = system.model
+        topo = build_topology(model)
+        print(summary(model))
+        print("  spanning tree (parent first):")
+        for i, (body, joint) in enumerate(zip(topo.bodies, topo.joints)):
+            parent = "inertial" if topo.parent_index[i] < 0 else topo.bodies[topo.parent_index[i]]
+            flipped = " (written child -> parent)" if joint.flipped else ""
+            print(f"    {body:24s} <- {joint.interaction.joint.kind:11s} {joint.interaction.name} from {parent}{flipped}")
+        for cut in topo.cuts:
+            print(f"  loop closed by {cut.name} ({cut.joint.kind})")
+        return 0
+
+
+COMMANDS.update({"simulate": Simulate, "compile": Compile, "eom": Eom, "info": Info})

@@ -1,0 +1,57 @@
+"""`mbs compile`: the generated C as a standalone library for other tools (no Python inside).
+
+Writes <model>.c, <model>.h (sizes and prototypes) and lib<model>.so, each atomically. The header is
+derived from the generated source, so it cannot disagree with it.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from mbs.atomic import write_bytes_atomic, write_text_atomic
+from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.runtime.build import compiler_command
+
+from .pipeline import Generated
+
+_PROTOTYPE = re.compile(r"^((?:int|const char \*)\s*mbs_\w+\(.*\))\s*$")
+FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-Wextra"]
+
+
+def header_text(gen: Generated) -> str:
+    name = gen.model.name
+    guard = re.sub(r"\W", "_", name).upper() + "_MBS_H"
+    lines = [f"/* Interface of the generated equations of motion of \"{name}\" (see {name}.c). */",
+             f"#ifndef {guard}", f"#define {guard}", ""]
+    source = gen.c_source.splitlines()
+    lines += [line for line in source if re.match(r"#define MBS_N[A-Z]+ ", line)]
+    lines.append("")
+    for i, line in enumerate(source):
+        match = _PROTOTYPE.match(line)
+        if match and i + 1 < len(source) and source[i + 1].strip() == "{":
+            lines.append(match.group(1) + ";")
+    lines += ["", f"#endif /* {guard} */", ""]
+    return "\n".join(lines)
+
+
+def write_standalone(gen: Generated, directory: Path) -> list[Path]:
+    directory.mkdir(parents=True, exist_ok=True)
+    stem = re.sub(r"\W", "_", gen.model.name)
+    c_path, h_path, so_path = directory / f"{stem}.c", directory / f"{stem}.h", directory / f"lib{stem}.so"
+    write_text_atomic(c_path, gen.c_source)
+    write_text_atomic(h_path, header_text(gen))
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / so_path.name
+        cmd = [*compiler_command(), *FLAGS, str(c_path), "-o", str(out), "-lm"]
+        proc = subprocess.run(cmd, capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise MbsError([Diagnostic("error", f"the C compiler failed on {c_path}:\n{proc.stderr}", None)])
+        write_bytes_atomic(so_path, out.read_bytes())
+    return [c_path, h_path, so_path]
+
+
+__all__ = ["header_text", "write_standalone", "shutil"]
