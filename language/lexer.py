@@ -1,8 +1,8 @@
 """Tokens of .mbs text for lark's LALR parser: one compiled regex per parser context, newline rules built in.
 
-Why not lark's own contextual lexer: it cost ~12 us per token (a BasicLexer per parser state, a LineCounter
-fed per token, generic callbacks, and our newline post-lexer as a second generator on top), most of the time
-of a front end run. This lexer keeps its *decisions* exactly and drops the overhead:
+Why not lark's own contextual lexer: it cost 5-7 us per token (a BasicLexer per parser state, a LineCounter
+fed per token, generic callbacks, a separate match for every blank, and our newline post-lexer as a second
+generator on top); this one costs under 2. It keeps lark's *decisions* exactly and drops the overhead:
 
 - Context. Which word a text is depends on where the parser is: after a number ``m`` is a unit, after ``=``
   a name; ``at`` is a keyword after a frame's name but a name where the parser takes no ``at``. As lark does,
