@@ -272,8 +272,11 @@ class _Lowering:
 
     # ---------------------------------------------------------------------------------------- outputs
     def outputs(self) -> tuple[tuple[str, sp.Expr], ...]:
+        """The scene's outputs (else the model's), less those that are states already (`output hinge.phi`)."""
         wanted = self.scene.outputs if self.scene is not None and self.scene.outputs else self.model.outputs
-        return tuple((o.name, self.state(o.value)) for o in wanted)
+        states = {c.name for c in self.model.coordinates}
+        return tuple((o.name, self.state(o.value)) for o in wanted
+                     if not (o.name in states and o.value == X.Sym("coord", o.name)))
 
 
 def _speed_index(joint: M.Joint, local: str) -> int:

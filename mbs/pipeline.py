@@ -20,6 +20,7 @@ import sympy as sp
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
+from mbs.compiler.pycode import generate_numpy
 from mbs.compiler.symbolic import parameter_symbol
 from mbs.language import expr as X
 from mbs.language import model as M
@@ -36,6 +37,7 @@ class Generated:
     lowered: Lowered
     equations: Equations
     c_source: str
+    numpy_source: str   # the same functions for machines without a C compiler
     q_names: tuple[str, ...]
     v_names: tuple[str, ...]
     p_names: tuple[str, ...]
@@ -59,20 +61,14 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
-    c_source = _generate_c(equations, parameters, model, outputs, lowered)
+    origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
+    options = dict(outputs=outputs, tables=lowered.tables, origin=origin)
     tree = lowered.tree
-    return Generated(model, scene, lowered, equations, c_source,
+    return Generated(model, scene, lowered, equations, generate_c(equations, parameters, model.name, **options),
+                     generate_numpy(equations, parameters, model.name, **options),
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     tuple(p.name for p in model.parameters),
-                     tuple(name for name, _ in outputs) if "MBS_NY" in c_source else ())
-
-
-def _generate_c(equations, parameters, model, outputs, lowered) -> str:
-    try:
-        return generate_c(equations, parameters, model.name, outputs=outputs, tables=lowered.tables.tables)
-    except TypeError:  # an emitter without outputs: generate the equations only
-        return generate_c(equations, parameters, model.name)
+                     tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs))
 
 
 # ------------------------------------------------------------------------------------------ parameters

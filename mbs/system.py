@@ -19,7 +19,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
 from mbs.runtime import build as _build
-from mbs.runtime.model import CompiledModel, load_c
+from mbs.runtime.model import CompiledModel, load_c, load_numpy
 from mbs.runtime.results import Results
 from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
@@ -33,6 +33,7 @@ class System:
 
     model: M.Model
     cache_dir: str | None = None
+    backend: str = "auto"  # "c", "numpy", or "auto": C when a compiler runs
     _compiled: dict = field(default_factory=dict, repr=False)
 
     def scene(self, name: str | None) -> M.Scene | None:
@@ -57,14 +58,13 @@ class System:
         if key not in self._compiled:
             gen = self.generate(scene)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
-            if not _build.have_c_compiler():
-                raise MbsError([Diagnostic("error", "no C compiler found (set CC); the NumPy back end is used "
-                                                    "through mbs.runtime.model.load_numpy", None)])
-            self._compiled[key] = load_c(
-                code=gen.c_source, cache_dir=self.cache_dir, name=self.model.name, q_names=gen.q_names,
-                v_names=gen.v_names, p_names=gen.p_names, y_names=gen.y_names,
-                p_default=[params[n] for n in gen.p_names], x0=pipeline.initial_state(gen, params),
-                units=pipeline.units_of(gen))
+            info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
+                        y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
+                        x0=pipeline.initial_state(gen, params), units=pipeline.units_of(gen))
+            if self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler()):
+                self._compiled[key] = load_c(code=gen.c_source, cache_dir=self.cache_dir, **info)
+            else:
+                self._compiled[key] = load_numpy(_numpy_module(gen), **info)
         return self._compiled[key]
 
     def simulate(self, scene: str | None = None, *, t_end: float | None = None, sample: float | None = None,
@@ -88,6 +88,14 @@ class System:
                          **settings, **options)
 
 
+def _numpy_module(gen: pipeline.Generated):
+    """Load the generated NumPy source as a module (text we generated from sympy, never model text)."""
+    import types
+    module = types.ModuleType(f"mbs_numpy_{gen.model.name}")
+    exec(compile(gen.numpy_source, f"<generated numpy code of {gen.model.name}>", "exec"), module.__dict__)
+    return module
+
+
 def _settings(scene, t_end, sample, integrator, rtol, atol) -> dict:
     """Scene settings, overridden by explicit arguments; without a scene: 1 s, DOP853-like defaults."""
     out = {"t_end": 1.0, "sample": None, "integrator": None, "rtol": 1e-8, "atol": 1e-10}
@@ -101,11 +109,12 @@ def _settings(scene, t_end, sample, integrator, rtol, atol) -> dict:
     return out
 
 
-def load(path: str | Path, model: str | None = None, *, cache_dir: str | None = None) -> System:
+def load(path: str | Path, model: str | None = None, *, cache_dir: str | None = None, backend: str = "auto") -> System:
     """Read and validate a model file; raises MbsError listing every problem."""
-    return System(load_model_file(path, model), cache_dir=cache_dir)
+    return System(load_model_file(path, model), cache_dir=cache_dir, backend=backend)
 
 
-def loads(text: str, model: str | None = None, *, path: str = "<string>", cache_dir: str | None = None) -> System:
+def loads(text: str, model: str | None = None, *, path: str = "<string>", cache_dir: str | None = None,
+          backend: str = "auto") -> System:
     """The same from text in memory."""
-    return System(load_text(text, path, model), cache_dir=cache_dir)
+    return System(load_text(text, path, model), cache_dir=cache_dir, backend=backend)
