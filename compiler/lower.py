@@ -18,7 +18,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .kinematics import Kinematics
 from .spatial import cross, dot
-from .symbolic import TableRegistry, ToSympy, parameter_symbol
+from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
 from .tree import JointSpec, Tree, TreeBody
 
@@ -289,10 +289,10 @@ def _speed_index(joint: M.Joint, local: str) -> int:
 def _angles(R, sequence: str):
     """Angles of a rotation matrix for the sequences the sensor offers (principal branch)."""
     if sequence == "xyz":
-        return (sp.atan2(-R[1][2], R[2][2]), sp.asin(R[0][2]), sp.atan2(-R[0][1], R[0][0]))
+        return (safe_atan2(-R[1][2], R[2][2]), sp.asin(R[0][2]), safe_atan2(-R[0][1], R[0][0]))
     if sequence == "zyx":
-        return (sp.atan2(R[1][0], R[0][0]), sp.asin(-R[2][0]), sp.atan2(R[2][1], R[2][2]))
-    return (sp.atan2(R[0][2], -R[1][2]), sp.acos(R[2][2]), sp.atan2(R[2][0], R[2][1]))  # zxz
+        return (safe_atan2(R[1][0], R[0][0]), sp.asin(-R[2][0]), safe_atan2(R[2][1], R[2][2]))
+    return (safe_atan2(R[0][2], -R[1][2]), sp.acos(R[2][2]), safe_atan2(R[2][0], R[2][1]))  # zxz
 
 
 def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:

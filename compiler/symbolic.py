@@ -18,9 +18,17 @@ from mbs.language import expr as X
 
 from .tree import t as T  # the one time symbol of the equations
 
+def safe_atan2(y, x):
+    """sympy folds atan2(0, 0) to nan; C's atan2(0, 0) is 0, and so is ours (a sensor angle that is zero by
+    construction must not poison the generated code)."""
+    if y == 0 and x == 0:
+        return sp.Integer(0)
+    return sp.atan2(y, x)
+
+
 _FUNCTIONS: dict[str, Callable] = {
     "sin": sp.sin, "cos": sp.cos, "tan": sp.tan, "asin": sp.asin, "acos": sp.acos, "atan": sp.atan,
-    "atan2": sp.atan2, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh, "sqrt": sp.sqrt, "exp": sp.exp,
+    "atan2": safe_atan2, "sinh": sp.sinh, "cosh": sp.cosh, "tanh": sp.tanh, "sqrt": sp.sqrt, "exp": sp.exp,
     "log": sp.log, "abs": sp.Abs, "sign": sp.sign, "min": sp.Min, "max": sp.Max,
 }
 _RELATIONS = {"<": sp.Lt, "<=": sp.Le, ">": sp.Gt, ">=": sp.Ge, "==": sp.Eq, "!=": sp.Ne}
