@@ -287,6 +287,12 @@ class ExprPrinter:
     def _print_Not(self, expr):
         return self._not(self.doprint(expr.args[0]))
 
+    def _print_ITE(self, expr):
+        """A boolean if-then-else, which sympy makes of a comparison with a Piecewise inside."""
+        cond, then, otherwise = expr.args
+        return self._conditional(self.doprint(cond), f"({self.doprint(then)})", f"({self.doprint(otherwise)})"), \
+            PREC_ATOM
+
     def _print_BooleanTrue(self, expr):
         return self.TRUE, PREC_ATOM
 

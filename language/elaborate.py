@@ -49,6 +49,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         root.entries[M.INERTIAL] = self.inertial
         self.root, self.harness = root, harness
         self.inertial_frames: list[ast.Frame] = []
+        self.harness_parts: dict[str, PartEntry] = {}
         self.gravity = None
         self.declare(root, is_component=block.kind == "component")
         self.bind(root)
@@ -58,6 +59,9 @@ class Elaborator(PlacementMixin, ParameterMixin):
         inertial = M.Part(M.INERTIAL, tuple(self._frames_of(M.INERTIAL, root, self.inertial_frames, None)), None,
                           "inertial frame", block.span)
         parts.insert(0, inertial)
+        for stand_in in self.harness_parts.values():
+            parts.append(M.Part(stand_in.full, (M.Frame(M.ORIGIN, G.ZERO_VEC, G.IDENTITY, block.span),), None,
+                                "stands in for a port", block.span))
         parts = [M.Part(p.name, p.frames + tuple(self.part_frames.get(p.name, ())), p.body, p.description, p.span)
                  for p in parts]
         outputs = self.outputs(root)
@@ -211,13 +215,40 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self.declare(child, is_component=True)
         for arg in overrides:
             entry = child.entries.get(arg.name.text)
+            if isinstance(entry, FuncEntry):
+                self.override_function(scope, child, arg)
+                continue
             if not isinstance(entry, ParamEntry):
-                params = [n for n, e in child.entries.items() if isinstance(e, ParamEntry)]
+                params = [n for n, e in child.entries.items() if isinstance(e, (ParamEntry, FuncEntry))]
                 self.diags.error(f"component '{block.name.text}' has no parameter '{arg.name.text}'"
                                  f"{did_you_mean(arg.name.text, params)}", scope.at(arg.name.span))
                 continue
             entry.override, entry.override_scope = arg.value, scope
         self.add(scope, st.alias, InstanceEntry(child, st))
+
+    def override_function(self, scope: Scope, child: Scope, arg: ast.Kwarg) -> None:
+        """`use tyre as t(road = left_road)`: the component's function is replaced by one of the user's (a road
+        profile, a force law), which keeps its own scope. Arities must match."""
+        old = child.entries[arg.name.text]
+        new = None
+        if isinstance(arg.value, ast.Name):
+            parts = arg.value.ref.parts
+            entry = scope.lookup(parts[0].text)
+            if isinstance(entry, FuncEntry) and len(parts) == 1:
+                new = entry
+            elif isinstance(entry, ImportEntry) and len(parts) == 2 and parts[1].text in entry.module.funcs:
+                new = FuncEntry(entry.module.funcs[parts[1].text], self.module_scope(entry.module))
+            elif entry is None and len(parts) == 1 and parts[0].text in scope.module.funcs:
+                new = FuncEntry(scope.module.funcs[parts[0].text], self.module_scope(scope.module))
+        if new is None:
+            self.diags.error(f"'{arg.name.text}' is a function of the component: pass the name of a function, "
+                             f"e.g. {arg.name.text} = my_{arg.name.text}", scope.at(arg.value.span))
+            return
+        if len(new.decl.params) != len(old.decl.params):
+            self.diags.error(f"function '{arg.name.text}' takes {len(old.decl.params)} argument(s); "
+                             f"'{arg.value.ref.dotted}' takes {len(new.decl.params)}", scope.at(arg.value.span))
+            return
+        child.entries[arg.name.text] = new
 
     def find_block(self, scope: Scope, ref: ast.Ref) -> tuple[Module, ast.Model] | None:
         names = [p.text for p in ref.parts]
@@ -252,9 +283,12 @@ class Elaborator(PlacementMixin, ParameterMixin):
                 self.bind_instance(scope, entry)
                 self.bind(entry.scope)
         if self.harness and scope is self.root:
-            for entry in scope.entries.values():
+            # A component checked on its own: each port stands on a part of its own, as a user's part would.
+            for name, entry in scope.entries.items():
                 if isinstance(entry, PortEntry):
-                    self.attach_port(scope, entry, M.INERTIAL, M.ORIGIN, entry.decl.name.text + ".")
+                    stand_in = PartEntry(f"<{name}>", None, {M.ORIGIN: entry.decl.name.span})
+                    self.harness_parts[stand_in.full] = stand_in
+                    self.attach_port(scope, entry, stand_in.full, M.ORIGIN, "")
 
     def bind_instance(self, scope: Scope, inst: InstanceEntry) -> None:
         child = inst.scope
@@ -285,6 +319,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
     def part_entry(self, full: str) -> PartEntry:
         if full == M.INERTIAL:
             return self.inertial
+        if full in self.harness_parts:
+            return self.harness_parts[full]
         return self._find_part(self.root, full)
 
     def _find_part(self, scope: Scope, full: str) -> PartEntry:

@@ -51,32 +51,33 @@ def summary(model) -> str:
 
 
 class Fmt:
-    help = "print a model file in canonical layout (or rewrite it with --in-place)"
+    help = "print model files in canonical layout (or rewrite them with --in-place)"
 
     @staticmethod
     def arguments(p):
-        p.add_argument("file", metavar="FILE")
+        p.add_argument("files", nargs="+", metavar="FILE")
         g = p.add_mutually_exclusive_group()
         g.add_argument("-i", "--in-place", action="store_true", help="rewrite the file (atomically)")
         g.add_argument("--check", action="store_true", help="exit 1 if the file is not formatted")
 
     @staticmethod
     def run(args) -> int:
+        from mbs.atomic import write_text_atomic
         from mbs.language.formatter import format_source
         from mbs.language.parser import parse_source, read_source
-        source = read_source(args.file)
-        text = format_source(parse_source(source), source)
-        if args.check:
-            if text != source.text:
-                print(f"{args.file}: not formatted", file=sys.stderr)
-                return 1
-            return 0
-        if args.in_place:
-            from mbs.atomic import write_text_atomic
-            write_text_atomic(Path(args.file), text)
-            return 0
-        sys.stdout.write(text)
-        return 0
+        status = 0
+        for path in args.files:
+            source = read_source(path)
+            text = format_source(parse_source(source), source)
+            if args.check:
+                if text != source.text:
+                    print(f"{path}: not formatted", file=sys.stderr)
+                    status = 1
+            elif args.in_place:
+                write_text_atomic(Path(path), text)
+            else:
+                sys.stdout.write(text)
+        return status
 
 
 class Export:

@@ -143,3 +143,40 @@ model m {
 """)
     from mbs.language import units as U
     assert m.parameter_map["short"].dimension == U.LENGTH
+
+
+TYRE_ON_A_GUIDE = """
+import tyres.point_contact as tyres
+import roads.profiles as roads
+
+func my_road(x) = roads.cosine_bump(x, 0.1 m, 1 m, 0 m)
+
+model wheel_on_guide {
+    rigid wheel {
+        body {
+            mass = 50 kg
+            inertia = diag(1, 1, 1) kg*m^2
+        }
+    }
+    interact guide {
+        connect inertial -> wheel
+        joint planar(normal = y, direction = x)
+    }
+    use tyres.point_contact as tyre(road = my_road) { wheel = wheel }
+}
+"""
+
+
+def test_a_component_function_can_be_replaced_by_the_users_own():
+    m = load_text(TYRE_ON_A_GUIDE, directory="library")
+    force = m.interaction_map["tyre.radial"].forces[0]
+    text = X.to_text(force.arg("force")[2])
+    assert "cos(" in text  # the bump, not the component's flat default road
+
+
+def test_a_replacement_function_must_take_the_same_arguments():
+    bad = TYRE_ON_A_GUIDE.replace("func my_road(x) = roads.cosine_bump(x, 0.1 m, 1 m, 0 m)",
+                                  "func my_road(x, y) = x + y")
+    with pytest.raises(MbsError) as err:
+        load_text(bad, directory="library")
+    assert "function 'road' takes 1 argument(s); 'my_road' takes 2" in str(err.value)
