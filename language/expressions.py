@@ -260,6 +260,8 @@ class ExprResolver:
             return self.derivative(node)
         if fname == "lookup":
             return self.lookup_table(node)
+        if fname == "iso8608":
+            return self.random_road(node)
         entry = self.scope.lookup(node.func.parts[0].text)
         func = None
         if isinstance(entry, FuncEntry) and len(node.func.parts) == 1:
@@ -352,6 +354,30 @@ class ExprResolver:
             raise self.error("table x values must increase strictly", node.args[1].span)
         self.same(xd, tx, node, "look up")
         return X.Table(x, tuple(xs), tuple(ys), method), ty
+
+    def random_road(self, node: ast.Call) -> tuple[X.E, Dim]:
+        """iso8608(x, C, seed, length): a random road of an ISO 8608 class, reproducible by its seed."""
+        from . import roads
+        if len(node.args) != 4 or node.kwargs:
+            raise self.error("iso8608() takes (x, class, seed, length), e.g. iso8608(x, C, 42, 500 m)", node.span)
+        x, xd = self.scalar(node.args[0])
+        self.same(xd, U.LENGTH, node.args[0], "use")
+        cls = node.args[1]
+        letter = cls.ref.dotted if isinstance(cls, ast.Name) else (cls.value if isinstance(cls, ast.String) else "")
+        if letter not in roads.CLASSES:
+            raise self.error(f"an ISO 8608 road class is one of {', '.join(roads.CLASSES)}", cls.span)
+        constant = ExprResolver(self.elab, self.scope, None, False, False, "a road definition")
+        seed_e, _ = constant.scalar(node.args[2])
+        length_e, length_d = constant.scalar(node.args[3])
+        self.same(length_d, U.LENGTH, node.args[3], "use")
+        seed = self.elab.constant(seed_e, self.scope, node.args[2].span)
+        length = self.elab.constant(length_e, self.scope, node.args[3].span)
+        if seed != int(seed) or seed < 0:
+            raise self.error("the seed is a whole number >= 0", node.args[2].span)
+        if not 0 < length <= 100_000:
+            raise self.error("the road length must be positive and at most 100 km", node.args[3].span)
+        xs, zs = roads.profile(letter, int(seed), length)
+        return X.Table(x, tuple(float(v) for v in xs), tuple(float(v) for v in zs), "linear"), U.LENGTH
 
     def user_function(self, node: ast.Call, decl: ast.Func, scope: Scope) -> tuple[X.E, Dim]:
         if len(node.args) != len(decl.params) or node.kwargs:
