@@ -7,9 +7,7 @@
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
-import gc
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,7 +16,7 @@ from . import model as M
 from .diagnostics import Diagnostic, Diagnostics, MbsError, Source, Span
 from .elaborate import Elaborator
 from .loader import Loader
-from .parser import parse_source
+from .parser import parse_source, without_cycle_collection
 from .rules import check_model
 from .scenes import build_scene, scene_model_name
 from .scope import Module
@@ -39,22 +37,9 @@ class CheckResult:
         raise KeyError(name)
 
 
-@contextlib.contextmanager
-def _no_cycle_collection():
-    """The front end builds many small objects and frees few: Python's cycle collector would walk the growing
-    AST again and again (a third of the time for a 1000-body model). Reference counting still frees memory."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
-
-
 def check(path: str | Path) -> CheckResult:
     """Validate every model and component of a file; raise MbsError listing all errors if any."""
-    with _no_cycle_collection():
+    with without_cycle_collection():
         return _check_path(path)
 
 
@@ -66,7 +51,7 @@ def _check_path(path: str | Path) -> CheckResult:
 
 
 def check_text(text: str, path: str = "<string>", directory: str | Path = ".") -> CheckResult:
-    with _no_cycle_collection():
+    with without_cycle_collection():
         return _check_text(text, path, directory)
 
 
