@@ -218,8 +218,11 @@ class Elaborator(PlacementMixin, ParameterMixin):
             if isinstance(entry, FuncEntry):
                 self.override_function(scope, child, arg)
                 continue
+            if isinstance(entry, InputEntry):
+                entry.override, entry.override_scope = arg.value, scope
+                continue
             if not isinstance(entry, ParamEntry):
-                params = [n for n, e in child.entries.items() if isinstance(e, (ParamEntry, FuncEntry))]
+                params = [n for n, e in child.entries.items() if isinstance(e, (ParamEntry, FuncEntry, InputEntry))]
                 self.diags.error(f"component '{block.name.text}' has no parameter '{arg.name.text}'"
                                  f"{did_you_mean(arg.name.text, params)}", scope.at(arg.name.span))
                 continue
@@ -437,7 +440,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
     # ====================================================================================== block I/O
     def inputs(self, scope: Scope):
         for entry in scope.entries.values():
-            if isinstance(entry, InputEntry):
+            if isinstance(entry, InputEntry) and entry.override is None:
                 inner = self._find_scope(self.root, entry) or self.root
                 try:
                     value, dim = ExprResolver(self, inner, what=f"input '{entry.full}'").scalar(entry.decl.value)

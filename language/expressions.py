@@ -194,6 +194,11 @@ class ExprResolver:
             if rest:
                 raise self.error(f"'{head.text}' is an output and has no member '{rest[0].text}'", rest[0].span)
             return self.elab.output_value(entry, ref.span)
+        if isinstance(entry, InputEntry) and entry.override is not None:
+            # an input connected at instantiation is the user's expression, in the user's scope
+            entry.used = True
+            return ExprResolver(self.elab, entry.override_scope, None, self.allow_state,
+                                self.allow_acceleration, self.what).scalar(entry.override)
         if isinstance(entry, InputEntry):
             entry.used = True
             self.state_used(ref)

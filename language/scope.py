@@ -46,6 +46,8 @@ class InputEntry:
     full: str
     decl: ast.Input
     used: bool = False
+    override: ast.Expr | None = None        # connected by the instantiating 'use' (steer = -steer)
+    override_scope: "Scope | None" = None
 
 
 @dataclass

@@ -180,3 +180,17 @@ def test_a_replacement_function_must_take_the_same_arguments():
     with pytest.raises(MbsError) as err:
         load_text(bad, directory="library")
     assert "function 'road' takes 1 argument(s); 'my_road' takes 2" in str(err.value)
+
+
+def test_the_vehicle_is_four_instances_of_one_suspension_component():
+    from mbs.language.parser import parse_text
+    text = open("library/iltis/vehicle.mbs").read()
+    uses = [s for item in parse_text(text).items if getattr(item, "kind", "") == "model"
+            for s in item.statements if type(s).__name__ == "Use" and s.component.dotted == "susp.corner"]
+    assert [u.alias.text for u in uses] == ["fl", "fr", "rl", "rr"]
+    m = load("library/iltis/vehicle.mbs")
+    for corner in ("fl", "fr", "rl", "rr"):
+        assert {f"{corner}.leaf", f"{corner}.arm", f"{corner}.carrier", f"{corner}.rod", f"{corner}.wheel"} <= set(m.part_map)
+    # the right front rack follows the negated steering input (mirrored instance)
+    rack = m.interaction_map["fr.rack"].joint.coordinates[0]
+    assert X.to_text(rack.prescribed) == "(-steer)"
