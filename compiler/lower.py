@@ -94,6 +94,10 @@ class _Lowering:
             mass = self.geometry(part.body.mass)
             com = [self.geometry(c) for c in part.body.com]
             inertia = sp.Matrix(3, 3, [self.geometry(c) for row in part.body.inertia for c in row])
+            # Data rotated into part axes (`inertia = ... in frame`) or symmetric only to the checker's
+            # tolerance carries round-off asymmetry; the dynamics relies on exact symmetry.
+            inertia = sp.Matrix(3, 3, lambda i, j: inertia[i, j] if inertia[i, j] == inertia[j, i]
+                                else (inertia[i, j] + inertia[j, i]) / 2)
         else:
             mass, com, inertia = sp.Integer(0), [0, 0, 0], sp.zeros(3, 3)
         prescribed = tuple(None if c.prescribed is None else self.geometry(c.prescribed) for c in joint.coordinates)
