@@ -33,6 +33,7 @@ import sympy as sp
 from .emit_common import (INLINE_MAX_CHARS, PREC_UNARY, CodegenError, ExprPrinter, Naming,  # noqa: F401
                           Routine, check_inputs, describe, equation_routines, identifier, plan_routine,
                           printable, table_slopes)
+from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
 from .equations import Equations
 
 GENERATOR = "mbs.compiler.ccode"
@@ -95,13 +96,15 @@ class CEmitter:
     TableRegistry; table k is called as mbs_table_k)."""
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
-                 outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS):
+                 outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
+                 constraints=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables)
+        check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints)
         self.naming = Naming(equations, self.parameters)
         self.names = self.naming.names
 
@@ -112,13 +115,22 @@ class CEmitter:
         functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
                                                  inline_max_chars=self.inline_max_chars))
-                     for name, out, doc, shape, results, positive in equation_routines(self.eqs, self.outputs)]
+                     for name, out, doc, shape, results, positive in self._routines()]
         tree = self.eqs.tree
         functions += [_names_function("mbs_state_name", [s.name for s in tree.q_symbols + tree.v_symbols]),
                       _names_function("mbs_parameter_name", [s.name for s in self.parameters])]
         if self.outputs:
             functions.append(_names_function("mbs_output_name", [name for name, _ in self.outputs]))
+        if self.constraints is not None:
+            functions.append(loop_functions(self.constraints))
         return "\n".join([self._header(), *self._helpers(printer.used), *functions])
+
+    def _routines(self) -> list:
+        """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
+        routines = equation_routines(self.eqs, self.outputs)
+        if self.constraints is None:
+            return routines
+        return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -140,9 +152,12 @@ class CEmitter:
                  f"#define MBS_NV {nv}   /* free velocity coordinates */",
                  "#define MBS_NX (MBS_NQ+MBS_NV)",
                  f"#define MBS_NP {len(self.parameters)}   /* parameters */",
-                 f"#define MBS_NWORK {nv * nv}   /* doubles of work memory the caller provides */"]
+                 f"#define MBS_NWORK {self._work()}   /* doubles of work memory the caller provides */"]
         if self.outputs:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
+        if self.constraints is not None:
+            lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
+                      loop_definitions(self.constraints)]
         lines += ["",
                   "/* Leave with status 1 (not positive) or 2 (not a number) unless the pivot d is positive. */",
                   "#define MBS_PIVOT(d) do { if (!((d) > 0.0)) return (d) <= 0.0 ? 1 : 2; } while (0)",
@@ -196,6 +211,11 @@ class CEmitter:
                       f"    return mbs_lookup(x, mbs_table_{k}_x, mbs_table_{k}_y, {slopes}, {n});", "}", ""]
             parts.append("\n".join(lines))
         return parts
+
+    def _work(self) -> int:
+        tree = self.eqs.tree
+        loops = loop_work_size(tree.nq, tree.nv, self.constraints.nc) if self.constraints is not None else 0
+        return tree.nv * tree.nv + loops
 
     def _function(self, r: Routine) -> str:
         out, size = r.out, _SIZE_MACROS.get(r.out) or str(math.prod(r.shape))
@@ -273,7 +293,8 @@ def _names_function(name: str, names: list) -> str:
 
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
-               outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS) -> str:
+               outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
+               constraints=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -281,4 +302,4 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     tables: the lookup tables the expressions call as mbs_table_k (`Lowered.tables` or its `.tables` list).
     origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
-                    inline_max_chars=inline_max_chars).source()
+                    inline_max_chars=inline_max_chars, constraints=constraints).source()

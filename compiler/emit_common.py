@@ -393,27 +393,31 @@ def equation_routines(equations, outputs) -> list:
     mass = [(i * nv + j, eqs.mass_matrix[i][j] if j >= i else j * nv + i) for i in range(nv) for j in range(nv)]
     routines = [
         ("mbs_rhs", "xdot", "x' = [qdot; vdot], vdot by the articulated-body algorithm", (nq + nv,),
-         list(enumerate(eqs.qdot + eqs.vdot)), False),
+         list(enumerate(eqs.qdot + (eqs.vdot or ()))), False),
         ("mbs_mass_matrix", "M", "mass matrix M (nv x nv, row-major) by the composite-rigid-body algorithm",
          (nv, nv), mass, True),
         ("mbs_forces", "f", "f = q - k (applied minus Coriolis/centrifugal/gyroscopic forces), M vdot = f",
          (nv,), list(enumerate(eqs.forces)), False),
         ("mbs_qdot", "qdot", "qdot = G(q) v", (nq,), list(enumerate(eqs.qdot)), False),
     ]
+    if eqs.vdot is None:  # a model with loops: its mbs_rhs is the loop solver's (compiler/ccode_loops.py)
+        routines = routines[1:]
     if outputs:
         routines.append(("mbs_outputs", "y", "outputs y: " + ", ".join(n for n, _ in outputs), (len(outputs),),
                          [(k, e) for k, (_, e) in enumerate(outputs)], False))
     return routines
 
 
-def check_inputs(equations, parameters, outputs, tables) -> None:
+def check_inputs(equations, parameters, outputs, tables, constraints=None) -> None:
     """CodegenError unless vdot exists, every parameter the results use is in `parameters`, and the tables
     hold finite data with increasing x."""
-    if equations.vdot is None:
+    if equations.vdot is None and constraints is None:
         raise CodegenError("the equations were derived without forward dynamics; mbs_rhs needs vdot")
     tree = equations.tree
     states = set(tree.q_symbols) | set(tree.v_symbols) | {t}
     needed = set(equations.parameters()) | (equations.tape.free_symbols([e for _, e in outputs]) - states)
+    if constraints is not None:
+        needed |= set(constraints.parameters())
     missing = sorted(s.name for s in needed if s not in set(parameters))
     if missing:
         raise CodegenError(f"parameters missing from the parameter list: {', '.join(missing)}")

@@ -19,7 +19,7 @@ from functools import cached_property
 import sympy as sp
 
 from .joints import combine, joint_kind
-from .spatial import (IDENTITY, ZERO3, ZERO6, RigidInertia, add, cross, dot, force_cross, matmul, matTvec,
+from .spatial import (IDENTITY, ZERO, ZERO3, ZERO6, RigidInertia, add, cross, dot, force_cross, matmul, matTvec,
                       matvec, motion_cross, motion_from_frame, motion_to_child, mul, transpose)
 from .tape import Tape
 from .tree import Tree, coordinate_names, t, velocity_of_coordinate
@@ -63,6 +63,7 @@ class Kinematics:
         self._gyroscopic: dict[int, tuple] = {}
         self._wrenches: dict[int, list] = {}
         self._generalized: dict[int, list] = {}
+        self._bias_acc: dict[int, tuple] = {}
 
     # ---- the outward recursion ----------------------------------------------------------------------------------
 
@@ -185,6 +186,44 @@ class Kinematics:
         vel = self.bodies[i].vel
         local = [add(x, y) for x, y in zip(vel[3:], cross(vel[:3], _sym(r_local)))]
         return matvec(self.tape, self.world_pose(i)[0], local, "vel")
+
+    # ---- accelerations with vdot = 0 (for the loop-closure constraints) ---------------------------------------
+
+    def bias_acceleration(self, body: int | str) -> tuple:
+        """Spatial acceleration (omega'; v') of the body, body frame at its origin, with every state acceleration
+        vdot = 0: a_i = X_i a_parent + bias_i, the ground at rest (no gravity). Only the velocity-product and
+        prescribed-motion terms remain; the full acceleration adds sum_k S_k vdot_k along the path to the
+        ground. Computed once per body."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return ZERO6
+        if i not in self._bias_acc:
+            parent = self.tree.bodies[i].parent
+            a_p = self.bias_acceleration(parent)
+            bk = self.bodies[i]
+            self.tape.section(f"body {i + 1} ({self.tree.bodies[i].name}): acceleration with vdot = 0")
+            a = ZERO6 if all(x is ZERO for x in a_p) else motion_to_child(self.tape, bk.X, a_p, f"a0p{i + 1}")
+            self._bias_acc[i] = self.tape.vector([add(x, y) for x, y in zip(a, bk.bias)], f"a0{i + 1}")
+        return self._bias_acc[i]
+
+    def angular_bias_acceleration(self, body: int | str) -> tuple:
+        """Angular acceleration of the body with vdot = 0, world components [rad/s^2]."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return ZERO3
+        return matvec(self.tape, self.world_pose(i)[0], self.bias_acceleration(i)[:3], f"al0{i + 1}")
+
+    def frame_bias_acceleration(self, body: int | str, r_local) -> tuple:
+        """Acceleration of the point with body coordinates r_local with vdot = 0, world components [m/s^2]:
+        the classical acceleration a' + alpha x r + omega x (v + omega x r) of the spatial quantities."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return ZERO3
+        vel, acc, r = self.bodies[i].vel, self.bias_acceleration(i), _sym(r_local)
+        w = vel[:3]
+        v_point = [add(x, y) for x, y in zip(vel[3:], cross(w, r))]
+        local = [add(x, y, z) for x, y, z in zip(acc[3:], cross(acc[:3], r), cross(w, v_point))]
+        return matvec(self.tape, self.world_pose(i)[0], local, "acc")
 
     def joint_coordinate(self, body: int | str, k: int) -> sp.Expr:
         """Coordinate k of the body's joint: its state symbol, or its expression of t when prescribed."""

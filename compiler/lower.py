@@ -16,6 +16,7 @@ from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from .constraints import CutJoint
 from .kinematics import Kinematics
 from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
@@ -35,6 +36,7 @@ class Lowered:
     kinematics: Kinematics
     outputs: tuple[tuple[str, sp.Expr], ...]   # (name, expression of state, t, parameters)
     tables: TableRegistry
+    cuts: tuple[CutJoint, ...] = ()            # the loop-closing joints, in `topology.cuts` order
 
     @property
     def tree(self) -> Tree:
@@ -54,10 +56,6 @@ class _Lowering:
             self.inputs.update(dict(scene.inputs))
         self.geometry = ToSympy(self._no_state, self.tables)
         self.topology = build_topology(model)
-        if self.topology.has_loops:
-            cuts = ", ".join(c.name for c in self.topology.cuts)
-            raise _error(f"closed kinematic loops (closed by {cuts}) are not supported by the tree compiler yet",
-                         self.topology.cuts[0].span)
         self.body_of_part = {M.INERTIAL: -1}
         self.body_of_interaction: dict[str, int] = {}
         for i, (part, joint) in enumerate(zip(self.topology.bodies, self.topology.joints)):
@@ -66,6 +64,7 @@ class _Lowering:
         tree = Tree(tuple(self._tree_body(i) for i in range(len(self.topology.bodies))),
                     tuple(self.geometry(g) for g in model.gravity))
         self.kin = Kinematics(tree)
+        self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
         self.state = ToSympy(self._state_symbol, self.tables)
         self._sensor_cache: dict[str, sp.Expr] = {}
 
@@ -104,6 +103,19 @@ class _Lowering:
         parent = self.topology.parent_index[i]
         return TreeBody(inter.name, parent, spec, self._pose(parent_frame), self._pose(child_frame), mass,
                         com, inertia, prescribed)
+
+    def _cut_joint(self, inter: M.Interaction) -> CutJoint:
+        """A joint outside the spanning tree: its frames and kind become loop-closure constraints."""
+        joint = inter.joint
+        if any(c.prescribed is not None for c in joint.coordinates):
+            raise _error(f"joint '{inter.name}' closes a kinematic loop and cannot prescribe a motion; mark another "
+                         "joint of the loop with 'cut = true'", joint.span)
+        axes = tuple(tuple(self.geometry(c) for c in axis) for axis in joint.axes)
+        if not all(c.is_number for axis in axes for c in axis):
+            raise _error(f"the axes of joint '{inter.name}', which closes a kinematic loop, must be numbers",
+                         joint.span)
+        return CutJoint(inter.name, JointSpec(joint.kind, axes), self.body(inter.a.part), self._pose(inter.a),
+                        self.body(inter.b.part), self._pose(inter.b))
 
     # ---------------------------------------------------------------------------------------- state
     def _state_symbol(self, sym: X.Sym) -> sp.Expr:
@@ -304,7 +316,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     lowering = _Lowering(model, scene)
     lowering.attach_forces()
     outputs = lowering.outputs()
-    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables)
+    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts)
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

@@ -18,6 +18,7 @@ import numpy as np
 import sympy as sp
 
 from mbs.compiler.ccode import generate_c
+from mbs.compiler.constraints import Constraints, derive_constraints
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
@@ -42,6 +43,7 @@ class Generated:
     v_names: tuple[str, ...]
     p_names: tuple[str, ...]
     y_names: tuple[str, ...]
+    constraints: Constraints | None = None   # loop-closure constraints of the cut joints (None: a tree)
 
 
 def display_name(symbol_name: str) -> str:
@@ -55,20 +57,26 @@ def display_name(symbol_name: str) -> str:
 def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     """Validated model -> generated source (symbolic derivation included)."""
     lowered = lower(model, scene)
-    equations = derive_equations(lowered.kinematics)
+    constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
+    # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
+    equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
     parameters = [parameter_symbol(p.name) for p in model.parameters]
-    extra = [s for s in equations.parameters() if s not in set(parameters)]
+    used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
+    extra = [s for s in used if s not in set(parameters)]
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin)
     tree = lowered.tree
-    return Generated(model, scene, lowered, equations, generate_c(equations, parameters, model.name, **options),
-                     generate_numpy(equations, parameters, model.name, **options),
+    # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
+    numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
+    return Generated(model, scene, lowered, equations,
+                     generate_c(equations, parameters, model.name, constraints=constraints, **options),
+                     numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs))
+                     tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
 
 
 # ------------------------------------------------------------------------------------------ parameters
@@ -128,6 +136,24 @@ def initial_state(generated: Generated, params: Mapping[str, float]) -> np.ndarr
             head, local = name.rsplit(".", 1)
             v0.append(inits[(f"{head}.q{local[1]}", True)])
     return _normalise_quaternions(np.array(q0 + v0, dtype=float), tree)
+
+
+def fixed_state_names(generated: Generated) -> list[str]:
+    """Names (as in the compiled model: "j.phi", "der(j.phi)", "j.wx") of the coordinates and speeds the user
+    gave initial values, in the joint or the scene: assembling the loops keeps them. (A joint's init statement
+    makes a new expression; the defaults are the shared X.ZERO and X.ONE.)"""
+    def speed(name: str) -> str:
+        head, local = name.rsplit(".", 1)
+        return f"{head}.w{local[1]}" if local in ("qx", "qy", "qz") else f"der({name})"
+    names = []
+    for c in generated.model.coordinates:
+        if c.init is not (X.ONE if c.local == "qw" else X.ZERO):
+            names.append(c.name)
+        if c.init_speed is not X.ZERO:
+            names.append(speed(c.name))
+    if generated.scene is not None:
+        names += [speed(name) if is_speed else name for name, is_speed, _ in generated.scene.inits]
+    return names
 
 
 def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:

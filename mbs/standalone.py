@@ -14,7 +14,7 @@ from pathlib import Path
 
 from mbs.atomic import write_bytes_atomic, write_text_atomic
 from mbs.language.diagnostics import Diagnostic, MbsError
-from mbs.runtime.build import compiler_command
+from mbs.runtime.build import C_DIR, compiler_command
 
 from .pipeline import Generated
 
@@ -22,12 +22,20 @@ _PROTOTYPE = re.compile(r"^((?:int|const char \*)\s*mbs_\w+\(.*\))\s*$")
 FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-Wextra"]
 
 
+def standalone_source(gen: Generated) -> str:
+    """The generated C; with closed loops the run-time loop solver (runtime/c/loops.c) appended, which defines
+    the mbs_loop_rhs that mbs_rhs calls, mbs_project, mbs_loop_multipliers, ..."""
+    if gen.constraints is None:
+        return gen.c_source
+    return gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
+
+
 def header_text(gen: Generated) -> str:
     name = gen.model.name
     guard = re.sub(r"\W", "_", name).upper() + "_MBS_H"
     lines = [f"/* Interface of the generated equations of motion of \"{name}\" (see {name}.c). */",
              f"#ifndef {guard}", f"#define {guard}", ""]
-    source = gen.c_source.splitlines()
+    source = standalone_source(gen).splitlines()
     lines += [line for line in source if re.match(r"#define MBS_N[A-Z]+ ", line)]
     lines.append("")
     for i, line in enumerate(source):
@@ -42,7 +50,7 @@ def write_standalone(gen: Generated, directory: Path) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
     stem = re.sub(r"\W", "_", gen.model.name)
     c_path, h_path, so_path = directory / f"{stem}.c", directory / f"{stem}.h", directory / f"lib{stem}.so"
-    write_text_atomic(c_path, gen.c_source)
+    write_text_atomic(c_path, standalone_source(gen))
     write_text_atomic(h_path, header_text(gen))
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / so_path.name

@@ -19,6 +19,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
 from mbs.runtime import build as _build
+from mbs.runtime.assembly import assemble
 from mbs.runtime.model import CompiledModel, load_c, load_numpy
 from mbs.runtime.results import Results
 from mbs.runtime.simulate import simulate as _simulate
@@ -61,6 +62,9 @@ class System:
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
                         x0=pipeline.initial_state(gen, params), units=pipeline.units_of(gen))
+            if gen.constraints is not None and not (self.backend != "numpy" and _build.have_c_compiler()):
+                raise MbsError([Diagnostic("error", f"model '{self.model.name}' has closed kinematic loops, which "
+                                                    "need the C back end (no C compiler found)", None)])
             if self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler()):
                 self._compiled[key] = load_c(code=gen.c_source, cache_dir=self.cache_dir, **info)
             else:
@@ -81,6 +85,10 @@ class System:
         data = Workspace(compiled)
         data.p = [values[n] for n in compiled.p_names]
         data.x = pipeline.initial_state(gen, values) if x0 is None else np.asarray(x0, dtype=float)
+        if gen.constraints is not None and x0 is None:  # closed loops: a consistent start near the inits
+            spans = {c.name: c.span for c in gen.lowered.topology.cuts}
+            data.x = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen),
+                              row_names=gen.constraints.names, spans=spans).x
         settings = _settings(sc, t_end, sample, integrator, rtol, atol)
         if t_eval is not None:
             settings.pop("sample", None)

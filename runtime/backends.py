@@ -33,6 +33,15 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "forces": ("NV",),
     "qdot": ("NQ",),
     "outputs": ("NY",),
+    # models with closed loops (NC constraint rows; runtime/c/loops.c)
+    "constraints": ("NC",),
+    "constraint_velocity": ("NC",),
+    "constraint_acceleration": ("NC",),
+    "constraint_jacobian": ("NC", "NV"),
+    "project": ("NX",),
+    "normalize": ("NX",),
+    "multipliers": ("NC",),
+    "loop_report": ("NREPORT",),
 }
 
 ModelFunction = Callable[[float, np.ndarray], np.ndarray]

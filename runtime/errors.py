@@ -10,7 +10,8 @@ from __future__ import annotations
 from mbs.language.diagnostics import Diagnostic, MbsError
 
 #: Meaning of the status a generated model function returns (0 is success).
-MODEL_STATUS = {0: "ok", 1: "singular mass matrix", 2: "non-finite value"}
+MODEL_STATUS = {0: "ok", 1: "singular mass matrix", 2: "non-finite value",
+                3: "closed loops cannot be closed (constraint projection failed)"}
 
 
 def status_text(status: int) -> str:

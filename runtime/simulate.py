@@ -15,6 +15,7 @@ from typing import Callable
 
 import numpy as np
 
+from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
 from .integrators import FAILED, FINISHED, get_integrator
 from .model import CompiledModel
@@ -80,6 +81,12 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     states = np.empty((times.size, model.nx))
     status, filled = _run(solver, times, states, progress, t_end)
     message = solver.message if status == FAILED else ""
+    loops = "project" in model.functions
+    if loops:  # closed loops: store the samples projected onto the constraints
+        projected = project_samples(data, times[:filled], states[:filled])
+        if projected < filled:
+            filled, status = projected, FAILED
+            message = f"the closed loops cannot be closed at t = {times[projected]:.6g} s (see loop_report)"
     if status == "stopped":
         message = f"stopped by the progress callback at t = {solver.t:.6g} s"
     columns = [times[:filled, None], states[:filled]]
@@ -95,6 +102,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         columns.append(ys)
         names += list(model.y_names)
     data.t, data.x = solver.t, solver.y
+    if loops and status != FAILED:
+        data.x = data.project(data.t, data.x)
     data.stats = dict(solver.stats)
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,

@@ -31,6 +31,9 @@
 #include "dense_lu.c"
 #include "dopri5.c"
 #include "rodasp.c"
+#ifdef MBS_NC
+#include "loops.c"  /* closed kinematic loops: projection, partitioning, constrained accelerations */
+#endif
 
 #define MBS_CAT2(a, b) a##b
 #define MBS_CAT(a, b) MBS_CAT2(a, b)
@@ -52,6 +55,16 @@ static const mbs_entry MBS_TABLE[] = {
     {"qdot", mbs_qdot, MBS_NQ, 0},
 #ifdef MBS_NY
     {"outputs", mbs_outputs, MBS_NY, 0},
+#endif
+#ifdef MBS_NC
+    {"constraints", mbs_constraints, MBS_NC, 0},
+    {"constraint_velocity", mbs_constraint_velocity, MBS_NC, 0},
+    {"constraint_acceleration", mbs_constraint_acceleration, MBS_NC, 0},
+    {"constraint_jacobian", mbs_loop_jacobian, MBS_NC, MBS_NV},
+    {"project", mbs_project, MBS_NX, 0},
+    {"normalize", mbs_loop_normalize, MBS_NX, 0},
+    {"multipliers", mbs_loop_multipliers, MBS_NC, 0},
+    {"loop_report", mbs_loop_report, MBS_LOOP_NREPORT, 0},
 #endif
 };
 #define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))

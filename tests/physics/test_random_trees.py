@@ -26,7 +26,6 @@ import physkit  # noqa: E402
 import randmodel  # noqa: E402
 
 import mbs  # noqa: E402
-from mbs.compiler.tree import TreeError  # noqa: E402
 from mbs.runtime.workspace import Workspace  # noqa: E402
 
 TOL = 1e-9

@@ -1,0 +1,196 @@
+"""Assembly of a mechanism with closed loops: a consistent initial state near the user's approximate one.
+
+    result = assemble(model, data, x0, fixed=["crank_pin.phi", "guide.s", "der(main_bearing.phi)"],
+                      row_names=gen.constraint_names, spans={"wrist_pin": span})
+    data.x = result.x                       # g(q) = 0 and G(q) v + g_t = 0 to MBS_LOOP_TOL
+    for name, before, after in result.changed: ...
+
+Positions: Gauss-Newton on the coordinates the user did not fix, each step the least change (minimum norm
+in the velocity coordinates, dq = qdot(q, dv), quaternions renormalised), with step halving when the residual
+does not fall; redundant constraints are handled by the least-squares solve. Velocities: the least change of the
+free speeds that satisfies G v + g_t = 0. When the fixed values leave no solution (or Newton does not converge),
+`AssemblyError` names the loop (cut joint) with the largest residual and the residual, at the joint's source span
+when `spans` gives it.
+
+Needs the loop functions of a C model (`constraints`, `constraint_velocity`, `constraint_jacobian`, `qdot`,
+`normalize`); see runtime/c/loops.c.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+from .errors import UsageError
+from .model import CompiledModel
+from .workspace import Workspace, check_workspace
+
+#: Residual tolerance [m or rad] (the run-time projection's MBS_LOOP_TOL), and the round-off floor below which
+#: a residual that no step reduces counts as converged (MBS_LOOP_FLOOR).
+TOLERANCE = 1e-12
+FLOOR = 1e-9
+#: Velocity residual tolerance relative to 1 + max |G| max |v| (a linear solve: round-off only).
+VELOCITY_TOLERANCE = 1e-10
+#: Gauss-Newton iteration cap (each iteration halves its step at most HALVINGS times).
+MAX_ITERATIONS = 60
+HALVINGS = 12
+#: Singular values below this fraction of the largest count as zero (redundant constraints).
+RCOND = 1e-10
+#: Labels of the constraint rows that are distances [m] (compiler/constraints.py ROWS); the others are
+#: dimensionless (small angles, rad).
+TRANSLATION_ROWS = frozenset({"x", "y", "z", "shift_u", "shift_w", "normal"})
+#: Changes smaller than this (relative to 1 + |value|) are not reported as changes.
+REPORT_THRESHOLD = 1e-12
+_REQUIRED = ("constraints", "constraint_velocity", "constraint_jacobian", "qdot", "normalize")
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """A consistent state and how it was found.
+
+    x: (nx,) the assembled state [q; v]; changed: (name, given, assembled) of every state that moved;
+    residual: max |g| [m or -]; velocity_residual: max |G v + g_t|; iterations: Gauss-Newton iterations;
+    rank: of G at x; dof: nv - rank (the mechanism's degrees of freedom there)."""
+
+    x: np.ndarray
+    changed: tuple[tuple[str, float, float], ...]
+    residual: float
+    velocity_residual: float
+    iterations: int
+    rank: int
+    dof: int
+
+    def describe(self) -> str:
+        """One line per changed state, for a log or a note."""
+        return "\n".join(f"{name}: {given:.6g} -> {after:.6g}" for name, given, after in self.changed)
+
+
+class AssemblyError(MbsError):
+    """The closed loops cannot be assembled with the given fixed values.
+
+    row: index of the constraint row with the largest residual; constraint: its name ("<joint>.<label>");
+    loop: the cut joint's name; residual: max |g| (or max |G v + g_t| when `stage` is "velocity")."""
+
+    def __init__(self, message: str, span, row: int, constraint: str, loop: str, residual: float, stage: str):
+        self.message, self.row, self.constraint, self.loop = message, row, constraint, loop
+        self.residual, self.stage = residual, stage
+        super().__init__([Diagnostic("error", message, span)])
+
+
+def held_columns(v_names: Iterable[str], fixed: Iterable[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(positions, speeds): boolean masks over the velocity coordinates. A velocity column is held in the
+    position stage when its coordinate is in `fixed` ("der(j.phi)" <- "j.phi"; a quaternion's "j.wx", "j.wy",
+    "j.wz" <- any of "j.qw" .. "j.qz"), and in the velocity stage when its own name is in `fixed`."""
+    fixed = set(fixed)
+    positions, speeds = [], []
+    for name in v_names:
+        if name.startswith("der(") and name.endswith(")"):
+            positions.append(name[4:-1] in fixed)
+        else:
+            head = name.rsplit(".", 1)[0]
+            positions.append(any(f"{head}.q{c}" in fixed for c in "wxyz"))
+        speeds.append(name in fixed)
+    return np.array(positions, dtype=bool), np.array(speeds, dtype=bool)
+
+
+def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None = None, fixed: Iterable[str] = (),
+             row_names: Iterable[str] | None = None, spans: Mapping[str, object] | None = None,
+             tolerance: float = TOLERANCE) -> Assembly:
+    """A state satisfying the loop-closure constraints near x0 (default data.x) at time t (default data.t),
+    holding the coordinates and speeds named in `fixed` (as in the model's state names: "j.phi",
+    "der(j.phi)", "j.qw", "j.wx"). Raises AssemblyError (an MbsError) when that is impossible."""
+    check_workspace(model, data)
+    missing = [name for name in _REQUIRED if name not in model.functions]
+    if missing:
+        raise UsageError(f"model {model.name} has no loop functions ({', '.join(missing)}): it has no closed "
+                         "loops, or it was built with the NumPy back end")
+    t = float(data.t if t is None else t)
+    fixed = tuple(fixed)
+    given = np.array(data.x if x0 is None else x0, dtype=float)
+    x = data.normalize(t, given)
+    nq, nv = model.nq, model.nv
+    names = list(row_names) if row_names is not None else [f"constraint {k}" for k in
+                                                            range(model.backend.functions["constraints"][0])]
+    hold_q, hold_v = held_columns(model.v_names, fixed)
+    # positions: Gauss-Newton with the least change of the free coordinates
+    g = data.constraints(t, x)
+    iterations, stalled = 0, False
+    while np.max(np.abs(g), initial=0.0) > tolerance and iterations < MAX_ITERATIONS:
+        if np.all(hold_q):
+            break  # nothing may move
+        iterations += 1
+        G = data.constraint_jacobian(t, x)
+        step = np.zeros(nv)
+        step[~hold_q] = -np.linalg.lstsq(G[:, ~hold_q], g, rcond=RCOND)[0]
+        norm, scale = np.max(np.abs(g)), 1.0
+        for _ in range(HALVINGS):
+            trial = _moved(data, t, x, scale * step)
+            g_trial = data.constraints(t, trial)
+            if np.max(np.abs(g_trial)) < norm:
+                break
+            scale *= 0.5
+        else:
+            stalled = True  # no descent: the fixed values leave no solution, or round-off is reached
+            break
+        x, g = trial, g_trial
+    residual = float(np.max(np.abs(g), initial=0.0))
+    if not (residual <= tolerance or (stalled and residual <= FLOOR)):
+        raise _failure("position", names, spans, g, iterations, fixed)
+
+    # velocities: the least change of the free speeds
+    G = data.constraint_jacobian(t, x)
+    v = x[nq:]
+    gd = data.constraint_velocity(t, x)
+    if np.any(~hold_v):
+        v[~hold_v] -= np.linalg.lstsq(G[:, ~hold_v], gd, rcond=RCOND)[0]
+    gd = data.constraint_velocity(t, x)
+    scale_v = 1.0 + np.max(np.abs(v), initial=0.0) * max(1.0, float(np.max(np.abs(G), initial=0.0)))
+    velocity_residual = float(np.max(np.abs(gd), initial=0.0))
+    if not velocity_residual <= VELOCITY_TOLERANCE * scale_v:
+        raise _failure("velocity", names, spans, gd, iterations, fixed)
+
+    s = np.linalg.svd(G, compute_uv=False) if G.size else np.zeros(0)
+    rank = int(np.sum(s > RCOND * s[0])) if s.size and s[0] > 0 else 0
+    changed = tuple((name, float(a), float(b)) for name, a, b in zip(model.x_names, given, x)
+                    if abs(b - a) > REPORT_THRESHOLD * (1.0 + abs(a)))
+    return Assembly(x, changed, residual, velocity_residual, iterations, rank, nv - rank)
+
+
+def _moved(data: Workspace, t: float, x: np.ndarray, dv: np.ndarray) -> np.ndarray:
+    """x with q moved by qdot(q, dv) (a first-order step along the velocity coordinates), quaternions unit."""
+    nq = data.model.nq
+    probe = np.concatenate([x[:nq], dv])
+    out = x.copy()
+    out[:nq] += data.qdot(t, probe)
+    return data.normalize(t, out)
+
+
+def _failure(stage: str, names, spans, residuals: np.ndarray, iterations: int, fixed) -> AssemblyError:
+    row = int(np.argmax(np.abs(residuals)))
+    constraint = names[row]
+    loop = constraint.rsplit(".", 1)[0] if "." in constraint else constraint
+    value = float(abs(residuals[row]))
+    held = ", ".join(sorted(fixed)) or "nothing"
+    unit = "m" if constraint.rsplit(".", 1)[-1] in TRANSLATION_ROWS else "rad"
+    unit += "" if stage == "position" else "/s"
+    message = (f"the closed loop through joint '{loop}' cannot be assembled: its {stage} constraint "
+               f"'{constraint}' is off by {value:.3g} {unit} after {iterations} iteration(s) holding {held}")
+    span = (spans or {}).get(loop)
+    return AssemblyError(message, span, row, constraint, loop, value, stage)
+
+
+def project_samples(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
+    """Replace every sampled state (row of `states`) by its projection onto the constraints, in place; returns
+    the number of rows projected (fewer when a projection fails: the rows after it are left as they were).
+    For the simulation driver: the integrator's dense output is only near the constraint manifold."""
+    project = data.function("project")
+    for i, (t, x) in enumerate(zip(times, states)):
+        try:
+            states[i] = project(float(t), x)
+        except MbsError:
+            return i
+    return len(times)

@@ -1,0 +1,446 @@
+/* Closed kinematic loops at run time: projection of a tree state onto the loop-closure constraints, coordinate
+ * partitioning, constrained accelerations by the null-space method, and Lagrange multipliers.
+ *
+ * Compiled after a generated model that defines MBS_NC > 0 (compiler/ccode_loops.py): the constraint functions
+ * mbs_constraints (g, nc rows), mbs_constraint_velocity (gdot = G v + g_t) and mbs_constraint_acceleration
+ * (gddot with vdot = 0), the tree functions mbs_mass_matrix, mbs_forces, mbs_qdot, and the sizes MBS_NQ, MBS_NV,
+ * MBS_NC, MBS_NQUAT, mbs_quaternion_slots[], MBS_TREE_NWORK and MBS_LOOP_NWORK.
+ *
+ * The state x = [q; v] stays the spanning tree's.  Every function below has the one model signature
+ * f(t, x, p, out, work), allocates nothing, keeps no state between calls (everything lives in the caller's
+ * work array of MBS_NWORK doubles) and returns a status: 0 ok, 1 singular reduced mass matrix, 2 non-finite
+ * value, 3 the constraints cannot be satisfied (mbs_loop_report tells where):
+ *
+ *   mbs_loop_rhs         x' = [qdot(q_c, v_c); vdot] at the projected state x_c      (NX)
+ *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
+ *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
+ *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
+ *   mbs_loop_normalize   x with unit quaternions                                    (NX)
+ *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
+ *
+ * Partitioning: G is factored by Gaussian elimination with complete pivoting at every evaluation; the pivot
+ * columns are the dependent velocities, the others independent, so the partition follows the configuration
+ * (near a singular dependent block other columns win the pivot search) without any restart.  Elimination stops
+ * at the first pivot below MBS_LOOP_RANK_TOL times the largest entry of G: the rank r, DOF = nv - r; the rows
+ * not chosen as pivot rows are redundant and dropped (they hold when the redundancy is consistent).
+ *
+ * Newton on positions: dq = qdot(q, dv) with dv_I = 0 and G_D dv_D = -g (the pivot rows), quaternions
+ * renormalised after each update; the Jacobian is refreshed when the residual falls by less than a factor
+ * MBS_LOOP_SLOW per iteration.  Converged when max |g| <= MBS_LOOP_TOL, or at the round-off floor.
+ *
+ * Accelerations: vdot = T a + c0 with T = [I; -G_D^-1 G_I] (in pivot order), c0_I = 0, G_D c0_D = -gddot0;
+ * (T^T M T) a = T^T (f - M c0).  T^T M T is factored as L D L^T; a pivot below MBS_LOOP_MASS_TOL times the
+ * largest diagonal entry is a motion without inertia (a massless part spinning about its own axis) whose
+ * acceleration is set to 0.  M may be singular (massless parts): only T^T M T must be definite on the motions
+ * that carry mass.
+ *
+ * The integrated state drifts off the constraints by the integration error (the derivative of its distance
+ * from x_c is zero, not negative).  Compiling with -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds
+ * k (x_c - x) to x', which leaves the motion on the constraints unchanged and pulls the drift back; the driver
+ * stores mbs_project(x) at output points either way.
+ */
+#include <math.h>
+#include <string.h>
+
+#if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK)
+#error "loops.c needs a model with loops: MBS_NC, MBS_NQUAT, MBS_TREE_NWORK, MBS_LOOP_NWORK"
+#endif
+
+/* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
+#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 2 * MBS_NC * MBS_NV + 4 * MBS_NC + 3 * (MBS_NQ + MBS_NV) \
+                               + 8 * MBS_NV + MBS_NQ + 16)
+#if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
+#error "MBS_NWORK is too small for the loop solver"
+#endif
+
+/* Newton tolerance on max |g| [m or rad]: absolute, since angle coordinates grow without bound. */
+#define MBS_LOOP_TOL 1e-12
+/* Below this residual an iteration (with a fresh Jacobian) that no longer halves it has reached the round-off
+ * floor (positions far from the origin): converged. */
+#define MBS_LOOP_FLOOR 1e-9
+/* Iteration cap of the position projection (a converging Newton run takes 2-5). */
+#define MBS_LOOP_MAXIT 30
+/* Refresh the Jacobian when an iteration reduces the residual by less than this factor. */
+#define MBS_LOOP_SLOW 0.25
+/* Pivots below this fraction of the largest |G_ij| count as zero: rank deficiency (redundant rows or a
+ * bifurcation point); exactly redundant rows leave pivots near 1e-16, genuine ones stay far above. */
+#define MBS_LOOP_RANK_TOL 1e-9
+/* Pivots of T^T M T below this fraction of its largest diagonal entry are motions without inertia. */
+#define MBS_LOOP_MASS_TOL 1e-12
+
+#define MBS_LOOP_SINGULAR 1
+#define MBS_LOOP_NONFINITE 2
+#define MBS_LOOP_NOT_ASSEMBLED 3
+
+#ifndef MBS_LOOP_STABILIZE
+#define MBS_LOOP_STABILIZE 0  /* rate [1/s] at which x' pulls the integrated state onto x_c (0: off) */
+#endif
+
+/* mbs_loop_report: status, Newton iterations, max |g| before and after, worst row (-1: none), rank, DOF,
+ * Jacobian evaluations, then the velocity columns in pivot order (the first `rank` are dependent). */
+#define MBS_LOOP_NREPORT (8 + MBS_NV)
+
+typedef struct {
+    double *tree;               /* MBS_TREE_NWORK: work of the generated functions */
+    double *G;                  /* NC x NV: the constraint Jacobian, then its factors (rows, columns permuted) */
+    double *rp, *cp;            /* NC, NV: original row / column at each pivot position (stored as doubles) */
+    double *xc, *xt;            /* NX each: the projected state, a scratch state for evaluations */
+    double *g, *h, *y;          /* NC each: residuals, g_t or gddot0, solve scratch */
+    double *dv, *f, *c0, *b, *a, *vd;  /* NV each */
+    double *dq;                 /* NQ */
+    double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis */
+} mbs_loop_work;
+
+typedef struct {
+    int status, iterations, worst, rank, jacobians;
+    double residual0, residual;
+} mbs_loop_info;
+
+static mbs_loop_work mbs_loop_layout(double *work)
+{
+    mbs_loop_work w;
+    double *s = work + MBS_TREE_NWORK;
+    w.tree = work;
+    w.G = s; s += MBS_NC * MBS_NV;
+    w.rp = s; s += MBS_NC;
+    w.cp = s; s += MBS_NV;
+    w.xc = s; s += MBS_NX;
+    w.xt = s; s += MBS_NX;
+    w.g = s; s += MBS_NC;
+    w.h = s; s += MBS_NC;
+    w.y = s; s += MBS_NC;
+    w.dv = s; s += MBS_NV;
+    w.f = s; s += MBS_NV;
+    w.c0 = s; s += MBS_NV;
+    w.b = s; s += MBS_NV;
+    w.a = s; s += MBS_NV;
+    w.vd = s; s += MBS_NV;
+    w.dq = s; s += MBS_NQ;
+    w.M = s; s += MBS_NV * MBS_NV;
+    w.A = s; s += MBS_NV * MBS_NV;
+    w.T = s;
+    return w;
+}
+
+static double mbs_loop_maxabs(const double *a, int n, int *where)
+{
+    double m = 0.0;
+    int i;
+    if (where) *where = -1;
+    for (i = 0; i < n; i++) {
+        if (!(fabs(a[i]) <= m)) {  /* NaN wins, so that it is reported */
+            m = fabs(a[i]);
+            if (where) *where = i;
+            if (m != m) return m;
+        }
+    }
+    return m;
+}
+
+/* Unit quaternions in the position part of x. */
+static void mbs_loop_normalize_q(double *x)
+{
+    int k;
+    for (k = 0; k < MBS_NQUAT; k++) {
+        double *e = x + mbs_quaternion_slots[k];
+        double n = sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2] + e[3] * e[3]);
+        if (n > 0.0) { e[0] /= n; e[1] /= n; e[2] /= n; e[3] /= n; }
+    }
+}
+
+/* G (NC x NV) and h = g_t at the positions of x: gdot is affine in v, so column k is gdot(e_k) - gdot(0). */
+static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w)
+{
+    int i, k, s;
+    memcpy(w->xt, x, MBS_NQ * sizeof(double));
+    memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
+    if ((s = mbs_constraint_velocity(t, w->xt, p, w->h, w->tree)) != 0) return s;
+    for (k = 0; k < MBS_NV; k++) {
+        w->xt[MBS_NQ + k] = 1.0;
+        s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree);
+        w->xt[MBS_NQ + k] = 0.0;
+        if (s != 0) return s;
+        for (i = 0; i < MBS_NC; i++) w->G[i * MBS_NV + k] = w->y[i] - w->h[i];
+    }
+    return 0;
+}
+
+/* Gaussian elimination with complete pivoting of G in place (rows and columns physically exchanged; rp, cp
+ * record the original indices).  Returns the rank, or -1 if G is not finite. */
+static int mbs_loop_factor(mbs_loop_work *w)
+{
+    double *A = w->G, amax0 = 0.0;
+    int i, j, k, r = 0;
+    for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
+    for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
+    for (i = 0; i < MBS_NC * MBS_NV; i++) {
+        if (!isfinite(A[i])) return -1;
+        amax0 = fmax(amax0, fabs(A[i]));
+    }
+    for (k = 0; k < MBS_NC && k < MBS_NV; k++) {
+        int pi = k, pj = k;
+        double amax = 0.0, tmp;
+        for (i = k; i < MBS_NC; i++)
+            for (j = k; j < MBS_NV; j++)
+                if (fabs(A[i * MBS_NV + j]) > amax) { amax = fabs(A[i * MBS_NV + j]); pi = i; pj = j; }
+        if (!(amax > MBS_LOOP_RANK_TOL * amax0)) break;
+        if (pi != k) {
+            for (j = 0; j < MBS_NV; j++) {
+                tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
+            }
+            tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+        }
+        if (pj != k) {
+            for (i = 0; i < MBS_NC; i++) {
+                tmp = A[i * MBS_NV + k]; A[i * MBS_NV + k] = A[i * MBS_NV + pj]; A[i * MBS_NV + pj] = tmp;
+            }
+            tmp = w->cp[k]; w->cp[k] = w->cp[pj]; w->cp[pj] = tmp;
+        }
+        for (i = k + 1; i < MBS_NC; i++) {
+            double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
+            A[i * MBS_NV + k] = l;
+            if (l != 0.0)
+                for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+        }
+        r++;
+    }
+    return r;
+}
+
+/* Given the independent entries of z (NV, original column order), set its dependent entries so that the pivot
+ * rows of G z + h vanish: G_D z_D = -(G_I z_I + h) on the r pivot rows.  h may be NULL (zero). */
+static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, double *z)
+{
+    const double *A = w->G;
+    double *y = w->y;
+    int j, k;
+    for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+        double s = h ? -h[(int)w->rp[k]] : 0.0;
+        for (j = 0; j < k; j++) s -= A[k * MBS_NV + j] * y[j];
+        y[k] = s;
+    }
+    for (k = 0; k < r; k++)
+        for (j = r; j < MBS_NV; j++) y[k] -= A[k * MBS_NV + j] * z[(int)w->cp[j]];
+    for (k = r - 1; k >= 0; k--) {  /* U11 z_D = y */
+        double s = y[k];
+        for (j = k + 1; j < r; j++) s -= A[k * MBS_NV + j] * y[j];
+        y[k] = s / A[k * MBS_NV + k];
+    }
+    for (k = 0; k < r; k++) z[(int)w->cp[k]] = y[k];
+}
+
+/* Project the positions of w->xc onto g = 0 (velocities of w->xc untouched as a state, used as scratch). */
+static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, mbs_loop_info *info)
+{
+    double *q = w->xc, res;
+    int s, i, keep = 0;
+    mbs_loop_normalize_q(q);
+    if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+    res = info->residual0 = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
+    while (!(res <= MBS_LOOP_TOL)) {
+        double previous = res;
+        if (!isfinite(res)) return MBS_LOOP_NONFINITE;
+        if (info->iterations >= MBS_LOOP_MAXIT) return MBS_LOOP_NOT_ASSEMBLED;
+        if (!keep) {
+            if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
+            info->jacobians++;
+            if ((info->rank = mbs_loop_factor(w)) < 0) return MBS_LOOP_NONFINITE;
+            if (info->rank == 0) return MBS_LOOP_NOT_ASSEMBLED;
+        }
+        memset(w->dv, 0, MBS_NV * sizeof(double));
+        mbs_loop_solve(w, info->rank, w->g, w->dv);
+        memcpy(w->xt, q, MBS_NQ * sizeof(double));
+        memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
+        if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return s;
+        for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
+        mbs_loop_normalize_q(q);
+        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+        res = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
+        info->iterations++;
+        if (!keep && !(res < 0.5 * previous) && res <= MBS_LOOP_FLOOR) break;  /* round-off floor */
+        /* keep the factors while they converge fast (simplified Newton), refresh them when they do not */
+        keep = res <= MBS_LOOP_SLOW * previous;
+    }
+    return 0;
+}
+
+/* w->xc = x projected onto the position and velocity constraints; leaves G factored at the projected
+ * positions with info->rank pivots (the partition) and h = g_t there. */
+static int mbs_loop_project_state(double t, const double *x, const double *p, mbs_loop_work *w,
+                                  mbs_loop_info *info)
+{
+    int s, j;
+    memset(info, 0, sizeof *info);
+    info->worst = -1;
+    for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
+    memcpy(w->xc, x, MBS_NX * sizeof(double));
+    s = mbs_loop_positions(t, p, w, info);
+    if (s == 0) {
+        s = mbs_loop_jacobian_at(t, w->xc, p, w);
+        info->jacobians++;
+        if (s == 0 && (info->rank = mbs_loop_factor(w)) < 0) s = MBS_LOOP_NONFINITE;
+    }
+    if (s == 0)  /* keep v_I, solve G_D v_D = -(G_I v_I + g_t) */
+        mbs_loop_solve(w, info->rank, w->h, w->xc + MBS_NQ);
+    info->status = s;
+    return s;
+}
+
+/* vdot at the projected state w->xc (after mbs_loop_project_state) into w->vd. */
+static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int r)
+{
+    const int m = MBS_NV - r;
+    double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
+    int i, j, k, s;
+    if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+    s = mbs_mass_matrix(t, w->xc, p, M, w->tree);  /* status 1 (M singular with massless parts) is no error */
+    if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
+    if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
+    /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
+    for (j = 0; j < m; j++) {
+        memset(w->dv, 0, MBS_NV * sizeof(double));
+        w->dv[(int)w->cp[r + j]] = 1.0;
+        mbs_loop_solve(w, r, NULL, w->dv);
+        for (i = 0; i < MBS_NV; i++) T[i * MBS_NV + j] = w->dv[i];
+    }
+    memset(w->c0, 0, MBS_NV * sizeof(double));
+    mbs_loop_solve(w, r, w->h, w->c0);
+    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column */
+    for (i = 0; i < MBS_NV; i++) {
+        double sum = w->f[i];
+        for (k = 0; k < MBS_NV; k++) sum -= M[i * MBS_NV + k] * w->c0[k];
+        w->b[i] = sum;
+    }
+    for (j = 0; j < m; j++) {
+        for (i = 0; i < MBS_NV; i++) {
+            double sum = 0.0;
+            for (k = 0; k < MBS_NV; k++) sum += M[i * MBS_NV + k] * T[k * MBS_NV + j];
+            w->vd[i] = sum;
+        }
+        for (i = j; i < m; i++) {
+            double sum = 0.0;
+            for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + i] * w->vd[k];
+            A[i * MBS_NV + j] = sum;  /* lower triangle */
+        }
+        dmax = fmax(dmax, A[j * MBS_NV + j]);
+    }
+    for (j = 0; j < m; j++) {
+        double sum = 0.0;
+        for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + j] * w->b[k];
+        w->a[j] = sum;
+    }
+    /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
+    for (j = 0; j < m; j++) {
+        double d = A[j * MBS_NV + j];
+        for (k = 0; k < j; k++) d -= A[j * MBS_NV + k] * A[j * MBS_NV + k] * A[k * MBS_NV + k];
+        if (!isfinite(d)) return MBS_LOOP_NONFINITE;
+        if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
+        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
+            A[j * MBS_NV + j] = 0.0;
+            for (i = j + 1; i < m; i++) A[i * MBS_NV + j] = 0.0;
+            continue;
+        }
+        A[j * MBS_NV + j] = d;
+        for (i = j + 1; i < m; i++) {
+            double sum = A[i * MBS_NV + j];
+            for (k = 0; k < j; k++) sum -= A[i * MBS_NV + k] * A[j * MBS_NV + k] * A[k * MBS_NV + k];
+            A[i * MBS_NV + j] = sum / d;
+        }
+    }
+    for (j = 0; j < m; j++)
+        for (k = 0; k < j; k++) w->a[j] -= A[j * MBS_NV + k] * w->a[k];
+    for (j = 0; j < m; j++) w->a[j] = A[j * MBS_NV + j] > 0.0 ? w->a[j] / A[j * MBS_NV + j] : 0.0;
+    for (j = m - 1; j >= 0; j--)
+        for (k = j + 1; k < m; k++) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
+    /* vdot = T a + c0 */
+    for (i = 0; i < MBS_NV; i++) {
+        double sum = w->c0[i];
+        for (j = 0; j < m; j++) sum += T[i * MBS_NV + j] * w->a[j];
+        w->vd[i] = sum;
+    }
+    return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+
+/* ---- the functions of the model table (exported: a standalone library offers them too) ------------- */
+
+int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int s = mbs_loop_project_state(t, x, p, &w, &info);
+    if (s == 0) s = mbs_loop_accelerations(t, p, &w, info.rank);
+    if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
+    if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    if (s == 0 && MBS_LOOP_STABILIZE > 0) {
+        int i;
+        for (i = 0; i < MBS_NX; i++) xdot[i] += MBS_LOOP_STABILIZE * (w.xc[i] - x[i]);
+    }
+    return s;
+}
+
+int mbs_project(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int s = mbs_loop_project_state(t, x, p, &w, &info);
+    memcpy(out, w.xc, MBS_NX * sizeof(double));
+    return s;
+}
+
+int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    const double *A = w.G;
+    int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, &info);
+    if (s == 0) s = mbs_loop_accelerations(t, p, &w, info.rank);
+    if (s != 0) return s;
+    r = info.rank;
+    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
+    for (k = 0; k < r; k++) {
+        int c = (int)w.cp[k];
+        double sum = -w.f[c];
+        for (j = 0; j < MBS_NV; j++) sum += w.M[c * MBS_NV + j] * w.vd[j];
+        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w.y[j];  /* U11^T y = b */
+        w.y[k] = sum / A[k * MBS_NV + k];
+    }
+    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
+        for (i = k + 1; i < r; i++) w.y[k] -= A[i * MBS_NV + k] * w.y[i];
+    memset(lambda, 0, MBS_NC * sizeof(double));
+    for (k = 0; k < r; k++) lambda[(int)w.rp[k]] = w.y[k];
+    return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+
+int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    int s = mbs_loop_jacobian_at(t, x, p, &w);
+    memcpy(G, w.G, MBS_NC * MBS_NV * sizeof(double));
+    return s;
+}
+
+int mbs_loop_normalize(double t, const double *x, const double *p, double *out, double *work)
+{
+    (void)t; (void)p; (void)work;
+    memcpy(out, x, MBS_NX * sizeof(double));
+    mbs_loop_normalize_q(out);
+    return 0;
+}
+
+int mbs_loop_report(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int j;
+    mbs_loop_project_state(t, x, p, &w, &info);
+    out[0] = info.status;
+    out[1] = info.iterations;
+    out[2] = info.residual0;
+    out[3] = info.residual;
+    out[4] = info.worst;
+    out[5] = info.rank;
+    out[6] = MBS_NV - info.rank;
+    out[7] = info.jacobians;
+    for (j = 0; j < MBS_NV; j++) out[8 + j] = w.cp[j];
+    return 0;
+}
