@@ -20,6 +20,7 @@ from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
 from mbs.runtime import build as _build
 from mbs.runtime.assembly import assemble
+from mbs.runtime.equilibrium import static_equilibrium
 from mbs.runtime.model import CompiledModel, load_c, load_numpy
 from mbs.runtime.results import Results
 from mbs.runtime.simulate import simulate as _simulate
@@ -89,6 +90,8 @@ class System:
             spans = {c.name: c.span for c in gen.lowered.topology.cuts}
             data.x = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen),
                               row_names=gen.constraints.names, spans=spans).x
+        if sc is not None and sc.start == "equilibrium" and x0 is None:
+            data.x = static_equilibrium(compiled, data, data.x).x
         settings = _settings(sc, t_end, sample, integrator, rtol, atol)
         if t_eval is not None:
             settings.pop("sample", None)

@@ -1,0 +1,77 @@
+"""Static equilibrium: the configuration in which the system rests under gravity and its static forces.
+
+Found by kinetic damping (dynamic relaxation, as in form-finding of structures): integrate from rest and,
+whenever the kinetic energy passes a maximum, stop every velocity. The system then slides down into the
+nearest minimum of its potential energy without any change to the model, and the constraints of closed
+loops stay satisfied because the compiled right-hand side projects onto them. It needs no Jacobian, which
+matters where coordinate partitions switch and a Newton step on all coordinates would leave the manifold.
+Prescribed motions are frozen at their values at t.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+from .integrators import get_integrator
+from .model import CompiledModel
+from .workspace import Workspace
+
+ACCELERATION_TOLERANCE = 1e-6  # m/s^2 or rad/s^2: what "at rest" means
+MAX_STEPS = 200_000            # integrator steps before giving up
+
+
+@dataclass(frozen=True)
+class Equilibrium:
+    x: np.ndarray      # (nx,) the equilibrium configuration with zero velocities
+    residual: float    # max |vdot| there [m/s^2, rad/s^2]
+    steps: int
+    resets: int        # how often the velocities were stopped
+    worst: str         # the velocity with the largest remaining acceleration
+
+
+def _acceleration(data: Workspace, t: float, x: np.ndarray, nq: int) -> np.ndarray:
+    return data.rhs(t, x)[nq:]
+
+
+def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t: float = 0.0) -> Equilibrium:
+    nq = model.nq
+    x = np.array(x0, dtype=float)
+    x[nq:] = 0.0
+    frozen = lambda _t, y: data.rhs(t, y)  # noqa: E731  (prescribed motions held at time t)
+    solver = get_integrator("RK45")  # driven from Python: this is set-up, not the hot path
+    steps = resets = 0
+    while steps < MAX_STEPS:
+        acc = np.abs(_acceleration(data, t, x, nq))
+        if acc.max() <= ACCELERATION_TOLERANCE:
+            break
+        ode = solver(frozen, 0.0, x, 1e9, rtol=1e-9, atol=1e-12)
+        energy = previous = _kinetic_energy(data, t, x, nq)
+        while steps < MAX_STEPS:
+            ode.step()
+            steps += 1
+            if ode.status != "running":
+                raise MbsError([Diagnostic("error", f"static equilibrium: {ode.message}", None)])
+            energy = _kinetic_energy(data, t, ode.y, nq)
+            if energy < previous:  # past the peak: stop everything and start again from rest
+                break
+            previous = energy
+        x = np.array(ode.y)
+        x[nq:] = 0.0
+        if "project" in model.functions:
+            x = data.project(t, x)
+        resets += 1
+    acc = np.abs(_acceleration(data, t, x, nq))
+    worst = model.v_names[int(np.argmax(acc))] if acc.size else ""
+    if acc.size and acc.max() > ACCELERATION_TOLERANCE:
+        raise MbsError([Diagnostic("error", f"no static equilibrium found after {steps} steps: the acceleration of "
+                                            f"'{worst}' is still {acc.max():.3g} (is a part free to fall?)", None)])
+    return Equilibrium(x, float(acc.max()) if acc.size else 0.0, steps, resets, worst)
+
+
+def _kinetic_energy(data: Workspace, t: float, x: np.ndarray, nq: int) -> float:
+    v = x[nq:]
+    return 0.5 * float(v @ data.mass_matrix(t, x) @ v)
