@@ -315,3 +315,31 @@ class Info:
 
 
 COMMANDS.update({"simulate": Simulate, "compile": Compile, "eom": Eom, "info": Info})
+
+
+class Equilibrium:
+    help = "find the static equilibrium of a model (it settles on its springs) and report it"
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+        p.add_argument("--scene", help="scene whose parameters and outputs to use")
+        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+
+    @staticmethod
+    def run(args) -> int:
+        import mbs
+        system = mbs.load(args.file, args.model)
+        params = dict(_parse_param(text, system.model) for text in args.param)
+        result, outputs = system.equilibrium(args.scene, params=params)
+        compiled = system.compile(args.scene)
+        print(f"{system.model.name}: static equilibrium, max |acceleration| {result.residual:.3g} "
+              f"({result.steps} relaxation steps, {result.resets} restarts)")
+        for name, value in zip(compiled.q_names, result.x[:compiled.nq]):
+            print(f"  {name:32s} {value: .9g}")
+        for name, value in outputs.items():
+            print(f"  {name:32s} {value: .9g}  (output)")
+        return 0
+
+
+COMMANDS["equilibrium"] = Equilibrium

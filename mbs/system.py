@@ -83,20 +83,41 @@ class System:
         overrides = pipeline.scene_overrides(sc)
         overrides.update(params or {})
         values = pipeline.parameter_values(self.model, overrides)
-        data = Workspace(compiled)
-        data.p = [values[n] for n in compiled.p_names]
-        data.x = pipeline.initial_state(gen, values) if x0 is None else np.asarray(x0, dtype=float)
-        if gen.constraints is not None and x0 is None:  # closed loops: a consistent start near the inits
-            spans = {c.name: c.span for c in gen.lowered.topology.cuts}
-            data.x = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen),
-                              row_names=gen.constraints.names, spans=spans).x
-        if sc is not None and sc.start == "equilibrium" and x0 is None:
+        data = self._workspace(compiled, gen, values)
+        if x0 is not None:
+            data.x = np.asarray(x0, dtype=float)
+        elif sc is not None and sc.start == "equilibrium":
             data.x = static_equilibrium(compiled, data, data.x).x
         settings = _settings(sc, t_end, sample, integrator, rtol, atol)
         if t_eval is not None:
             settings.pop("sample", None)
         return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
                          **settings, **options)
+
+
+    @staticmethod
+    def _workspace(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]) -> Workspace:
+        """A workspace with the parameters set and the initial state (closed loops assembled near the inits)."""
+        data = Workspace(compiled)
+        data.p = [values[n] for n in compiled.p_names]
+        data.x = pipeline.initial_state(gen, values)
+        if gen.constraints is not None:
+            spans = {c.name: c.span for c in gen.lowered.topology.cuts}
+            data.x = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen),
+                              row_names=gen.constraints.names, spans=spans).x
+        return data
+
+    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+        """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""
+        sc = self.scene(scene)
+        compiled, gen = self.compile(scene), self.generate(scene)
+        overrides = pipeline.scene_overrides(sc)
+        overrides.update(params or {})
+        values = pipeline.parameter_values(self.model, overrides)
+        data = self._workspace(compiled, gen, values)
+        result = static_equilibrium(compiled, data, data.x)
+        outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
+        return result, outputs
 
 
 def _numpy_module(gen: pipeline.Generated):

@@ -129,3 +129,9 @@ def test_wheel_jumping_over_a_bump_on_the_library_tyre_never_pulls():
     assert min(res["tyre.deflection"]) < 0          # it did lift off
     assert min(res["load"]) >= 0.0                   # and the tyre never pulled it down
     assert max(res["load"]) > 50 * 9.81             # landing and climbing load the tyre above the weight
+
+
+def test_cli_equilibrium_reports_the_resting_state(capsys):
+    assert main(["equilibrium", "library/iltis/quarter_car.mbs", "--scene", "settle"]) == 0
+    out = capsys.readouterr().out
+    assert "static equilibrium" in out and "tyre.radial.load" in out
