@@ -5,7 +5,8 @@ whenever the kinetic energy passes a maximum, stop every velocity. The system th
 nearest minimum of its potential energy without any change to the model, and the constraints of closed
 loops stay satisfied because the compiled right-hand side projects onto them. It needs no Jacobian, which
 matters where coordinate partitions switch and a Newton step on all coordinates would leave the manifold.
-Prescribed motions are frozen at their values at t.
+Prescribed motions are frozen at their values at t. The velocities of x0 are put back at the end, so a
+vehicle cruising at constant speed starts on its springs at that speed.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ MAX_STEPS = 200_000            # integrator steps before giving up
 
 @dataclass(frozen=True)
 class Equilibrium:
-    x: np.ndarray      # (nx,) the equilibrium configuration with zero velocities
+    x: np.ndarray      # (nx,) the equilibrium configuration, with the velocities given in x0
     residual: float    # max |vdot| there [m/s^2, rad/s^2]
     steps: int
     resets: int        # how often the velocities were stopped
@@ -66,6 +67,10 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
         resets += 1
     acc = np.abs(_acceleration(data, t, x, nq))
     worst = model.v_names[int(np.argmax(acc))] if acc.size else ""
+    # the run starts from here with the velocities it was given (a vehicle cruising at its speed)
+    x[nq:] = np.asarray(x0, dtype=float)[nq:]
+    if "project" in model.functions:
+        x = data.project(t, x)
     if acc.size and acc.max() > ACCELERATION_TOLERANCE:
         raise MbsError([Diagnostic("error", f"no static equilibrium found after {steps} steps: the acceleration of "
                                             f"'{worst}' is still {acc.max():.3g} (is a part free to fall?)", None)])
