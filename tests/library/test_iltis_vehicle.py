@@ -1,0 +1,43 @@
+"""The full Iltis vehicle of the library: static sums, symmetry over the in-phase bump, lift-off at 10 m/s."""
+
+import numpy as np
+import pytest
+
+import mbs
+
+G = 9.81
+
+
+@pytest.fixture(scope="module")
+def vehicle():
+    return mbs.load("library/iltis/vehicle.mbs")
+
+
+def total_weight(system) -> float:
+    p = {x.name: x.value for x in system.model.parameters}
+    corner = sum(p[f"fl.{m}"] for m in ("m_leaf", "m_arm", "m_carrier", "m_rod", "m_wheel"))
+    return G * (p["m_body"] + 4 * corner)
+
+
+TYRES = ("tyre_fl", "tyre_fr", "tyre_rl", "tyre_rr")
+
+
+def test_static_tyre_forces_add_up_to_the_weight(vehicle):
+    result, outputs = vehicle.equilibrium("bump_5")
+    res = vehicle.simulate("bump_5", t_end=0.005)
+    loads = {t: res[f"{t}.radial.load"][0] for t in ("tyre_fl", "tyre_rl")}
+    # left and right carry the same (symmetry), so the four loads are twice the left ones
+    total = 2 * (loads["tyre_fl"] + loads["tyre_rl"])
+    assert total == pytest.approx(total_weight(vehicle), rel=1e-6)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene, lifts_off", [("bump_5", False), ("bump_10", True)])
+def test_in_phase_bump_stays_symmetric_and_tyres_never_pull(vehicle, scene, lifts_off):
+    res = vehicle.simulate(scene)
+    assert res.success, res.message
+    assert np.max(np.abs(res["roll"])) < 1e-9
+    loads = np.concatenate([res[f"{t}.radial.load"] for t in ("tyre_fl", "tyre_rl")])
+    assert loads.min() >= 0.0
+    assert (loads.min() == 0.0) == lifts_off
+    assert np.ptp(res["heave"]) > 0.1  # it did go over the 0.2 m bump
