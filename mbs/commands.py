@@ -343,3 +343,33 @@ class Equilibrium:
 
 
 COMMANDS["equilibrium"] = Equilibrium
+
+
+class Linearize:
+    help = "linearise a model about its static equilibrium: natural frequencies, damping ratios, mode shapes"
+
+    @staticmethod
+    def arguments(p):
+        _model_args(p)
+        p.add_argument("--scene", help="scene whose parameters to use")
+        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                       help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+        p.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
+                       help="linearise about the static equilibrium (default) or the initial state")
+
+    @staticmethod
+    def run(args) -> int:
+        import mbs
+        system = mbs.load(args.file, args.model)
+        params = dict(_parse_param(text, system.model) for text in args.param)
+        lin = system.linearize(args.scene, params=params, at=args.at)
+        head = f"{system.model.name}" + (f" / scene {args.scene}" if args.scene else "")
+        print(f"{head}: linearised about the {'static equilibrium' if args.at == 'equilibrium' else 'initial state'}"
+              f", {lin.dof} degree{'s' if lin.dof != 1 else ''} of freedom")
+        print(lin.table())
+        if lin.dof:
+            print("undamped natural frequencies [Hz]: " + ", ".join(f"{f:.5g}" for f in lin.undamped_frequencies))
+        return 0
+
+
+COMMANDS["linearize"] = Linearize

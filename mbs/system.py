@@ -119,6 +119,35 @@ class System:
         outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
         return result, outputs
 
+    def linearize(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
+                  at="equilibrium", t: float = 0.0):
+        """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes) about the static
+        equilibrium at rest (at="equilibrium"; modes are only defined about a state that stays put, so the
+        initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
+        array [q; v])."""
+        from mbs.runtime.linearize import linearize as _linearize
+        sc = self.scene(scene)
+        compiled, gen = self.compile(scene), self.generate(scene)
+        overrides = pipeline.scene_overrides(sc)
+        overrides.update(params or {})
+        values = pipeline.parameter_values(self.model, overrides)
+        data = self._workspace(compiled, gen, values)
+        if isinstance(at, str):
+            if at == "equilibrium":  # at rest: the scene's initial speeds (a car cruising) are not kept
+                x = static_equilibrium(compiled, data, data.x, t).x
+                x[compiled.nq:] = 0.0
+            elif at == "initial":
+                x = data.x.copy()
+            else:
+                raise MbsError([Diagnostic("error", f"linearize at '{at}': expected 'equilibrium', 'initial' or "
+                                                    "a state vector", None)])
+        else:
+            x = np.asarray(at, dtype=float)
+            if x.shape != (compiled.nx,):
+                raise MbsError([Diagnostic("error", f"linearize: the state needs {compiled.nx} values "
+                                                    f"({', '.join(compiled.x_names)}), got shape {x.shape}", None)])
+        return _linearize(compiled, data, t, x)
+
 
 def _numpy_module(gen: pipeline.Generated):
     """Load the generated NumPy source as a module (text we generated from sympy, never model text)."""

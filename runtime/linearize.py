@@ -1,0 +1,215 @@
+"""Linearisation of a compiled model about a state: Jacobians, eigenvalues, natural frequencies, mode shapes.
+
+    lin = linearize(model, data, t, x)           # x typically the static equilibrium
+    lin.frequencies, lin.damping_ratios, lin.modes[0].dominant(3), lin.undamped_frequencies
+
+Why reduced coordinates. The state x = [q; v] is the spanning tree's; with closed loops the right-hand side
+first projects x onto the constraints, so d(xdot)/dx has one spurious zero eigenvalue per constraint row and
+coordinate (the directions that the projection throws away), and with quaternions q has one coordinate more
+per quaternion than there are rotations. Neither is a physical mode. So the modes are computed in local
+coordinates of the constraint manifold: with E(q) the nq x nv matrix of qdot(q, v) = E(q) v and N an
+orthonormal basis of the null space of the constraint Jacobian G(q) (nc x nv; N = I without loops),
+
+    x(a, b) = [ normalize(q0 + E0 N a) ;  v0 + N b ]           a, b in R^dof,
+
+and the reduced rates are a' = N^T E0^+ q',  b' = N^T v'. The chart is the identity to first order in
+the tangent space (the projection inside the rhs and the renormalisation of quaternions only move x by second
+order terms, which cancel in central differences), so A_red = d(a', b')/d(a, b) at 0 has exactly 2 dof
+eigenvalues, the mechanism's. Its eigenvalues do not depend on the (metric) choice of N.
+
+Steps (central differences, truncation error ~ h^2 f''' / 6, round-off ~ eps |f| / h): h = STEP = 1e-6 in the
+units of each state (m, rad, m/s, rad/s), scaled by max(1, |x_i|) for the full-state Jacobian. The textbook
+optimum for exact arithmetic is eps^(1/3) ~ 6e-6 relative; we go a little below it because the noise that
+matters is not eps but the loop projection's Newton tolerance (MBS_LOOP_TOL = 1e-12 m or rad), which gives an
+error ~ 1e-12 / h ~ 1e-6 relative to a stiffness entry, while the nonlinearities near an equilibrium (tyre
+deflection, spring end stops, damper polynomials) have length scales of millimetres, so truncation stays below
+(1e-6 / 1e-3)^2 = 1e-6 relative. Kinks (a unilateral tyre exactly at lift-off, an end stop exactly at its
+break) have no derivative; there the result is the mean of the two one-sided slopes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import UsageError
+from .model import CompiledModel
+from .workspace import Workspace, check_workspace
+
+#: Finite-difference step in state units (see the module docstring for why).
+STEP = 1e-6
+#: Singular values of G below this fraction of the largest count as zero: redundant constraint rows
+#: (the assembly's RCOND; the C loop solver uses 1e-9 on pivots).
+RCOND = 1e-10
+#: Eigenvalues with |lambda| below this [1/s] are rigid-body motions (zero frequency): at most a drift
+#: of 1e-7 rad/s, below what the finite differences resolve on stiffnesses of vehicle size.
+ZERO_EIGENVALUE = 1e-7
+#: omega^2 of the stiffness part within this fraction of the largest of zero: a rigid-body motion (0 Hz),
+#: not an instability (the finite differences leave ~1e-9 relative noise on a zero stiffness).
+RIGID_STIFFNESS = 1e-9
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One eigenvalue and its shape, by coordinate.
+
+    eigenvalue [1/s]; frequency: undamped natural frequency |lambda| / (2 pi) [Hz]; damping_ratio:
+    -Re(lambda) / |lambda| (1 for a real decaying eigenvalue, negative when unstable, 0 for a rigid-body
+    motion); oscillatory: a complex pair (reported once, Im > 0); shape: {coordinate: complex amplitude} of
+    the position part in velocity coordinates (for a coordinate 'j.phi' the name 'j.phi', for a quaternion
+    the rotation components 'j.wx'...), scaled so the largest has modulus 1."""
+
+    eigenvalue: complex
+    frequency: float
+    damping_ratio: float
+    oscillatory: bool
+    shape: dict
+
+    def dominant(self, n: int = 3, threshold: float = 0.1) -> list[tuple[str, float]]:
+        """The n coordinates with the largest amplitudes (at least `threshold` of the largest)."""
+        ranked = sorted(((name, abs(a)) for name, a in self.shape.items()), key=lambda p: -p[1])
+        return [(name, amp) for name, amp in ranked[:n] if amp >= threshold]
+
+
+@dataclass(frozen=True)
+class Linearization:
+    """The linear model about (t, x).
+
+    A: (nx, nx) d(xdot)/dx of the right-hand side as it is (with the spurious directions of loops and
+    quaternions); A_reduced: (2 dof, 2 dof) in the manifold coordinates (a, b) of the module docstring;
+    basis: (nv, dof) N; E: (nq, nv) qdot(q, v) = E v at x; modes: physical modes, oscillatory pairs once,
+    sorted by frequency; eigenvalues: all 2 dof eigenvalues of A_reduced; undamped_frequencies [Hz]: from
+    the stiffness part alone, sqrt(eig(-A_ab A_ba)) / (2 pi), ascending (NaN where negative: unstable)."""
+
+    t: float
+    x: np.ndarray
+    A: np.ndarray
+    A_reduced: np.ndarray
+    basis: np.ndarray
+    E: np.ndarray
+    eigenvalues: np.ndarray
+    modes: tuple
+    undamped_frequencies: np.ndarray
+    coordinate_names: tuple
+    dof: int
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        return np.array([m.frequency for m in self.modes])
+
+    @property
+    def damping_ratios(self) -> np.ndarray:
+        return np.array([m.damping_ratio for m in self.modes])
+
+    def table(self) -> str:
+        """The modes as a text table: frequency, damping ratio, eigenvalue, dominant coordinates."""
+        lines = [f"{'mode':>4}  {'f [Hz]':>10}  {'damping':>9}  {'eigenvalue [1/s]':>24}  dominant coordinates"]
+        for i, m in enumerate(self.modes, 1):
+            lam = m.eigenvalue
+            ev = f"{lam.real:.5g} {'+' if lam.imag >= 0 else '-'} {abs(lam.imag):.5g}j" if m.oscillatory \
+                else f"{lam.real:.5g}"
+            dom = ", ".join(f"{name} {amp:.2f}" for name, amp in m.dominant())
+            lines.append(f"{i:>4}  {m.frequency:>10.5g}  {m.damping_ratio:>9.4g}  {ev:>24}  {dom}")
+        return "\n".join(lines)
+
+
+def position_names(v_names) -> tuple[str, ...]:
+    """Names of position increments in velocity coordinates: 'der(j.phi)' -> 'j.phi', 'j.wx' stays."""
+    return tuple(n[4:-1] if n.startswith("der(") and n.endswith(")") else n for n in v_names)
+
+
+def jacobian(data: Workspace, t: float, x, step: float = STEP) -> np.ndarray:
+    """d(rhs)/dx at (t, x) by central differences, step h_i = step * max(1, |x_i|)."""
+    x = np.array(x, dtype=float)
+    n = x.size
+    A = np.empty((n, n))
+    for i in range(n):
+        h = step * max(1.0, abs(x[i]))
+        xp, xm = x.copy(), x.copy()
+        xp[i] += h
+        xm[i] -= h
+        A[:, i] = (data.rhs(t, xp) - data.rhs(t, xm)) / (2 * h)
+    return A
+
+
+def _qdot_matrix(data: Workspace, t: float, x: np.ndarray, nq: int, nv: int) -> np.ndarray:
+    """E with qdot = E(q) v (qdot is linear in v): column k is qdot(q, e_k)."""
+    E = np.empty((nq, nv))
+    probe = x.copy()
+    for k in range(nv):
+        probe[nq:] = 0.0
+        probe[nq + k] = 1.0
+        E[:, k] = data.qdot(t, probe)
+    return E
+
+
+def _null_space(data: Workspace, t: float, x: np.ndarray, nv: int) -> np.ndarray:
+    if "constraint_jacobian" not in data.model.functions:
+        return np.eye(nv)
+    G = data.constraint_jacobian(t, x)
+    if G.size == 0:
+        return np.eye(nv)
+    _, s, vt = np.linalg.svd(G)
+    rank = int(np.sum(s > RCOND * s[0])) if s.size and s[0] > 0 else 0
+    return vt[rank:].T.copy()
+
+
+def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = STEP) -> Linearization:
+    """The linear model of `model` with the parameters in `data` about (t, x); prescribed motions are taken
+    at time t and held (their rates enter through the rhs at t)."""
+    check_workspace(model, data)
+    x = np.array(x, dtype=float)
+    if x.shape != (model.nx,):
+        raise UsageError(f"x needs shape ({model.nx},), got {x.shape}")
+    nq, nv = model.nq, model.nv
+    if "normalize" in model.functions:
+        x = data.normalize(t, x)
+    if "project" in model.functions:
+        x = data.project(t, x)
+    E = _qdot_matrix(data, t, x, nq, nv)
+    E_pinv = np.linalg.pinv(E)
+    N = _null_space(data, t, x, nv)
+    dof = N.shape[1]
+
+    def chart(z: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        out[:nq] += E @ (N @ z[:dof])
+        out[nq:] += N @ z[dof:]
+        return data.normalize(t, out) if "normalize" in model.functions else out
+
+    def reduced_rate(z: np.ndarray) -> np.ndarray:
+        xdot = data.rhs(t, chart(z))
+        return np.concatenate([N.T @ (E_pinv @ xdot[:nq]), N.T @ xdot[nq:]])
+
+    A_red = np.empty((2 * dof, 2 * dof))
+    for i in range(2 * dof):
+        z = np.zeros(2 * dof)
+        z[i] = step
+        A_red[:, i] = (reduced_rate(z) - reduced_rate(-z)) / (2 * step)
+    A = jacobian(data, t, x, step)
+
+    eigenvalues, vectors = np.linalg.eig(A_red) if dof else (np.zeros(0, complex), np.zeros((0, 0)))
+    names = position_names(model.v_names)
+    modes = []
+    for lam, vec in zip(eigenvalues, vectors.T):
+        if lam.imag < 0:
+            continue  # the conjugate of a pair is reported once
+        shape = N @ vec[:dof]
+        if np.max(np.abs(shape), initial=0.0) == 0.0:
+            shape = N @ vec[dof:]
+        shape = shape / shape[np.argmax(np.abs(shape))]
+        magnitude = abs(lam)
+        rigid = magnitude < ZERO_EIGENVALUE
+        modes.append(Mode(complex(lam), 0.0 if rigid else magnitude / (2 * np.pi),
+                          0.0 if rigid else -lam.real / magnitude + 0.0, bool(lam.imag > 0),
+                          {n: complex(a) for n, a in zip(names, shape)}))
+    modes.sort(key=lambda m: (m.frequency, -m.damping_ratio))
+
+    # stiffness part only: a' = A_ab b (+ A_aa a, zero at rest), b' = A_ba a + A_bb b; drop A_bb (damping)
+    # and A_aa: a'' = A_ab A_ba a, so omega^2 are the eigenvalues of -A_ab A_ba
+    A_ab, A_ba = A_red[:dof, dof:], A_red[dof:, :dof]
+    w2 = np.sort(np.linalg.eigvals(-A_ab @ A_ba).real) if dof else np.zeros(0)
+    floor = RIGID_STIFFNESS * np.max(np.abs(w2), initial=0.0)  # rigid-body motions: zero up to round-off
+    undamped = np.where(w2 >= -floor, np.sqrt(np.clip(w2, 0.0, None)), np.nan) / (2 * np.pi)
+    return Linearization(float(t), x, A, A_red, N, E, eigenvalues, tuple(modes), undamped, names, dof)
