@@ -35,6 +35,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_UNARY, CodegenError, ExprPrinte
                           printable, table_slopes)
 from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
 from .equations import Equations
+from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
 GENERATOR = "mbs.compiler.ccode"
 c_identifier = identifier  # the old name
@@ -97,15 +98,16 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None):
+                 constraints=None, run_time_inputs=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        self.run_time_inputs = tuple(run_time_inputs)
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints)
-        self.naming = Naming(equations, self.parameters)
+        check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints, self.run_time_inputs)
+        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
         self.names = self.naming.names
 
     # ---- the file ---------------------------------------------------------------------------------------------
@@ -214,18 +216,44 @@ class CEmitter:
 
     def _work(self) -> int:
         tree = self.eqs.tree
-        loops = loop_work_size(tree.nq, tree.nv, self.constraints.nc) if self.constraints is not None else 0
-        return tree.nv * tree.nv + loops
+        nc = self.constraints.nc if self.constraints is not None else 0
+        loops = loop_work_size(tree.nq, tree.nv, nc) if nc else 0
+        return tree.nv * tree.nv + loops + self._output_scratch()
+
+    def _output_scratch(self) -> int:
+        """Doubles at the start of work in which the output function keeps x' and the multipliers."""
+        if not self.run_time_inputs:
+            return 0
+        return self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
+
+    def _run_time_prologue(self, r: Routine) -> list[str]:
+        """Lines that evaluate the accelerations (and multipliers) the function reads, before it reads them."""
+        arrays = {array for _, _, array, _ in r.reads}
+        if not arrays & {ACCELERATION_ARRAY, MULTIPLIER_ARRAY}:
+            return []
+        scratch = self._output_scratch()
+        lines = ["    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */",
+                 f"    const double *const {ACCELERATION_ARRAY} = work + MBS_NQ;"]
+        if self.constraints is None:
+            lines += [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
+        else:
+            lines += [f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;",
+                      f"    int mbs_status = mbs_loop_rhs(t, x, p, work, work + {scratch});",
+                      "    if (mbs_status == 0)",
+                      f"        mbs_status = mbs_loop_multipliers(t, x, p, work + MBS_NX, work + {scratch});"]
+        return lines + ["    if (mbs_status != 0)", "        return mbs_status;"]
 
     def _function(self, r: Routine) -> str:
         out, size = r.out, _SIZE_MACROS.get(r.out) or str(math.prod(r.shape))
         lines = [f"/* {_comment(r.doc)} */",
                  f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{"]
+        prologue = self._run_time_prologue(r)
+        lines += prologue
         for s, cname, array, index in r.reads:
             lines.append(f"    const double {cname} = {array}[{index}];   /* {_comment(s.name)} */")
-        unused = [arg for arg, present in (("t", r.uses_t), ("x", any(a == "x" for *_, a, _ in r.reads)),
-                                           ("p", any(a == "p" for *_, a, _ in r.reads)),
-                                           ("work", r.check_positive)) if not present]
+        reads = {a for *_, a, _ in r.reads}
+        unused = [arg for arg, present in (("t", r.uses_t), ("x", "x" in reads), ("p", "p" in reads),
+                                           ("work", r.check_positive)) if not (present or prologue)]
         if unused:
             lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
         section = None
@@ -294,12 +322,15 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None) -> str:
+               constraints=None, run_time_inputs=()) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
     outputs: (name, sympy expression on the equations' tape) pairs, e.g. `Lowered.outputs`; none: no MBS_NY.
     tables: the lookup tables the expressions call as mbs_table_k (`Lowered.tables` or its `.tables` list).
-    origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment."""
+    origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment.
+    run_time_inputs: (symbol, array, index) of the accelerations and multipliers the outputs read
+    (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
-                    inline_max_chars=inline_max_chars, constraints=constraints).source()
+                    inline_max_chars=inline_max_chars, constraints=constraints,
+                    run_time_inputs=run_time_inputs).source()

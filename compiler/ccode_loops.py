@@ -72,8 +72,10 @@ def loop_definitions(constraints: Constraints) -> str:
         f"static const int mbs_quaternion_slots[{max(len(slots), 1)}] = "
         f"{{{', '.join(str(s) for s in slots) or '-1'}}};",
         "",
-        "/* The constrained right-hand side, defined by the run-time loop solver compiled after this file. */",
+        "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",
+        " * after this file. */",
         "int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
+        "int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work);",
         ""])
 
 

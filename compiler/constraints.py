@@ -70,6 +70,17 @@ class CutJoint:
 
 
 @dataclass(frozen=True)
+class RowLoad:
+    """The load of one constraint row per unit multiplier, world components: the force `force` [N] on body B at
+    frame b's origin with the torque `torque` [N*m]; body A takes the opposite force and torque, the force at the
+    same point in space when `a_at_b`, else at frame a's origin."""
+
+    force: tuple
+    torque: tuple
+    a_at_b: bool
+
+
+@dataclass(frozen=True)
 class ConstraintRow:
     """Row k of the constraints: `cut` indexes `Constraints.cuts`; `name` is `<joint>.<label>`."""
 
@@ -227,6 +238,47 @@ class _CutRows:
             return self.rotation() + shift
         return shift + self.tilt(n, u, w)  # cylindrical
 
+    def loads(self) -> list["RowLoad"]:
+        """Per row (in the order of `rows`), the load a unit multiplier exerts: the virtual power of lambda times
+        the row's rate, lambda gdot, split over the bodies. For n_a.e_b the rate is (e_b x n_a).(w_b - w_a): a
+        torque e_b x n_a on B; for u_a.d it is u_a.(v_b - v_a) + w_a.(u_a x d): the force u_a on B at p_b and its
+        opposite on A at the same point in space; for d itself the force on B at p_b, on A at p_a."""
+        kind, axes = self.cut.joint.kind, self.cut.joint.axes
+        eye = sp.eye(3)
+        if kind == "free":
+            return []
+        translation = [RowLoad(tuple(eye[:, k]), ZERO3, False) for k in range(3)]
+        if kind == "spherical":
+            return translation
+        if kind == "fixed":
+            return translation + self.rotation_loads()
+        if kind == "universal":
+            return translation + [self.tilt_load(self.axis_a(axes[0]), axes[1])]
+        if kind == "planar":
+            n = self.axis_a(axes[0])
+            u = axes[1]
+            return [RowLoad(n.value, ZERO3, True)] + [self.tilt_load(n, e) for e in (u, cross(axes[0], u))]
+        u, w = perpendiculars(axes[0])
+        n = self.axis_a(axes[0])
+        tilt = [self.tilt_load(n, u), self.tilt_load(n, w)]
+        if kind == "revolute":
+            return translation + tilt
+        shift = [RowLoad(self.axis_a(e).value, ZERO3, True) for e in (u, w)]
+        if kind == "prismatic":
+            return self.rotation_loads() + shift
+        return shift + tilt  # cylindrical
+
+    def tilt_load(self, n_a: _Jet, e) -> "RowLoad":
+        return RowLoad(ZERO3, cross(self.axis_b(e).value, n_a.value), False)
+
+    def rotation_loads(self) -> list["RowLoad"]:
+        eye = sp.eye(3)
+        a = [self.axis_a(tuple(eye[:, k])).value for k in range(3)]
+        b = [self.axis_b(tuple(eye[:, k])).value for k in range(3)]
+        half = sp.Rational(1, 2)
+        return [RowLoad(ZERO3, tuple(mul(half, add(x, -y)) for x, y in zip(cross(b[j], a[k]), cross(b[k], a[j]))),
+                        False) for j, k in ((1, 2), (2, 0), (0, 1))]
+
     def tilt(self, n_a: _Jet, u, w) -> list:
         """The axis n (fixed in A) stays perpendicular to u and w fixed in B."""
         return [_dot(n_a, self.axis_b(u)), _dot(n_a, self.axis_b(w))]
@@ -243,6 +295,13 @@ def _local(X) -> tuple:
     R, r = X
     R = tuple(tuple(sp.sympify(R[i, j] if hasattr(R, "shape") else R[i][j]) for j in range(3)) for i in range(3))
     return R, tuple(sp.sympify(c) for c in r)
+
+
+def cut_loads(kinematics: Kinematics, cut: CutJoint) -> tuple:
+    """(loads, p_a, p_b): the `RowLoad` of each row of `cut` and the world positions of its frames a and b, on
+    the tape of `kinematics` (for reaction forces: the multipliers times these are the loads of the joint)."""
+    rows = _CutRows(kinematics, cut)
+    return tuple(rows.loads()), rows.pa.value, rows.pb.value
 
 
 def derive_constraints(kinematics: Kinematics, cuts) -> Constraints:
@@ -268,4 +327,5 @@ def derive_constraints(kinematics: Kinematics, cuts) -> Constraints:
     return Constraints(kinematics, tuple(cuts), tuple(rows), tuple(position), tuple(velocity), tuple(acceleration))
 
 
-__all__ = ["ROWS", "CutJoint", "ConstraintRow", "Constraints", "derive_constraints", "perpendiculars"]
+__all__ = ["ROWS", "CutJoint", "ConstraintRow", "Constraints", "RowLoad", "cut_loads", "derive_constraints",
+           "perpendiculars"]

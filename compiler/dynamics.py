@@ -29,40 +29,74 @@ def inverse_dynamics(kin: Kinematics, vdot=None, *, inertial: bool = True, gravi
     inertial: include the velocity products and prescribed accelerations (the vector k);
     gravity, loads: include the weights and the applied loads (the vector q).
     """
+    return _rnea(kin, vdot, inertial=inertial, gravity=gravity, loads=loads, name=name)[0]
+
+
+def transmitted_loads(kin: Kinematics, vdot, extra_wrenches=None) -> tuple:
+    """Per body i, the load (n; f) [N*m, N] its joint transmits from the parent onto body i (body frame, at the
+    body origin), given the actual accelerations `vdot` (state order) and further loads per body (a dict body ->
+    6-vector in the body frame, e.g. the constraint forces of loop-closing joints).
+
+    Newton-Euler for body i reads f_i = I a_i + v x* I v - f_ext_i + sum over its children of f_child: the
+    inward pass of the RNEA with the true accelerations, which is why the reaction of every tree joint costs
+    one pass over the tree. The load includes what the joint transmits along its own free directions (the
+    generalized forces of `force ... = joint(...)` elements and the drive of prescribed coordinates)."""
+    return _rnea(kin, vdot, inertial=True, gravity=True, loads=True, extra=extra_wrenches, name="rx")[1]
+
+
+def body_accelerations(kin: Kinematics, vdot, *, gravity: bool = False, inertial: bool = True,
+                        tag: str = "acc") -> tuple:
+    """Spatial accelerations (omega'; v') of every body, body frame at its origin, for the state accelerations
+    `vdot` (state order, None = 0). With `gravity` the ground accelerates upwards by -g (the RNEA's way of
+    adding the weights); without it these are the true accelerations. Without `inertial` the velocity products
+    and prescribed accelerations are left out (the RNEA's split of M vdot + k)."""
     tree, tape = kin.tree, kin.tape
-    nb = len(tree.bodies)
-    acc, force = [None] * nb, [None] * nb
+    acc = [None] * len(tree.bodies)
     a0 = _ground_acceleration(kin, gravity)
     for i, (body, bk) in enumerate(zip(tree.bodies, kin.bodies)):
         n = i + 1
-        tape.section(f"body {n} ({body.name}): inverse dynamics, outward")
+        tape.section(f"body {n} ({body.name}): acceleration")
         a_p = a0 if body.parent < 0 else acc[body.parent]
-        a = ZERO6 if all(x is ZERO for x in a_p) else motion_to_child(tape, bk.X, a_p, f"ap{n}")
-        terms = [a]
-        if inertial:
-            terms.append(bk.bias)
+        a = ZERO6 if all(x is ZERO for x in a_p) else motion_to_child(tape, bk.X, a_p, f"{tag}p{n}")
+        terms = [a, bk.bias] if inertial else [a]
         if vdot is not None:
             terms += [tuple(mul(x, vdot[tree.v_slots[i][k]]) for x in bk.S[k]) for k in bk.free]
-        acc[i] = tape.vector([add(*(term[j] for term in terms)) for j in range(6)], f"a{n}")
+        acc[i] = tape.vector([add(*(term[j] for term in terms)) for j in range(6)], f"{tag}{n}")
+    return tuple(acc)
+
+
+def _rnea(kin: Kinematics, vdot, *, inertial: bool, gravity: bool, loads: bool, extra=None, name: str) -> tuple:
+    """(tau, transmitted): the joint forces and the per-body loads of the recursive Newton-Euler algorithm."""
+    tree, tape = kin.tree, kin.tape
+    nb = len(tree.bodies)
+    acc = body_accelerations(kin, vdot, gravity=gravity, inertial=inertial, tag="a")
+    force = [None] * nb
+    for i in range(nb):
+        n = i + 1
+        tape.section(f"body {n} ({tree.bodies[i].name}): inverse dynamics, outward")
         inertia = kin.inertia(i)
         parts = [inertia.apply(tape, acc[i], f"Ia{n}")]
         if inertial:
             parts.append(kin.gyroscopic(i))
         if loads:
             parts.append(tuple(-x for x in kin.external_wrench(i)))
+        if extra and i in extra:
+            parts.append(tuple(-x for x in extra[i]))
         force[i] = tape.vector([add(*(p[j] for p in parts)) for j in range(6)], f"f{n}")
     tau = [None] * tree.nv
+    transmitted = [None] * nb
     generalized = kin.generalized_forces() if loads else (ZERO,) * tree.nv
     for i in reversed(range(nb)):
         body, bk = tree.bodies[i], kin.bodies[i]
         tape.section(f"body {i + 1} ({body.name}): inverse dynamics, inward")
+        transmitted[i] = force[i]  # every child (a higher index) has been added
         for k in bk.free:
             slot = tree.v_slots[i][k]
             tau[slot] = tape.temp(add(dot(bk.S[k], force[i]), -generalized[slot]), f"{name}{slot}")
         if body.parent >= 0:
             fp = force_to_parent(tape, bk.X, force[i], f"fp{i + 1}")
             force[body.parent] = sadd(tape, force[body.parent], fp, f"f{body.parent + 1}")
-    return tuple(tau)
+    return tuple(tau), tuple(transmitted)
 
 
 def mass_matrix(kin: Kinematics) -> tuple:

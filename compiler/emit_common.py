@@ -83,9 +83,11 @@ def _safe(name: str) -> str:
 
 class Naming:
     """Identifiers of t, the states, the parameters and every tape temporary (unique among themselves and the
-    reserved names). `inputs` lists (symbol, identifier, array, index) for x and p, in that order."""
+    reserved names). `inputs` lists (symbol, identifier, array, index) for x and p, in that order, then the
+    run-time vectors `run_time_inputs` ((symbol, array, index): accelerations and multipliers, see
+    compiler/reactions.py) that only the output function reads."""
 
-    def __init__(self, equations, parameters):
+    def __init__(self, equations, parameters, run_time_inputs=()):
         tree = equations.tree
         taken = set(RESERVED)
         self.names: dict = {t: "t"}
@@ -94,6 +96,8 @@ class Naming:
             self.inputs.append((s, _claim(identifier(s.name), taken), "x", k))
         for k, s in enumerate(parameters):
             self.inputs.append((s, _claim(identifier(s.name), taken), "p", k))
+        for s, array, k in run_time_inputs:
+            self.inputs.append((s, _claim(identifier(s.name), taken), array, k))
         self.names.update({s: name for s, name, _, _ in self.inputs})
         for entry in equations.tape.entries:
             self.names[entry.symbol] = _claim(_safe(entry.name), taken)
@@ -408,13 +412,13 @@ def equation_routines(equations, outputs) -> list:
     return routines
 
 
-def check_inputs(equations, parameters, outputs, tables, constraints=None) -> None:
+def check_inputs(equations, parameters, outputs, tables, constraints=None, run_time_inputs=()) -> None:
     """CodegenError unless vdot exists, every parameter the results use is in `parameters`, and the tables
     hold finite data with increasing x."""
     if equations.vdot is None and constraints is None:
         raise CodegenError("the equations were derived without forward dynamics; mbs_rhs needs vdot")
     tree = equations.tree
-    states = set(tree.q_symbols) | set(tree.v_symbols) | {t}
+    states = set(tree.q_symbols) | set(tree.v_symbols) | {t} | {s for s, _, _ in run_time_inputs}
     needed = set(equations.parameters()) | (equations.tape.free_symbols([e for _, e in outputs]) - states)
     if constraints is not None:
         needed |= set(constraints.parameters())

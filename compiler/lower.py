@@ -18,12 +18,11 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .constraints import CutJoint
 from .kinematics import Kinematics
+from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
 from .tree import JointSpec, Tree, TreeBody
-
-UNSUPPORTED_SENSORS = ("acceleration", "reaction")  # need the accelerations: solved with the loop stage
 
 
 @dataclass(frozen=True)
@@ -37,6 +36,8 @@ class Lowered:
     outputs: tuple[tuple[str, sp.Expr], ...]   # (name, expression of state, t, parameters)
     tables: TableRegistry
     cuts: tuple[CutJoint, ...] = ()            # the loop-closing joints, in `topology.cuts` order
+    run_time_inputs: tuple = ()                # (symbol, array, index): accelerations and multipliers the
+                                               # outputs read (reaction and acceleration sensors)
 
     @property
     def tree(self) -> Tree:
@@ -67,6 +68,7 @@ class _Lowering:
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
         self.state = ToSympy(self._state_symbol, self.tables)
         self._sensor_cache: dict[str, sp.Expr] = {}
+        self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
 
     # ---------------------------------------------------------------------------------------- tree
     def _no_state(self, sym: X.Sym) -> sp.Expr:
@@ -164,9 +166,6 @@ class _Lowering:
         return self._sensor_cache[name if component else sensor_name]
 
     def _sensor_values(self, inter: M.Interaction, sensor: M.Sensor):
-        if sensor.kind in UNSUPPORTED_SENSORS:
-            raise _error(f"{sensor.kind} sensors need the accelerations and are computed by the loop stage, "
-                         "which this compiler does not have yet", sensor.span)
         tape = self.kin.tape
         _, _, pa, Ra = self.frame_world(inter.a)
         bb, pb_local, pb, _ = self.frame_world(inter.b)
@@ -185,6 +184,15 @@ class _Lowering:
             R_in = self.frame_world(in_ref)[3]
             dv = [y - x for x, y in zip(va, vb)]
             return tuple(tape.temp(dot([R_in[k][c] for k in range(3)], dv), "vel") for c in range(3))
+        if sensor.kind == "acceleration":
+            a_local = [self.geometry(c) for c in self.model.part_map[inter.a.part].frame_map[inter.a.frame].position]
+            terms = self.acceleration_terms
+            da = [y - x for x, y in zip(terms.point_acceleration(ba, a_local), terms.point_acceleration(bb, pb_local))]
+            return in_frame(tape, self.frame_world(in_ref)[3], da, "acc")
+        if sensor.kind == "reaction":
+            force, moment = self._reaction(inter, pb)
+            R_in = self.frame_world(in_ref)[3]
+            return in_frame(tape, R_in, force, "reacf") + in_frame(tape, R_in, moment, "reacm")
         if sensor.kind == "angles":
             Rb = self.frame_world(inter.b)[3]
             Rrel = [[tape.temp(dot([Ra[k][i] for k in range(3)], [Rb[k][j] for k in range(3)]), "rrel")
@@ -197,6 +205,16 @@ class _Lowering:
             element = sensor.arg("element")
             return (self._force_values[element],)
         raise _error(f"sensor kind '{sensor.kind}' is not supported by the compiler", sensor.span)
+
+    def _reaction(self, inter: M.Interaction, pb) -> tuple:
+        """(force, moment about frame b's origin) in world components that the joint exerts on frame b's part."""
+        terms = self.acceleration_terms
+        body = self.body_of_interaction.get(inter.name)
+        if body is None:  # a loop-closing joint: its rows' multipliers
+            j = next(k for k, cut in enumerate(self.cuts) if cut.name == inter.name)
+            return terms.cut_load(j)
+        # the tree carries the joint's load onto its child, which is part b unless the joint was flipped
+        return terms.tree_joint_load(body, not self.topology.joints[body].flipped, pb)
 
     # ---------------------------------------------------------------------------------------- forces
     def attach_forces(self) -> None:
@@ -316,7 +334,8 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     lowering = _Lowering(model, scene)
     lowering.attach_forces()
     outputs = lowering.outputs()
-    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts)
+    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
+                   lowering.acceleration_terms.inputs())
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

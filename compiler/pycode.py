@@ -34,6 +34,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_LOGIC, CodegenError, ExprPrinte
                           Routine, check_inputs, describe, equation_routines, plan_routine, printable,
                           table_slopes)
 from .equations import Equations
+from .reactions import ACCELERATION_ARRAY
 
 GENERATOR = "mbs.compiler.pycode"
 
@@ -120,14 +121,16 @@ class PyEmitter:
     """Writes the NumPy module of `equations`; arguments as for ccode.CEmitter."""
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
-                 outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS):
+                 outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
+                 run_time_inputs=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        self.run_time_inputs = tuple(run_time_inputs)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables)
-        self.naming = Naming(equations, self.parameters)
+        check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
+        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
 
     def source(self) -> str:
         printer = PyPrinter(self.naming.names, len(self.tables))
@@ -197,6 +200,10 @@ class PyEmitter:
         """(text, steps) of one function."""
         lines = [f"def {r.name}(t, x, p, out, work):", f'    """{_docstring_text(r.doc)}."""']
         arrays = [a for a in ("x", "p") if any(array == a for _, _, array, _ in r.reads)]
+        if any(array == ACCELERATION_ARRAY for _, _, array, _ in r.reads):
+            lines += ["    # the accelerations at (t, x) first", "    mbs_xdot = numpy.empty(MBS_NX)",
+                      "    mbs_status = mbs_rhs(t, x, p, mbs_xdot, work)", "    if mbs_status != 0:",
+                      "        return mbs_status", f"    {ACCELERATION_ARRAY} = mbs_xdot[MBS_NQ:].tolist()"]
         lines += [f"    {a} = {a}.tolist()" for a in arrays]
         lines += [f"    {name} = {array}[{index}]  # {printable(s.name)}" for s, name, array, index in r.reads]
         lines.append("    try:")
@@ -229,11 +236,12 @@ def _docstring_text(text: str) -> str:
 
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
-                   outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS) -> str:
+                   outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
+                   run_time_inputs=()) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
-                     inline_max_chars=inline_max_chars).source()
+                     inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

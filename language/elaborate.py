@@ -455,22 +455,27 @@ class Elaborator(PlacementMixin, ParameterMixin):
         out = []
         for st in scope.block.statements:
             if isinstance(st, ast.Output):
-                built = self.output(scope, st)
-                if built is not None:
-                    out.append(built)
+                out.extend(self.output(scope, st) or ())
             elif isinstance(st, ast.Use):
                 inst = scope.entries.get(st.alias.text)
                 if isinstance(inst, InstanceEntry) and inst.decl is st:
                     out.extend(self.outputs(inst.scope))
         return out
 
-    def output(self, scope: Scope, st: ast.Output) -> M.Output | None:
+    def output(self, scope: Scope, st: ast.Output) -> list[M.Output] | None:
+        """The output, or one per component when it names a vector sensor (`output hinge.load` gives
+        hinge.load.fx ... hinge.load.mz); None after an error."""
         r = ExprResolver(self, scope, allow_acceleration=True, what="an output")
+        if st.value is None:
+            r.vector_components = []
         try:
             value = r.scalar(st.value if st.value is not None else ast.Name(st.name, st.name.span))[0]
         except Invalid:
             return None
-        return M.Output(scope.full(st.name.dotted), value, st.description, scope.at(st.span))
+        name, span = scope.full(st.name.dotted), scope.at(st.span)
+        if r.vector_components:
+            return [M.Output(f"{name}.{c}", v, st.description, span) for c, v, _ in r.vector_components]
+        return [M.Output(name, value, st.description, span)]
 
     def output_value(self, entry: OutputEntry, span) -> tuple[X.E, object]:
         """An output used in another expression (another output, or a scene's output list)."""

@@ -44,6 +44,9 @@ class ExprResolver:
         self.elab, self.scope, self.interaction = elab, scope, interaction
         self.locals = locals_ or {}
         self.allow_state, self.allow_acceleration, self.what = allow_state, allow_acceleration, what
+        # Set by a caller that takes a whole vector sensor (`output hinge.load`): instead of an error, the
+        # sensor's components are recorded here as (component, expression, dimension).
+        self.vector_components: list | None = None
 
     def error(self, message: str, span) -> Invalid:
         self.elab.diags.error(message, self.scope.at(span))
@@ -243,6 +246,12 @@ class ExprResolver:
             dim = SENSOR_DIMENSIONS.get(kind)
             if components == ("",) and len(rest) == 1:
                 return X.Sym("sensor", f"{entry.full}.{member}"), dim
+            if len(rest) == 1 and components and self.vector_components is not None:
+                self.vector_components[:] = [
+                    (c, X.Sym("sensor", f"{entry.full}.{member}.{c}"),
+                     (U.FORCE if c.startswith("f") else U.TORQUE) if kind == "reaction" else dim)
+                    for c in components]
+                return self.vector_components[0][1:]
             if len(rest) == 2 and rest[1].text in components:
                 if kind == "reaction":
                     dim = U.FORCE if rest[1].text.startswith("f") else U.TORQUE

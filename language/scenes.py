@@ -112,7 +112,7 @@ def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) 
                 if built is None:
                     ok = False
                 else:
-                    outputs.append(built)
+                    outputs.extend(built)
             elif isinstance(s, ast.Import):
                 diags.error("imports belong at the top of the file, not in a scene", s.span)
         except Invalid:

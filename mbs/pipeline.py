@@ -67,7 +67,7 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
-    options = dict(outputs=outputs, tables=lowered.tables, origin=origin)
+    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""

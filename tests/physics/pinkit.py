@@ -80,15 +80,15 @@ class PinTree:
             self.joint_id[i] = jid
         self.model, self.data = model, model.createData()
 
-    def dynamics(self, values: dict, v_names) -> tuple[np.ndarray, np.ndarray]:
-        """(M, vdot) in our velocity coordinates, rows in the order of `v_names`."""
+    def _state(self, values: dict, v_names) -> tuple:
+        """(q, v, P, where, free): Pinocchio's state for our named values, v_pin = P v_ours, our speed name ->
+        Pinocchio velocity index, and the free joints (Pinocchio linear index, our pdot indices, R)."""
         model = self.model
-        q, v = np.zeros(model.nq), np.zeros(model.nv)
+        q = np.zeros(model.nq)
         our = {n: k for k, n in enumerate(v_names)}
         nv = model.nv
-        P = np.zeros((nv, nv))          # v_pin = P v_ours
-        where = {}                      # our speed name -> Pinocchio velocity index
-        free = []                       # (Pinocchio linear index, our pdot indices, R)
+        P = np.zeros((nv, nv))
+        where, free = {}, []
         for i, link in enumerate(self.links):
             if link.kind == "fixed":
                 continue
@@ -113,11 +113,28 @@ class PinTree:
                 P[iv:iv + 3, cols] = R.T
                 free.append((iv, cols, R))
         v = P @ np.array([values[n] for n in v_names])
+        return q, v, P, where, free
+
+    def dynamics(self, values: dict, v_names) -> tuple[np.ndarray, np.ndarray]:
+        """(M, vdot) in our velocity coordinates, rows in the order of `v_names`."""
+        model = self.model
+        q, v, P, where, free = self._state(values, v_names)
         M_pin = np.array(pin.crba(model, self.data, q))
         M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
-        a_pin = np.array(pin.aba(model, self.data, q, v, np.zeros(nv)))
+        a_pin = np.array(pin.aba(model, self.data, q, v, np.zeros(model.nv)))
         vdot = np.array([a_pin[where[n]] for n in v_names])
         for iv, cols, R in free:
             # pdot = R v_lin  =>  pddot = R (a_lin + omega x v_lin)
             vdot[cols] = R @ (a_pin[iv:iv + 3] + np.cross(v[iv + 3:iv + 6], v[iv:iv + 3]))
         return P.T @ M_pin @ P, vdot
+
+    def joint_loads(self, values: dict, v_names) -> dict:
+        """Per link index (fixed joints excepted): (force, moment) [N, N*m] its joint transmits onto the child
+        body in free motion (no joint torques), in the joint frame (our frame b), moment about its origin:
+        Pinocchio's rnea body forces data.f at the accelerations of its own aba."""
+        model = self.model
+        q, v, _, _, _ = self._state(values, v_names)
+        a = pin.aba(model, self.data, q, v, np.zeros(model.nv))
+        pin.rnea(model, self.data, q, v, a)
+        return {i: (np.array(self.data.f[jid].linear), np.array(self.data.f[jid].angular))
+                for i, jid in self.joint_id.items()}

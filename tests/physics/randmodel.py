@@ -106,10 +106,11 @@ def _joint_text(rng, kind: str) -> tuple[str, tuple]:
     return kind, ()
 
 
-def random_model(rng, n_bodies: int, kinds=KINDS, name: str = "tree", inertia_in_frame: float = 0.0
-                 ) -> tuple[str, list[Link], np.ndarray]:
+def random_model(rng, n_bodies: int, kinds=KINDS, name: str = "tree", inertia_in_frame: float = 0.0,
+                 flip_probability: float = 0.3) -> tuple[str, list[Link], np.ndarray]:
     """(model text, links in depth-first order, gravity [m/s^2]). With probability `inertia_in_frame` a body's
-    inertia is given in the axes of a rotated frame of its part."""
+    inertia is given in the axes of a rotated frame of its part; with `flip_probability` a joint that allows it
+    is written child -> parent."""
     links: list[Link] = []
     frames: dict[int, list[str]] = {-1: []}     # part index -> frame declarations
     interactions, bodies = [], []
@@ -139,7 +140,7 @@ def random_model(rng, n_bodies: int, kinds=KINDS, name: str = "tree", inertia_in
             frames[i].append(f"frame b{i} at {vec(rb)} m" + (f" rotate {rot_text}" if rot_text else ""))
             fb = f"p{i}.b{i}"
         side_a = f"{pname}.{fa}"
-        if kind in FLIPPABLE and rng.random() < 0.3:
+        if kind in FLIPPABLE and rng.random() < flip_probability:
             # Written child -> parent: the parent's frame moves relative to the child's, so seen from the
             # parent the child turns (slides) about the reversed axis by the same coordinate.
             connect = f"connect {fb} -> {side_a}"
