@@ -42,12 +42,13 @@ STEP = 1e-6
 #: Singular values of G below this fraction of the largest count as zero: redundant constraint rows
 #: (the assembly's RCOND; the C loop solver uses 1e-9 on pivots).
 RCOND = 1e-10
-#: Eigenvalues with |lambda| below this [1/s] are rigid-body motions (zero frequency): at most a drift
-#: of 1e-7 rad/s, below what the finite differences resolve on stiffnesses of vehicle size.
-ZERO_EIGENVALUE = 1e-7
-#: omega^2 of the stiffness part within this fraction of the largest of zero: a rigid-body motion (0 Hz),
-#: not an instability (the finite differences leave ~1e-9 relative noise on a zero stiffness).
-RIGID_STIFFNESS = 1e-9
+#: A rigid-body motion (zero stiffness, zero damping: a vehicle's travel, side shift and yaw) comes out of the
+#: finite differences as omega^2 ~ 1e-8 of the largest omega^2 at worst (the noise of the module docstring,
+#: ~1e-6 of a stiffness entry, seen at ~1e-12 on the Iltis vehicle), hence |lambda| ~ 1e-4 of the largest:
+#: below these fractions an eigenvalue or omega^2 counts as zero (0 Hz). A genuine mode four decades below
+#: the stiffest one would be reported as rigid.
+RIGID_STIFFNESS = 1e-8
+ZERO_EIGENVALUE = RIGID_STIFFNESS ** 0.5
 
 
 @dataclass(frozen=True)
@@ -56,7 +57,8 @@ class Mode:
 
     eigenvalue [1/s]; frequency: undamped natural frequency |lambda| / (2 pi) [Hz]; damping_ratio:
     -Re(lambda) / |lambda| (1 for a real decaying eigenvalue, negative when unstable, 0 for a rigid-body
-    motion); oscillatory: a complex pair (reported once, Im > 0); shape: {coordinate: complex amplitude} of
+    motion); oscillatory: a complex pair (reported once, Im > 0; rigid-body motions, |lambda| at the noise
+    level, are listed one by one and never oscillatory); shape: {coordinate: complex amplitude} of
     the position part in velocity coordinates (for a coordinate 'j.phi' the name 'j.phi', for a quaternion
     the rotation components 'j.wx'...), scaled so the largest has modulus 1."""
 
@@ -192,17 +194,18 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
     eigenvalues, vectors = np.linalg.eig(A_red) if dof else (np.zeros(0, complex), np.zeros((0, 0)))
     names = position_names(model.v_names)
     modes = []
+    largest = np.max(np.abs(eigenvalues), initial=0.0)
     for lam, vec in zip(eigenvalues, vectors.T):
-        if lam.imag < 0:
+        magnitude = abs(lam)
+        rigid = magnitude <= ZERO_EIGENVALUE * largest  # every one listed: their pairing is noise
+        if lam.imag < 0 and not rigid:
             continue  # the conjugate of a pair is reported once
         shape = N @ vec[:dof]
         if np.max(np.abs(shape), initial=0.0) == 0.0:
             shape = N @ vec[dof:]
         shape = shape / shape[np.argmax(np.abs(shape))]
-        magnitude = abs(lam)
-        rigid = magnitude < ZERO_EIGENVALUE
         modes.append(Mode(complex(lam), 0.0 if rigid else magnitude / (2 * np.pi),
-                          0.0 if rigid else -lam.real / magnitude + 0.0, bool(lam.imag > 0),
+                          0.0 if rigid else -lam.real / magnitude + 0.0, bool(lam.imag > 0 and not rigid),
                           {n: complex(a) for n, a in zip(names, shape)}))
     modes.sort(key=lambda m: (m.frequency, -m.damping_ratio))
 
@@ -210,6 +213,7 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
     # and A_aa: a'' = A_ab A_ba a, so omega^2 are the eigenvalues of -A_ab A_ba
     A_ab, A_ba = A_red[:dof, dof:], A_red[dof:, :dof]
     w2 = np.sort(np.linalg.eigvals(-A_ab @ A_ba).real) if dof else np.zeros(0)
-    floor = RIGID_STIFFNESS * np.max(np.abs(w2), initial=0.0)  # rigid-body motions: zero up to round-off
-    undamped = np.where(w2 >= -floor, np.sqrt(np.clip(w2, 0.0, None)), np.nan) / (2 * np.pi)
+    floor = RIGID_STIFFNESS * np.max(np.abs(w2), initial=0.0)  # rigid-body motions: zero up to the noise
+    w2 = np.where(np.abs(w2) <= floor, 0.0, w2)
+    undamped = np.where(w2 >= 0.0, np.sqrt(np.abs(w2)), np.nan) / (2 * np.pi)
     return Linearization(float(t), x, A, A_red, N, E, eigenvalues, tuple(modes), undamped, names, dof)

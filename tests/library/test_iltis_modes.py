@@ -109,3 +109,18 @@ def test_massive_links_generalized_masses_match_the_two_mass_formula_to_1_percen
     lin = quarter_car.linearize("modes")
     assert lin.dof == 2
     assert lin.undamped_frequencies == pytest.approx(formula, rel=0.01)
+
+
+@pytest.mark.slow  # a second derivation of the full vehicle (~10 s) besides the balance test's
+def test_full_vehicle_rigid_body_motions_have_zero_frequency_the_others_do_not():
+    """Travel, side shift and yaw of the car on its point-contact tyres (no horizontal tyre forces) have
+    neither stiffness nor damping: 3 of the 10 degrees of freedom, 6 zero eigenvalues; heave, pitch, roll and
+    the four wheel hops are springs."""
+    vehicle = mbs.load("library/iltis/vehicle.mbs")
+    lin = vehicle.linearize("balance")
+    assert lin.dof == 6 + 4
+    rigid = [m for m in lin.modes if m.frequency == 0.0]
+    assert len(rigid) == 6
+    assert all(set(dict(m.dominant(2))) <= {"floating.x", "floating.y", "floating.wz"} for m in rigid)
+    assert np.count_nonzero(lin.undamped_frequencies == 0.0) == 3
+    assert np.all(lin.undamped_frequencies[3:] > 1.0)
