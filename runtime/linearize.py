@@ -17,13 +17,12 @@ the tangent space (the projection inside the rhs and the renormalisation of quat
 order terms, which cancel in central differences), so A_red = d(a', b')/d(a, b) at 0 has exactly 2 dof
 eigenvalues, the mechanism's. Its eigenvalues do not depend on the (metric) choice of N.
 
-Steps (central differences, truncation error ~ h^2 f''' / 6, round-off ~ eps |f| / h): h = STEP = 1e-6 in the
-units of each state (m, rad, m/s, rad/s), scaled by max(1, |x_i|) for the full-state Jacobian. The textbook
-optimum for exact arithmetic is eps^(1/3) ~ 6e-6 relative; we go a little below it because the noise that
-matters is not eps but the loop projection's Newton tolerance (MBS_LOOP_TOL = 1e-12 m or rad), which gives an
-error ~ 1e-12 / h ~ 1e-6 relative to a stiffness entry, while the nonlinearities near an equilibrium (tyre
-deflection, spring end stops, damper polynomials) have length scales of millimetres, so truncation stays below
-(1e-6 / 1e-3)^2 = 1e-6 relative. Kinks (a unilateral tyre exactly at lift-off, an end stop exactly at its
+Steps (central differences): h = STEP = 1e-6 in the units of each state (m, rad, m/s, rad/s), scaled by
+max(1, |x_i|) for the full-state Jacobian. It balances the two errors. Noise: not eps (which would suggest
+eps^(1/3) ~ 6e-6) but the loop projection's Newton tolerance (MBS_LOOP_TOL = 1e-12 m or rad) inside every rhs
+call, an error ~ 1e-12 m / h = 1e-6 relative to a stiffness entry. Truncation ~ (h / L)^2 with L the length
+scale of the nonlinearities near an equilibrium (tyre deflection, spring end stops, damper polynomials:
+millimetres), (1e-6 / 1e-3)^2 = 1e-6 relative. Kinks (a unilateral tyre exactly at lift-off, an end stop exactly at its
 break) have no derivative; there the result is the mean of the two one-sided slopes.
 """
 
