@@ -336,6 +336,14 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);
     Py_XDECREF(atol_tmp);
+#ifdef MBS_NC
+    /* the mechanism's own right-hand side: keep the integrated state on its loop-closure constraints */
+    if (!rc && fn->entry->fn == mbs_rhs) {
+        self->ode.yproj = calloc((size_t)MBS_NX + 1, sizeof(double));
+        self->ode.project = mbs_project;
+        rc = self->ode.yproj ? 0 : -1;
+    }
+#endif
     if (rc) { Py_DECREF(self); return PyErr_NoMemory(); }
     return (PyObject *)self;
 }

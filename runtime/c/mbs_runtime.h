@@ -56,6 +56,12 @@ struct mbs_ode {
     double fail_h;          /* step size when the run failed */
     /* counters */
     long nfev, njev, nlu, nsteps, naccept, nreject;
+    /* manifold: if set, every accepted y is replaced by project(t, y) (closed loops: the state stays on the
+     * constraints instead of drifting by the integration error; the derivative f at y is unchanged, since the
+     * loop right-hand side is evaluated at the projected state) */
+    mbs_fn project;         /* NULL: no projection */
+    double *yproj;          /* [n], owned: the projection's output */
+    long nproject_failed;   /* accepted steps whose projection failed (y then kept as integrated) */
     /* method hooks */
     int (*step)(mbs_ode *);                               /* one accepted step; returns status */
     void (*dense)(const mbs_ode *, double t, double *out);  /* interpolate within the last step */

@@ -16,7 +16,7 @@
 static void mbs_ode_free(mbs_ode *o)
 {
     if (o->release) o->release(o);
-    free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl);
+    free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl); free(o->yproj);
     memset(o, 0, sizeof *o);
 }
 
@@ -121,12 +121,19 @@ static int mbs_ode_next_h(mbs_ode *o, double *h, int *last)
     return 0;
 }
 
-/* Bookkeeping of an accepted step [t, t + h]. */
+/* Bookkeeping of an accepted step [t, t + h], whose result the method has stored in y: projected onto the
+ * manifold when the problem has one.  The dense output keeps interpolating the integrated values. */
 static void mbs_ode_accept(mbs_ode *o, double h, int last)
 {
     o->t_old = o->t;
     o->t = last ? o->t_bound : o->t + h;
     o->naccept++;
+    if (o->project) {
+        if (o->project(o->t, o->y, o->p, o->yproj, o->work) == MBS_OK)
+            memcpy(o->y, o->yproj, (size_t)o->n * sizeof(double));
+        else
+            o->nproject_failed++;  /* the next evaluation meets the same failure and reports it */
+    }
     if (last) o->status = MBS_ODE_FINISHED;
 }
 
