@@ -98,14 +98,30 @@ class System:
     @staticmethod
     def _workspace(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]) -> Workspace:
         """A workspace with the parameters set and the initial state (closed loops assembled near the inits)."""
+        return System._start(compiled, gen, values)[0]
+
+    @staticmethod
+    def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]):
+        """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops)."""
         data = Workspace(compiled)
         data.p = [values[n] for n in compiled.p_names]
         data.x = pipeline.initial_state(gen, values)
-        if gen.constraints is not None:
-            spans = {c.name: c.span for c in gen.lowered.topology.cuts}
-            data.x = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen),
-                              row_names=gen.constraints.names, spans=spans).x
-        return data
+        if gen.constraints is None:
+            return data, None
+        spans = {c.name: c.span for c in gen.lowered.topology.cuts}
+        assembly = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen), row_names=gen.constraints.names,
+                            spans=spans)
+        data.x = assembly.x
+        return data, assembly
+
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+        """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
+        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
+        sc = self.scene(scene)
+        compiled, gen = self.compile(scene), self.generate(scene)
+        overrides = pipeline.scene_overrides(sc)
+        overrides.update(params or {})
+        return self._start(compiled, gen, pipeline.parameter_values(self.model, overrides))[1]
 
     def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
         """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""

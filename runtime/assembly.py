@@ -54,7 +54,10 @@ class Assembly:
 
     x: (nx,) the assembled state [q; v]; changed: (name, given, assembled) of every state that moved;
     residual: max |g| [m or -]; velocity_residual: max |G v + g_t|; iterations: Gauss-Newton iterations;
-    rank: of G at x; dof: nv - rank (the mechanism's degrees of freedom there)."""
+    rank: of G at x; dof: nv - rank (the mechanism's degrees of freedom there); redundant: names of the rows
+    that depend on other rows (each takes part in a vanishing combination of non-zero rows of G: an
+    overconstrained but mobile mechanism such as a parallelogram with a third crank); idle: rows whose G row
+    vanishes, which the geometry satisfies by itself (the out-of-plane rows of a planar mechanism's joints)."""
 
     x: np.ndarray
     changed: tuple[tuple[str, float, float], ...]
@@ -63,6 +66,8 @@ class Assembly:
     iterations: int
     rank: int
     dof: int
+    redundant: tuple[str, ...] = ()
+    idle: tuple[str, ...] = ()
 
     def describe(self) -> str:
         """One line per changed state, for a log or a note."""
@@ -153,11 +158,32 @@ def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None 
     if not velocity_residual <= VELOCITY_TOLERANCE * scale_v:
         raise _failure("velocity", names, spans, gd, iterations, fixed)
 
-    s = np.linalg.svd(G, compute_uv=False) if G.size else np.zeros(0)
-    rank = int(np.sum(s > RCOND * s[0])) if s.size and s[0] > 0 else 0
+    rank, dependent, idle = _rank_and_dependent_rows(G)
     changed = tuple((name, float(a), float(b)) for name, a, b in zip(model.x_names, given, x)
                     if abs(b - a) > REPORT_THRESHOLD * (1.0 + abs(a)))
-    return Assembly(x, changed, residual, velocity_residual, iterations, rank, nv - rank)
+    return Assembly(x, changed, residual, velocity_residual, iterations, rank, nv - rank,
+                    tuple(names[i] for i in dependent), tuple(names[i] for i in idle))
+
+
+#: A row takes part in a dependency when its weight in a unit left null vector of G exceeds this (round-off
+#: leaves the rows outside any dependency at ~1e-15).
+DEPENDENT_ROW_WEIGHT = 1e-6
+
+
+def _rank_and_dependent_rows(G: np.ndarray) -> tuple[int, list[int], list[int]]:
+    """(rank of G, dependent rows, idle rows): the non-zero rows spanned by the left null space of G (the rows
+    that are redundant together) and the rows of G that vanish."""
+    if not G.size:
+        return 0, [], []
+    scale = float(np.max(np.abs(G)))
+    idle = [i for i in range(G.shape[0]) if not np.max(np.abs(G[i]), initial=0.0) > RCOND * scale]
+    active = [i for i in range(G.shape[0]) if i not in idle]
+    if not active:
+        return 0, [], idle
+    U, s, _ = np.linalg.svd(G[active])
+    rank = int(np.sum(s > RCOND * s[0]))
+    weights = np.linalg.norm(U[:, rank:], axis=1)
+    return rank, [active[k] for k, w in enumerate(weights) if w > DEPENDENT_ROW_WEIGHT], idle
 
 
 def _moved(data: Workspace, t: float, x: np.ndarray, dv: np.ndarray) -> np.ndarray:

@@ -382,6 +382,11 @@ def test_overconstrained_parallelogram_is_mobile(cache_dir):
     theta0 = -math.pi / 2 + 0.5  # hanging, swung out
     data = mech.workspace([theta0, -theta0 + 0.01, theta0 + 0.02, theta0 - 0.01, 0, 0, 0, 0],
                           fixed=["left.phi"])
+    found = assemble(mech.model, data, data.x, fixed=["left.phi"], row_names=mech.constraints.names)
+    # the in-plane rows of both pins are dependent together; the out-of-plane rows vanish identically
+    in_plane = {f"{pin}.{c}" for pin in ("right_pin", "middle_pin") for c in "xz"}
+    assert (found.rank, found.dof, set(found.redundant)) == (3, 1, in_plane)
+    assert set(found.idle) == set(mech.constraints.names) - in_plane
     report = data.loop_report(0.0, data.x)
     assert (report[REPORT_RANK], report[REPORT_DOF]) == (3, 1)
     times, X, _ = mech.run(data, 3.0, 0.01)
