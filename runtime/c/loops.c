@@ -34,10 +34,12 @@
  * acceleration is set to 0.  M may be singular (massless parts): only T^T M T must be definite on the motions
  * that carry mass.
  *
- * The integrated state drifts off the constraints by the integration error (the derivative of its distance
- * from x_c is zero, not negative).  Compiling with -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds
- * k (x_c - x) to x', which leaves the motion on the constraints unchanged and pulls the drift back; the driver
- * stores mbs_project(x) at output points either way.
+ * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
+ * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
+ * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs), and the driver stores
+ * mbs_project(x) at output points.  For integrators that cannot project (scipy's), compiling with
+ * -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds k (x_c - x) to x', which leaves the motion on the
+ * constraints unchanged and pulls the drift back.
  */
 #include <math.h>
 #include <string.h>
