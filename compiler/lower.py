@@ -22,7 +22,7 @@ from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
-from .tree import JointSpec, Tree, TreeBody
+from .tree import JointSpec, Tree, TreeBody, t
 
 
 @dataclass(frozen=True)
@@ -101,10 +101,21 @@ class _Lowering:
                                 else (inertia[i, j] + inertia[j, i]) / 2)
         else:
             mass, com, inertia = sp.Integer(0), [0, 0, 0], sp.zeros(3, 3)
-        prescribed = tuple(None if c.prescribed is None else self.geometry(c.prescribed) for c in joint.coordinates)
+        prescribed = tuple(None if c.prescribed is None else self._prescribed(c) for c in joint.coordinates)
         parent = self.topology.parent_index[i]
         return TreeBody(inter.name, parent, spec, self._pose(parent_frame), self._pose(child_frame), mass,
                         com, inertia, prescribed)
+
+    def _prescribed(self, coordinate: M.Coordinate) -> sp.Expr:
+        """A prescribed motion, refused when its speed jumps (a ramp that stops, written with min or max): the
+        drive would need an impulse, which would change the speeds of the parts it carries at that instant,
+        and a right-hand side cannot apply it."""
+        e = self.geometry(coordinate.prescribed)
+        if sp.diff(e, t, 2).has(sp.DiracDelta):
+            raise _error(f"the prescribed motion of '{coordinate.name}' has a kink: its speed jumps at an instant, "
+                         "which needs an infinite drive force; blend it, e.g. ramp * smoothstep(t, t0, t1)",
+                         coordinate.span)
+        return e
 
     def _cut_joint(self, inter: M.Interaction) -> CutJoint:
         """A joint outside the spanning tree: its frames and kind become loop-closure constraints."""

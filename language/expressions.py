@@ -215,8 +215,9 @@ class ExprResolver:
             if inner is None or isinstance(inner, (ImportEntry, FuncEntry)):
                 raise self.error(f"instance '{head.text}' has no '{rest[0].text}'"
                                  f"{did_you_mean(rest[0].text, entry.scope.entries)}", rest[0].span)
-            return ExprResolver(self.elab, entry.scope, None, self.allow_state, self.allow_acceleration,
-                                self.what).entry_value(inner, rest[0], rest[1:], ref)
+            inside = ExprResolver(self.elab, entry.scope, None, self.allow_state, self.allow_acceleration, self.what)
+            inside.vector_components = self.vector_components  # a vector sensor of the instance expands too
+            return inside.entry_value(inner, rest[0], rest[1:], ref)
         if isinstance(entry, ImportEntry):
             if len(rest) == 1 and rest[0].text in entry.module.params:
                 return self.elab.module_param(entry.module, rest[0].text, ref.span, self.scope)

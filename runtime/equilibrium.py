@@ -22,7 +22,7 @@ from .model import CompiledModel
 from .workspace import Workspace
 
 ACCELERATION_TOLERANCE = 1e-6  # m/s^2 or rad/s^2: what "at rest" means
-MAX_STEPS = 200_000            # integrator steps before giving up
+MAX_STEPS = 20_000             # integrator steps before giving up (the Iltis vehicle settles in ~1300)
 
 
 @dataclass(frozen=True)
@@ -73,7 +73,9 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
         x = data.project(t, x)
     if acc.size and acc.max() > ACCELERATION_TOLERANCE:
         raise MbsError([Diagnostic("error", f"no static equilibrium found after {steps} steps: the acceleration of "
-                                            f"'{worst}' is still {acc.max():.3g} (is a part free to fall?)", None)])
+                                            f"'{worst}' is still {acc.max():.3g} at t = {t:g} s (is a part free to "
+                                            "fall, or a prescribed motion still moving then, such as a ramp that "
+                                            "starts at t = 0? start it later)", None)])
     return Equilibrium(x, float(acc.max()) if acc.size else 0.0, steps, resets, worst)
 
 

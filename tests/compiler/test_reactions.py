@@ -126,3 +126,44 @@ def test_a_scene_without_reactions_does_not_evaluate_the_accelerations():
     assert "mbs_acc" not in gen.c_source
     gen = system.generate("swing")
     assert "mbs_acc" in gen.c_source
+
+
+def test_a_vector_sensor_of_a_component_instance_expands_into_its_components():
+    text = '''
+component arm {
+    param m = 1 kg
+    port base
+    rigid link {
+        body {
+            mass = m
+            com = (0, 0, -0.3) m
+            inertia = diag(0.01, 0.01, 0.01) kg*m^2
+        }
+    }
+    interact hinge {
+        connect base -> link
+        joint revolute(axis = y) {
+            init phi = 0.4 rad
+        }
+        sensor load = reaction()
+    }
+}
+model two_arms {
+    use arm as left {
+        base = inertial
+    }
+}
+scene swing {
+    t_end = 0.1 s
+    output left.hinge.load
+}
+'''
+    system = mbs.loads(text)
+    compiled = system.compile("swing")
+    assert compiled.y_names == tuple(f"left.hinge.load.{c}" for c in ("fx", "fy", "fz", "mx", "my", "mz"))
+    y = Workspace(compiled).outputs(0.0, compiled.x0)
+    # at rest the centre of mass accelerates only tangentially: the radial part of the pivot load (towards the
+    # pivot, e_r = (sin phi, 0, cos phi)) is exactly m g cos phi, and nothing acts along the hinge axis
+    phi = 0.4
+    assert y[0] * np.sin(phi) + y[2] * np.cos(phi) == pytest.approx(G * np.cos(phi), rel=REL)
+    assert y[1] == 0.0
