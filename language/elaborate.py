@@ -67,7 +67,6 @@ class Elaborator(PlacementMixin, ParameterMixin):
         outputs = self.outputs(root)
         params = self.parameters()
         gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
-        self.warn_unused(root)
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
                         gravity, tuple(parts), tuple(interactions), (), block.span)
         return built
@@ -489,6 +488,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
             entry._resolving = False  # type: ignore[attr-defined]
 
     def warn_unused(self, scope: Scope) -> None:
+        """Warn of parameters nothing uses: called after the scenes are built, which may use them too."""
         if self.diags.error_count:
             return  # warnings about a model that does not compile are noise
         for name, entry in scope.entries.items():

@@ -79,6 +79,7 @@ def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> 
             continue
         check_model(built, diags, component=block.kind == "component", assumed_links=elab.broken_links)
         if block.kind == "component":
+            elab.warn_unused(elab.root)
             components.append(name)
             continue
         scenes = []
@@ -88,6 +89,7 @@ def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> 
                 built_scene = build_scene(elab, elab.root, built, scene)
                 if built_scene is not None:
                     scenes.append(built_scene)
+        elab.warn_unused(elab.root)  # after the scenes: a parameter used only in a scene is used
         models.append(dataclasses.replace(built, scenes=tuple(scenes)))
     for scene in module.scenes.values():
         target, where = scene_model_name(scene)

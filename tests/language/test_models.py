@@ -112,7 +112,8 @@ def test_scene_outputs_and_settings():
     m = load("library/examples/pendulum.mbs")
     scene = m.scene("swing")
     assert scene.t_end == 10.0 and scene.sample == 0.01
-    assert [o.name for o in scene.outputs] == ["hinge.phi", "rate"]
+    assert [o.name for o in scene.outputs] == ["hinge.phi", "rate"] + [
+        f"hinge.pivot_force.{c}" for c in ("fx", "fy", "fz", "mx", "my", "mz")]  # a vector sensor, expanded
     assert scene.outputs[1].value == X.Sym("speed", "hinge.phi")
 
 
