@@ -114,22 +114,20 @@ class System:
         data.x = assembly.x
         return data, assembly
 
+    def _scene_parameters(self, scene: str | None, params: Mapping[str, float] | None):
+        """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
+        overrides = pipeline.scene_overrides(self.scene(scene))
+        overrides.update(params or {})
+        return self.compile(scene), self.generate(scene), pipeline.parameter_values(self.model, overrides)
+
     def assemble(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
         what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
-        sc = self.scene(scene)
-        compiled, gen = self.compile(scene), self.generate(scene)
-        overrides = pipeline.scene_overrides(sc)
-        overrides.update(params or {})
-        return self._start(compiled, gen, pipeline.parameter_values(self.model, overrides))[1]
+        return self._start(*self._scene_parameters(scene, params))[1]
 
     def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
         """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""
-        sc = self.scene(scene)
-        compiled, gen = self.compile(scene), self.generate(scene)
-        overrides = pipeline.scene_overrides(sc)
-        overrides.update(params or {})
-        values = pipeline.parameter_values(self.model, overrides)
+        compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
         result = static_equilibrium(compiled, data, data.x)
         outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
@@ -142,11 +140,7 @@ class System:
         initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
         array [q; v])."""
         from mbs.runtime.linearize import linearize as _linearize
-        sc = self.scene(scene)
-        compiled, gen = self.compile(scene), self.generate(scene)
-        overrides = pipeline.scene_overrides(sc)
-        overrides.update(params or {})
-        values = pipeline.parameter_values(self.model, overrides)
+        compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
             if at == "equilibrium":  # at rest: the scene's initial speeds (a car cruising) are not kept
