@@ -113,6 +113,11 @@ def _model_args(p):
     p.add_argument("--model", help="model name when the file has several")
 
 
+def _param_arg(p) -> None:
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+
+
 def _parse_param(text: str, model):
     """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
     from mbs.language import units as U
@@ -185,8 +190,7 @@ class Simulate:
         p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy)")
         p.add_argument("--rtol", type=float)
         p.add_argument("--atol", type=float)
-        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                       help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+        _param_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -497,7 +501,7 @@ class Equilibrium:
     def arguments(p):
         _model_args(p)
         p.add_argument("--scene", help="scene whose parameters and outputs to use")
-        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE")
+        _param_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -525,8 +529,7 @@ class Linearize:
     def arguments(p):
         _model_args(p)
         p.add_argument("--scene", help="scene whose parameters to use")
-        p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
-                       help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+        _param_arg(p)
         p.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
                        help="linearise about the static equilibrium (default) or the initial state")
 
