@@ -69,18 +69,20 @@ class _OraclePrinter(PythonCodePrinter):
         return repr(float(expr))
 
 
-def oracle(eqs, parameters, outputs, tables):
-    """f(t, x, p) -> dict of every function's values, from the tape in plain Python, written by sympy."""
+def oracle(eqs, parameters, outputs, tables, run_time_inputs=()):
+    """f(t, x, p) -> dict of every function's values, from the tape in plain Python, written by sympy. Outputs
+    that read the accelerations (reactions) get the oracle's own vdot."""
     tree, tape, nq, nv = eqs.tree, eqs.tape, eqs.tree.nq, eqs.tree.nv
     results = ([e for row in eqs.mass_matrix for e in row] + list(eqs.forces) + list(eqs.qdot) + list(eqs.vdot)
                + [e for _, e in outputs])
     names = {t: "t"}
     names.update({s: f"x[{k}]" for k, s in enumerate(tree.q_symbols + tree.v_symbols)})
     names.update({s: f"p[{k}]" for k, s in enumerate(parameters)})
+    names.update({s: f"acc[{k}]" for s, _, k in run_time_inputs})
     entries = tape.entries_for(results)
     names.update({e.symbol: f"w{k}" for k, e in enumerate(entries)})
     printer = _OraclePrinter(names)
-    lines = ["def f(t, x, p):"] + [f"    {names[e.symbol]} = {printer.doprint(e.expr)}" for e in entries]
+    lines = ["def f(t, x, p, acc):"] + [f"    {names[e.symbol]} = {printer.doprint(e.expr)}" for e in entries]
     lines.append(f"    return [{', '.join(printer.doprint(sp.sympify(r)) for r in results)}]")
     scope = {"math": math}
     for k, tb in enumerate(tables):
@@ -88,8 +90,11 @@ def oracle(eqs, parameters, outputs, tables):
     exec("\n".join(lines), scope)
 
     def evaluate(t_value, x, p):
-        v = np.array(scope["f"](float(t_value), [float(u) for u in x], [float(u) for u in p]), dtype=float)
+        args = (float(t_value), [float(u) for u in x], [float(u) for u in p])
+        v = np.array(scope["f"](*args, [0.0] * nv), dtype=float)
         k = nv * nv
+        if run_time_inputs:  # again, with the accelerations this evaluation found
+            v = np.array(scope["f"](*args, list(v[k + nv + nq:k + 2 * nv + nq])), dtype=float)
         out = {"mass_matrix": v[:k].reshape(nv, nv), "forces": v[k:k + nv], "qdot": v[k + nv:k + nv + nq]}
         out["rhs"] = np.concatenate([out["qdot"], v[k + nv + nq:k + 2 * nv + nq]])
         if outputs:
@@ -105,7 +110,7 @@ def _compile_model(text_or_path, scene, tmp_path):
     lowered = lower(model, model.scene(scene) if scene else None)
     eqs = derive_equations(lowered.kinematics)
     params = [parameter_symbol(p.name) for p in model.parameters]
-    kw = dict(outputs=lowered.outputs, tables=lowered.tables)
+    kw = dict(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
     c_source = generate_c(eqs, params, model.name, **kw)
     py_path = tmp_path / f"{model.name}_numpy.py"
     py_path.write_text(generate_numpy(eqs, params, model.name, **kw))
@@ -122,7 +127,7 @@ MODELS = [("pendulum.mbs", "swing"), ("double_pendulum.mbs", "chaos"), ("spatial
 def test_c_numpy_and_the_tape_agree(name, scene, tmp_path):
     source = EVERY_TEXT if name == "every" else EXAMPLES / name
     model, lowered, eqs, params, c_model, np_model = _compile_model(source, scene, tmp_path)
-    reference = oracle(eqs, params, lowered.outputs, lowered.tables.tables)
+    reference = oracle(eqs, params, lowered.outputs, lowered.tables.tables, lowered.run_time_inputs)
     assert set(c_model.functions) == set(np_model.functions) == set(FUNCTIONS[:4 + bool(lowered.outputs)])
     assert (c_model.ny, np_model.ny) == (len(lowered.outputs),) * 2
     data_c, data_np = Workspace(c_model), Workspace(np_model)
