@@ -118,6 +118,11 @@ def _param_arg(p) -> None:
                    help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
 
 
+def _params(args, system) -> dict[str, float]:
+    """The --param overrides, checked against the model (an unknown name or unit is a located error)."""
+    return dict(_parse_param(text, system.model) for text in args.param)
+
+
 def _parse_param(text: str, model):
     """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
     from mbs.language import units as U
@@ -203,7 +208,7 @@ class Simulate:
         scene = scenes[0] if scenes else None
         if scene is None and system.model.scenes:
             scene = system.model.scenes[0].name
-        params = dict(_parse_param(text, system.model) for text in args.param)
+        params = _params(args, system)
         progress = _ProgressBar()
         try:
             res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
@@ -246,7 +251,7 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
     """Run several scenes of one model (compiled once when their outputs agree) and compare them."""
     for scene in scenes:
         system.scene(scene)  # every name checked before the first run
-    params = dict(_parse_param(text, system.model) for text in args.param)
+    params = _params(args, system)
     runs = {}
     for scene in scenes:
         progress = _ProgressBar()
@@ -507,7 +512,7 @@ class Equilibrium:
     def run(args) -> int:
         import mbs
         system = mbs.load(args.file, args.model)
-        params = dict(_parse_param(text, system.model) for text in args.param)
+        params = _params(args, system)
         result, outputs = system.equilibrium(args.scene, params=params)
         compiled = system.compile(args.scene)
         print(f"{system.model.name}: static equilibrium, max |acceleration| {result.residual:.3g} "
@@ -537,7 +542,7 @@ class Linearize:
     def run(args) -> int:
         import mbs
         system = mbs.load(args.file, args.model)
-        params = dict(_parse_param(text, system.model) for text in args.param)
+        params = _params(args, system)
         lin = system.linearize(args.scene, params=params, at=args.at)
         head = f"{system.model.name}" + (f" / scene {args.scene}" if args.scene else "")
         print(f"{head}: linearised about the {'static equilibrium' if args.at == 'equilibrium' else 'initial state'}"
