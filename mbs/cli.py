@@ -11,6 +11,7 @@ import sys
 import traceback
 
 from .commands import COMMANDS
+from .commands.common import render_error
 
 EXIT_OK, EXIT_MODEL, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
@@ -36,7 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.run(args)
     except MbsError as err:
-        print(_render(err), file=sys.stderr)
+        print(render_error(err), file=sys.stderr)
         return EXIT_MODEL
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
@@ -49,12 +50,6 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mbs: internal error: {type(exc).__name__}: {exc}\n(this is a bug in mbs; rerun with --debug "
               "for the traceback and report it)", file=sys.stderr)
         return EXIT_INTERNAL
-
-
-def _render(err) -> str:
-    errors = sum(1 for d in err.diagnostics if d.severity == "error")
-    text = "\n".join(d.render() for d in err.diagnostics)
-    return f"{text}\n{errors} error{'s' if errors != 1 else ''}" if errors else text
 
 
 if __name__ == "__main__":
