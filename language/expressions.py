@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from . import ast
 from . import expr as X
+from . import tables
 from . import units as U
 from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, OutputEntry, ParamEntry,
                     PartEntry, PortEntry, Scope, did_you_mean)
@@ -352,22 +353,26 @@ class ExprResolver:
             if method not in ("linear", "smooth"):
                 raise self.error('interpolation must be "linear" or "smooth"', m.span)
         rows = node.args[1].items if isinstance(node.args[1], ast.Matrix) else ()
-        xs, ys, tx, ty = [], [], None, None
+        xs, ys, knots, tx, ty = [], [], [], None, None
         for row in rows:
             if not isinstance(row, ast.Matrix) or len(row.items) != 2:
                 raise self.error("each table row is a pair [x, y]", row.span)
             (a, ad), (b, bd) = ExprResolver(self.elab, self.scope, None, False, False, "a table entry").scalar(
                 row.items[0]), ExprResolver(self.elab, self.scope, None, False, False, "a table entry").scalar(
                 row.items[1])
+            # checked with the parameters' defaults; kept as expressions where they use parameters
             value_a, value_b = self.elab.constant(a, self.scope, row.span), self.elab.constant(b, self.scope, row.span)
             tx, ty = self.same(tx, ad, row, "mix"), self.same(ty, bd, row, "mix")
             xs.append(value_a)
             ys.append(value_b)
+            knots.append((a, b))
         if len(xs) < 2:
             raise self.error("a table needs at least two rows", node.args[1].span)
         if any(b <= a for a, b in zip(xs, xs[1:])):
             raise self.error("table x values must increase strictly", node.args[1].span)
         self.same(xd, tx, node, "look up")
+        if any(tables.depends_on_parameters(a) or tables.depends_on_parameters(b) for a, b in knots):
+            return tables.parametric_table(x, [a for a, _ in knots], [b for _, b in knots], method), ty
         return X.Table(x, tuple(xs), tuple(ys), method), ty
 
     def random_road(self, node: ast.Call) -> tuple[X.E, Dim]:
@@ -385,6 +390,11 @@ class ExprResolver:
         seed_e, _ = constant.scalar(node.args[2])
         length_e, length_d = constant.scalar(node.args[3])
         self.same(length_d, U.LENGTH, node.args[3], "use")
+        for arg, value in ((node.args[2], seed_e), (node.args[3], length_e)):
+            if tables.depends_on_parameters(value):  # the profile is drawn once, when the model is built
+                raise self.error("the seed and length of a random road are fixed when the model is built: give "
+                                 "numbers, not parameters (a parameter changed at run time could not reach them)",
+                                 arg.span)
         seed = self.elab.constant(seed_e, self.scope, node.args[2].span)
         length = self.elab.constant(length_e, self.scope, node.args[3].span)
         if seed != int(seed) or seed < 0:

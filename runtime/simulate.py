@@ -17,7 +17,8 @@ import numpy as np
 
 from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
-from .integrators import FAILED, FINISHED, get_integrator
+from .fallback import runnable_integrator
+from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
 from .workspace import Workspace, check_workspace
@@ -74,7 +75,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     if not t_end >= t0:
         raise UsageError(f"t_end = {t_end:g} s lies before the workspace time t = {t0:g} s")
     times = output_times(t0, t_end, t_eval, sample)
-    cls = get_integrator(integrator or default_integrator(model))
+    cls, note = runnable_integrator(model, integrator or default_integrator(model))
     started = time.perf_counter()
     solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
                  max_step=max_step, min_step=min_step, max_steps=max_steps)
@@ -109,6 +110,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,
         "atol": atol, "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+        "notes": [note] if note else [],
     }
     return Results(names, np.hstack(columns), metadata)
 

@@ -203,6 +203,8 @@ def _overlay(runs: dict, names: list[str], units: dict, labels: dict, path: Path
 
 
 def _summary(system, scene, res, args) -> None:
+    for note in res.metadata.get("notes", []):
+        print(note, file=sys.stderr)
     t = res.t
     head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
     print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
