@@ -15,6 +15,7 @@ from . import ast
 from . import model as M
 from .diagnostics import Diagnostic, Diagnostics, MbsError, Source, Span
 from .elaborate import Elaborator
+from .inertia_check import check_inertia
 from .loader import Loader
 from .parser import parse_source, without_cycle_collection
 from .rules import check_model
@@ -78,6 +79,8 @@ def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> 
         if built is None:
             continue
         check_model(built, diags, component=block.kind == "component", assumed_links=elab.broken_links)
+        if block.kind != "component":
+            check_inertia(built, diags)
         if block.kind == "component":
             elab.warn_unused(elab.root)
             components.append(name)

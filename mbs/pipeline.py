@@ -54,12 +54,33 @@ def display_name(symbol_name: str) -> str:
     return symbol_name
 
 
+def structurally_singular(lowered, text: str) -> Diagnostic:
+    """The joint whose articulated-body pivot ('iD<body><coordinate>' in `text`) is zero whatever the parameters:
+    nothing it carries has mass or inertia along one of its free directions."""
+    import re
+    joints = lowered.topology.joints
+    digits = (re.search(r"iD(\d+)", text) or re.search(r"(\d+)", text + "0")).group(1)
+    for candidate in (digits, digits[:-1]):
+        if candidate and 1 <= int(candidate) <= len(joints):
+            inter = joints[int(candidate) - 1].interaction
+            free = ", ".join(c.name for c in inter.joint.coordinates if c.prescribed is None) or inter.name
+            return Diagnostic("error", f"no mass or inertia determines the motion of {free}: nothing joint "
+                                       f"'{inter.name}' moves ({joints[int(candidate) - 1].child} and what it "
+                                       "carries) has mass or inertia along one of its free directions (a point "
+                                       "mass turning about itself?); give it inertia or prescribe the coordinate",
+                              inter.joint.span)
+    return Diagnostic("error", f"the mass matrix is singular for every parameter value ({text})", lowered.model.span)
+
+
 def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     """Validated model -> generated source (symbolic derivation included)."""
     lowered = lower(model, scene)
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
-    equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
+    try:
+        equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
+    except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
+        raise MbsError([structurally_singular(lowered, str(exc))]) from None
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]

@@ -54,8 +54,14 @@ def write_standalone(gen: Generated, directory: Path) -> list[Path]:
     write_text_atomic(h_path, header_text(gen))
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / so_path.name
-        cmd = [*compiler_command(), *FLAGS, str(c_path), "-o", str(out), "-lm"]
-        proc = subprocess.run(cmd, capture_output=True, text=True)
+        # absolute paths: a name the user gave that starts with '-' must never reach the compiler as an option
+        cmd = [*compiler_command(), *FLAGS, str(c_path.resolve()), "-o", str(out.resolve()), "-lm"]
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True)
+        except OSError as exc:
+            raise MbsError([Diagnostic("error", f"no C compiler to build {so_path} ({cmd[0]}: {exc.strerror}); "
+                                                f"{c_path} and {h_path} are written: build them with your own "
+                                                "compiler, or install one (e.g. gcc)", None)]) from None
         if proc.returncode != 0:
             raise MbsError([Diagnostic("error", f"the C compiler failed on {c_path}:\n{proc.stderr}", None)])
         write_bytes_atomic(so_path, out.read_bytes())

@@ -108,7 +108,9 @@ class NumpyBackend:
             out = np.empty(shape)
             status = fn(float(t), x, p, out, work)
             if status:
-                raise EvaluationError(name, status, t)
+                error = EvaluationError(name, status, t)
+                error.values = out  # what the function wrote before it failed, as the C glue keeps it
+                raise error
             return out
 
         call.__name__ = name

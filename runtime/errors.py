@@ -45,6 +45,7 @@ class EvaluationError(MbsRuntimeError, ArithmeticError):
 
     def __init__(self, function: str, status: int, t: float):
         self.function, self.status, self.t = function, int(status), float(t)
+        self.values = None  # the back end sets what the function wrote before it failed
         super().__init__(f"model function '{function}' returned {status_text(self.status)} at t = {self.t:.6g} s")
 
     def __reduce__(self):  # picklable across processes (the default would pass the rendered message)

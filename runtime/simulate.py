@@ -17,6 +17,7 @@ import numpy as np
 
 from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
+from .diagnose import explain_failure
 from .fallback import runnable_integrator
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
@@ -27,6 +28,8 @@ from .workspace import Workspace, check_workspace
 DEFAULT_SAMPLES = 501
 #: With a progress callback, C integrates this many output chunks between calls (at least).
 PROGRESS_CHUNKS = 100
+#: More output samples than this would not fit in memory (states and outputs of a large model).
+MAX_SAMPLES = 10_000_000
 
 Progress = Callable[[float, float], "bool | None"]
 
@@ -49,7 +52,10 @@ def output_times(t0: float, t_end: float, t_eval=None, sample: float | None = No
     if sample is not None:
         if not sample > 0:
             raise UsageError(f"sample interval must be positive, got {sample}")
-        n = int(math.floor((t_end - t0) / sample * (1 + 1e-12))) + 1
+        n = math.floor((t_end - t0) / sample * (1 + 1e-12)) + 1
+        if n > MAX_SAMPLES:
+            raise UsageError(f"sampling every {sample:g} s from {t0:g} to {t_end:g} s gives {n:.3g} samples, more "
+                             f"than the {MAX_SAMPLES:.0e} that fit in memory: choose a larger sample interval")
         times = t0 + sample * np.arange(n)
         if times[-1] < t_end - 1e-9 * sample:
             times = np.append(times, t_end)
@@ -72,6 +78,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     check_workspace(model, data)
     t0 = float(data.t)
     t_end = float(t_end)
+    if not math.isfinite(t_end):
+        raise UsageError(f"t_end must be a finite time, got {t_end}")
     if not t_end >= t0:
         raise UsageError(f"t_end = {t_end:g} s lies before the workspace time t = {t0:g} s")
     times = output_times(t0, t_end, t_eval, sample)
@@ -81,7 +89,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
                  max_step=max_step, min_step=min_step, max_steps=max_steps)
     states = np.empty((times.size, model.nx))
     status, filled = _run(solver, times, states, progress, t_end)
-    message = solver.message if status == FAILED else ""
+    message = explain_failure(model, data, solver.message, solver.t, solver.y) if status == FAILED else ""
     loops = "project" in model.functions
     if loops:  # closed loops: store the samples projected onto the constraints
         projected = project_samples(data, times[:filled], states[:filled])
@@ -98,8 +106,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
             filled = ys.shape[0]
             columns = [c[:filled] for c in columns]
             status = FAILED
-            message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
-                       f"{status_text(error.status)}")
+            message = explain_failure(model, data, f"output evaluation failed at t = {error.t:.6g} s: the model "
+                                      f"returned {status_text(error.status)}", error.t, states[filled])
         columns.append(ys)
         names += list(model.y_names)
     data.t, data.x = solver.t, solver.y

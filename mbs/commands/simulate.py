@@ -207,6 +207,9 @@ def _summary(system, scene, res, args) -> None:
         print(note, file=sys.stderr)
     t = res.t
     head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
+    if not len(t):
+        print(f"{head}: no samples ({res.message or 'finished'})")
+        return
     print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
     for name in [n for n in res.names if n != "time"][:12]:
         print(f"  {name:32s} final {res[name][-1]: .6g}")

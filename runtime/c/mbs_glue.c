@@ -80,11 +80,14 @@ static const struct { const char *name; mbs_init_fn init; } MBS_METHODS[] = {
 
 static PyObject *mbs_error_class = NULL;  /* set by _init; RuntimeError until then */
 
-static void raise_status(const char *name, int status, double t)
+/* values (may be NULL): what the function wrote before it failed, kept on the exception as .values (the
+   failing mass matrix tells which coordinates have no inertia) */
+static void raise_status(const char *name, int status, double t, PyObject *values)
 {
     PyObject *cls = mbs_error_class ? mbs_error_class : PyExc_RuntimeError;
     PyObject *exc = PyObject_CallFunction(cls, "sid", name, status, t);
     if (exc) {
+        if (values && PyObject_SetAttrString(exc, "values", values) < 0) PyErr_Clear();
         PyErr_SetObject((PyObject *)Py_TYPE(exc), exc);
         Py_DECREF(exc);
     }
@@ -162,8 +165,8 @@ static PyObject *function_vectorcall(PyObject *self_, PyObject *const *args, siz
     self->calls++;
     Py_XDECREF(tmp);
     if (status != MBS_OK) {
+        raise_status(e->name, status, t, out);
         Py_DECREF(out);
-        raise_status(e->name, status, t);
         return NULL;
     }
     return out;
@@ -236,7 +239,7 @@ static PyObject *function_time(FunctionObject *self, PyObject *args)
     (void)sink;
     PyMem_Free(out);
     Py_XDECREF(tmp);
-    if (status != MBS_OK) { raise_status(self->entry->name, status, t); return NULL; }
+    if (status != MBS_OK) { raise_status(self->entry->name, status, t, NULL); return NULL; }
     return PyFloat_FromDouble(((double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n);
 }
 
