@@ -12,7 +12,7 @@ from __future__ import annotations
 from lark import Token
 
 from . import ast
-from .diagnostics import Source, Span
+from .diagnostics import Diagnostic, MbsError, Source, Span
 
 
 # ------------------------------------------------------------------------------------------ values of a parse
@@ -78,6 +78,28 @@ def _end(value) -> int:
     return value.span.end
 
 
+#: Deepest expression accepted (parenthesis, operator and sign levels); deeper ones are a located error.
+MAX_EXPRESSION_DEPTH = 100
+
+
+def _children(node) -> tuple:
+    """The sub-expressions of an expression node (none for names, numbers and strings)."""
+    kind = type(node)
+    if kind is ast.Binary:
+        return (node.left, node.right)
+    if kind is ast.Unary:
+        return (node.operand,)
+    if kind is ast.WithUnit or kind is ast.Kwarg:
+        return (node.expr if kind is ast.WithUnit else node.value,)
+    if kind is ast.Call:
+        return (*node.args, *node.kwargs)
+    if kind is ast.Vector or kind is ast.Matrix:
+        return node.items
+    if kind is _Part:
+        return (node.value,)
+    return ()
+
+
 def _node(value):
     """The AST node of an expression value (a parenthesised one is its content)."""
     return value.value if type(value) is _Part else value
@@ -111,6 +133,7 @@ class _AstBuilder:
 
     def __init__(self, source: Source):
         self.source = source
+        self._depths: dict[int, int] = {}  # id(expression node) -> nesting depth, filled bottom-up
 
     def _span(self, first, last) -> Span:
         start, line, col = _head(first)
@@ -119,8 +142,39 @@ class _AstBuilder:
     def _tok_span(self, tok: Token) -> Span:
         return Span(self.source, tok.start_pos, tok.end_pos, tok.line, tok.column)
 
+    def _deep(self, depth: int, where) -> MbsError:
+        return MbsError([Diagnostic("error", f"this expression is nested {depth} levels deep, more than the "
+                                             f"{MAX_EXPRESSION_DEPTH} allowed (a sum of n terms or a chain of n "
+                                             "signs counts n levels): split it into parameters or functions",
+                                    self._span(where, where))])
+
+    def _limit_depth(self, node):
+        """The node, unless it is nested deeper than MAX_EXPRESSION_DEPTH (every later stage recurses over
+        expressions; a located error here instead of a RecursionError there)."""
+        depths, stack = self._depths, [node]
+        while stack:
+            top = stack[-1]
+            children = [c for c in _children(top) if id(c) not in depths]
+            if children:
+                stack.extend(children)
+                continue
+            stack.pop()
+            depth = 1 + max((depths[id(c)] for c in _children(top)), default=0)
+            if depth > MAX_EXPRESSION_DEPTH:
+                raise self._deep(depth, top)
+            depths[id(top)] = depth
+        return node
+
     def _climb(self, items: _Chain):
         """The tree of a flat operand, operator, operand, ... list, by precedence climbing."""
+        chained = sum(1 for item in items if type(item) is Token and item.value == "^")
+        for item in items:  # climbing recurses along signs and '^': bound it before it starts
+            signs = 0
+            while type(item) is _Prefix:
+                item, signs = item.operand, signs + 1
+            chained += signs
+        if chained > MAX_EXPRESSION_DEPTH:
+            raise self._deep(chained, items)
         pos = 0
 
         def operand():
@@ -187,7 +241,7 @@ class _AstBuilder:
         value = c[0]
         kind = type(value)
         if kind is _Chain or kind is _Prefix:
-            return self._climb(_Chain([value]) if kind is _Prefix else value)
+            return self._limit_depth(self._climb(_Chain([value]) if kind is _Prefix else value))
         return value
 
     expr = test

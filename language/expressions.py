@@ -55,6 +55,16 @@ class ExprResolver:
 
     # -------------------------------------------------------------------------------------- scalars
     def scalar(self, node: ast.Expr) -> tuple[X.E, Dim]:
+        try:
+            value, dim = self._scalar(node)
+        except OverflowError:
+            raise self.error("this value overflows: its magnitude is beyond 1.8e308", node.span) from None
+        if isinstance(value, X.Const) and not math.isfinite(value.value):
+            raise self.error(f"this value is not a finite number ({value.value}): its magnitude is beyond 1.8e308",
+                             node.span)
+        return value, dim
+
+    def _scalar(self, node: ast.Expr) -> tuple[X.E, Dim]:
         if isinstance(node, ast.Number):
             value = _number(node.text)
             if node.unit is None:

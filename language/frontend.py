@@ -79,7 +79,7 @@ def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> 
         if built is None:
             continue
         check_model(built, diags, component=block.kind == "component", assumed_links=elab.broken_links)
-        if block.kind != "component":
+        if block.kind != "component" and not diags.error_count:  # a part whose body had errors has none
             check_inertia(built, diags)
         if block.kind == "component":
             elab.warn_unused(elab.root)
