@@ -100,6 +100,13 @@ def _children(node) -> tuple:
     return ()
 
 
+def _last(value):
+    """The innermost last item of a chain or a chain of signs (where its text ends)."""
+    while type(value) is _Chain or type(value) is _Prefix:
+        value = value[-1] if type(value) is _Chain else value.operand
+    return value
+
+
 def _node(value):
     """The AST node of an expression value (a parenthesised one is its content)."""
     return value.value if type(value) is _Part else value
@@ -146,7 +153,7 @@ class _AstBuilder:
         return MbsError([Diagnostic("error", f"this expression is nested {depth} levels deep, more than the "
                                              f"{MAX_EXPRESSION_DEPTH} allowed (a sum of n terms or a chain of n "
                                              "signs counts n levels): split it into parameters or functions",
-                                    self._span(where, where))])
+                                    self._span(where, _last(where)))])
 
     def _limit_depth(self, node):
         """The node, unless it is nested deeper than MAX_EXPRESSION_DEPTH (every later stage recurses over

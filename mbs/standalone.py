@@ -64,7 +64,7 @@ def write_standalone(gen: Generated, directory: Path) -> list[Path]:
                                                 "compiler, or install one (e.g. gcc)", None)]) from None
         if proc.returncode != 0:
             raise MbsError([Diagnostic("error", f"the C compiler failed on {c_path}:\n{proc.stderr}", None)])
-        write_bytes_atomic(so_path, out.read_bytes())
+        write_bytes_atomic(so_path, out.read_bytes(), executable=True)
     return [c_path, h_path, so_path]
 
 

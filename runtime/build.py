@@ -16,6 +16,7 @@ from __future__ import annotations
 import functools
 import hashlib
 import importlib.util
+import logging
 import os
 import platform
 import shlex
@@ -30,6 +31,7 @@ from types import ModuleType
 
 import numpy as np
 
+from . import cache as _cache
 from .errors import BuildError, EvaluationError
 
 #: Bump when the layout of the build unit changes in a way the hashed inputs do not show.
@@ -147,9 +149,18 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
     if target.exists():
-        return BuildResult(target, module_name, key, True, "")
-    cache.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache))
+        damage = _cache.problem(target)
+        if damage is None:
+            return BuildResult(target, module_name, key, True, "")
+        logging.getLogger("mbs.cache").warning(f"note: the cached build {target.name} is not loaded ({damage}); "
+                                               "rebuilding it")
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=cache))
+    except OSError as exc:
+        why = "a file, not a folder" if cache.exists() and not cache.is_dir() else (exc.strerror or str(exc))
+        raise BuildError(f"the build cache {cache} cannot be used ({why}): set {CACHE_ENV} to a writable "
+                         "folder") from None
     try:
         (tmp / "unit.c").write_text(unit, encoding="utf-8")
         command = (*cc, *flags, f"-DMBS_MODULE_NAME={module_name}", f"-I{C_DIR}",
@@ -165,6 +176,10 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
         # keep the unit beside the module for inspection; both appear atomically
         os.replace(tmp / "unit.c", cache / (module_name + ".c"))
         os.replace(tmp / "module.so", target)
+        _cache.record(target, key, unit)
+    except OSError as exc:
+        raise BuildError(f"the build cache {cache} cannot be written ({exc.strerror or exc}): set {CACHE_ENV} "
+                         "to a writable folder") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return BuildResult(target, module_name, key, False, output.strip())

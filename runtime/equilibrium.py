@@ -34,6 +34,21 @@ class Equilibrium:
     worst: str         # the velocity with the largest remaining acceleration
 
 
+def _no_rest(model: CompiledModel, start: np.ndarray, ode) -> str:
+    """Why the relaxation ran away: the kinetic energy never peaked, so the coordinate that moved furthest
+    is falling (or driven) with nothing to stop it."""
+    nq = model.nq
+    y = np.asarray(ode.y, dtype=float)
+    moved = np.abs(y[:nq] - start[:nq])
+    if not moved.size or not np.all(np.isfinite(y)):
+        return f"static equilibrium: the relaxation failed at t = {ode.t:.3g} s ({ode.message or 'no finite state'})"
+    k = int(np.argmax(moved))
+    return (f"no static equilibrium: '{model.q_names[k]}' moved {moved[k]:.3g} from its start and keeps speeding "
+            "up with nothing to stop it: a part is free to fall or drift (give it a spring, a stop or a joint that "
+            "holds it, or prescribe the coordinate)"
+            + (f" [{ode.message}]" if ode.message else ""))
+
+
 def _acceleration(data: Workspace, t: float, x: np.ndarray, nq: int) -> np.ndarray:
     return data.rhs(t, x)[nq:]
 
@@ -55,7 +70,7 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
             ode.step()
             steps += 1
             if ode.status != "running":
-                raise MbsError([Diagnostic("error", f"static equilibrium: {ode.message}", None)])
+                raise MbsError([Diagnostic("error", _no_rest(model, x, ode), None)])
             energy = _kinetic_energy(data, t, ode.y, nq)
             if energy < previous:  # past the peak: stop everything and start again from rest
                 break

@@ -5,10 +5,11 @@ module in this package and a line in COMMANDS.
 """
 
 from .analysis import Equilibrium, Info, Linearize
+from .cache import Cache
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "cache": Cache}

@@ -71,6 +71,11 @@ def _check_suffixes(args) -> None:
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
         raise MbsError([Diagnostic("error", f"--plot {args.plot}: plots are written as "
                                             f"{', '.join(PLOT_FORMATS)}", None)])
+    from mbs.atomic import writable_problem
+    for option, path in (("--out", args.out), ("--plot", args.plot)):
+        why = writable_problem(path) if path else None
+        if why:
+            raise MbsError([Diagnostic("error", f"{option} {path} cannot be written: {why}", None)])
 
 
 def scene_path(path: str, scene: str, tag: str = "") -> Path:

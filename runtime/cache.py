@@ -1,0 +1,135 @@
+"""The build cache's records: what each compiled model was when it was built, so that nothing damaged is loaded.
+
+Next to every cached module ``mbs_model_<key><ext>`` the build writes ``mbs_model_<key>.json``: the module's
+size and SHA-256, when it was built, and the model it came from. Before a cached module is loaded its size and
+hash are compared with the record; a truncated or overwritten file (a full disk, a copy cut short, a stray
+editor) would otherwise crash the process when loaded (a bus error, not an exception). A module without a
+record, or with one that does not match, is rebuilt with a note, never loaded.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import sysconfig
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from mbs.atomic import write_text_atomic
+
+EXT_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+PREFIX = "mbs_model_"
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One cached model: its module, record and the unit's C source (any may be missing)."""
+
+    name: str               #: the module name, mbs_model_<key prefix>
+    module: Path
+    record: dict | None     #: the JSON record (None: missing or unreadable)
+    files: tuple[Path, ...]  #: every file of the entry (module, record, C unit)
+
+    @property
+    def size(self) -> int:
+        return sum(p.stat().st_size for p in self.files if p.exists())
+
+    @property
+    def built(self) -> float:
+        """Build time (seconds since the epoch): the record's, else the newest file's."""
+        if self.record and isinstance(self.record.get("built"), (int, float)):
+            return float(self.record["built"])
+        return max((p.stat().st_mtime for p in self.files if p.exists()), default=0.0)
+
+    @property
+    def model(self) -> str:
+        return str((self.record or {}).get("model") or "?")
+
+
+def record_path(module: Path) -> Path:
+    return module.with_name(module.name[: -len(EXT_SUFFIX)] + ".json") if module.name.endswith(EXT_SUFFIX) \
+        else module.with_suffix(".json")
+
+
+def sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def model_label(unit: str) -> str:
+    """'pendulum (pz.mbs, scene swing)' from the header comment of the generated C."""
+    name = re.search(r'Equations of motion of the model "([^"]*)"', unit)
+    origin = re.search(r"^ \* From (.*)\.$", unit, re.MULTILINE)
+    label = name.group(1) if name else "?"
+    if origin is None:
+        return label
+    path, _, rest = origin.group(1).partition(", ")
+    return f"{label} ({Path(path).name}{', ' + rest if rest else ''})"
+
+
+def record(module: Path, key: str, unit: str) -> None:
+    """Write the record of a module just built (atomically, after the module is in place)."""
+    data = {"key": key, "size": module.stat().st_size, "sha256": sha256(module), "built": time.time(),
+            "model": model_label(unit)}
+    write_text_atomic(record_path(module), json.dumps(data, indent=1) + "\n")
+
+
+def read_record(module: Path) -> dict | None:
+    try:
+        data = json.loads(record_path(module).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def problem(module: Path) -> str | None:
+    """Why the cached module must not be loaded (None: it is what was built)."""
+    data = read_record(module)
+    if data is None:
+        return "it has no build record"
+    try:
+        size = module.stat().st_size
+    except OSError as exc:
+        return f"it cannot be read ({exc.strerror})"
+    if size != data.get("size"):
+        return f"its size is {size} bytes, {data.get('size')} when it was built"
+    try:
+        digest = sha256(module)
+    except OSError as exc:
+        return f"it cannot be read ({exc.strerror})"
+    if digest != data.get("sha256"):
+        return "its content differs from what was built (SHA-256 mismatch)"
+    return None
+
+
+def entries(cache: Path) -> list[Entry]:
+    """Every cached model in `cache`, oldest first."""
+    if not cache.is_dir():
+        return []
+    groups: dict[str, list[Path]] = {}
+    for path in cache.iterdir():
+        if not path.name.startswith(PREFIX) or not path.is_file():
+            continue
+        stem = path.name[: -len(EXT_SUFFIX)] if path.name.endswith(EXT_SUFFIX) else path.name.rsplit(".", 1)[0]
+        groups.setdefault(stem, []).append(path)
+    out = [Entry(stem, cache / (stem + EXT_SUFFIX), read_record(cache / (stem + EXT_SUFFIX)), tuple(sorted(files)))
+           for stem, files in groups.items()]
+    return sorted(out, key=lambda e: e.built)
+
+
+def remove(entry: Entry) -> int:
+    """Delete an entry's files (the record last: a half-removed entry is never trusted); bytes freed."""
+    freed = 0
+    for path in sorted(entry.files, key=lambda p: p.suffix == ".json"):
+        try:
+            freed += path.stat().st_size
+            os.unlink(path)
+        except FileNotFoundError:
+            pass
+    return freed

@@ -1,0 +1,96 @@
+"""The build cache verifies what it loads, and `mbs cache` lists, cleans and verifies it."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from mbs.cli import main
+from mbs.runtime import build, cache
+from mbs.runtime.errors import BuildError
+
+FIXTURES = Path(__file__).parent / "fixtures"
+
+
+def _fixture() -> Path:
+    return sorted(FIXTURES.glob("*.c"))[0]
+
+
+def test_a_fresh_build_records_size_and_hash(tmp_path):
+    result = build.build_file(_fixture(), cache_dir=tmp_path)
+    record = cache.read_record(result.path)
+    assert record["size"] == result.path.stat().st_size
+    assert record["sha256"] == cache.sha256(result.path)
+    assert cache.problem(result.path) is None
+
+
+def test_a_truncated_module_is_rebuilt_with_a_note_and_never_loaded(tmp_path, caplog):
+    """The audit's case: a cached .so cut short on disk crashed the next run with a bus error."""
+    first = build.build_file(_fixture(), cache_dir=tmp_path)
+    size = first.path.stat().st_size
+    with open(first.path, "r+b") as f:
+        f.truncate(size // 3)
+    assert "size is" in cache.problem(first.path)
+    again = build.build_file(_fixture(), cache_dir=tmp_path)
+    assert not again.cached and again.path == first.path
+    assert again.path.stat().st_size == size and cache.problem(again.path) is None
+    assert "is not loaded" in caplog.text and "rebuilding" in caplog.text
+
+
+def test_a_truncated_module_in_a_fresh_process_runs_the_model(tmp_path):
+    """End to end in a new interpreter (a damaged module loaded there would kill it with SIGBUS)."""
+    env = dict(os.environ, MBS_CACHE_DIR=str(tmp_path))
+    model = str(Path(__file__).resolve().parents[2] / "library" / "examples" / "pendulum.mbs")
+    run = [sys.executable, "-m", "mbs", "simulate", model, "--t-end", "0.05"]
+    assert subprocess.run(run, env=env, capture_output=True).returncode == 0
+    for module in tmp_path.glob(f"*{cache.EXT_SUFFIX}"):
+        with open(module, "r+b") as f:
+            f.truncate(4096)
+    second = subprocess.run(run, env=env, capture_output=True, text=True)
+    assert second.returncode == 0, second.stderr
+    assert "rebuilding it" in second.stderr
+
+
+def test_a_module_without_record_or_with_other_content_is_not_trusted(tmp_path):
+    result = build.build_file(_fixture(), cache_dir=tmp_path)
+    data = bytearray(result.path.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    result.path.write_bytes(bytes(data))
+    assert "SHA-256" in cache.problem(result.path)
+    cache.record_path(result.path).unlink()
+    assert cache.problem(result.path) == "it has no build record"
+
+
+def test_a_cache_path_that_is_a_file_is_a_clear_error(tmp_path):
+    blocker = tmp_path / "cache"
+    blocker.write_text("not a folder")
+    with pytest.raises(BuildError, match="a file, not a folder"):
+        build.build_file(_fixture(), cache_dir=blocker)
+
+
+def test_an_unwritable_cache_is_a_clear_error(tmp_path, monkeypatch):
+    """A read-only folder (as root the permission bits do not stop us, so the refusal is simulated)."""
+    def refuse(*args, **kwargs):
+        raise PermissionError(13, "Permission denied")
+    monkeypatch.setattr(build.tempfile, "mkdtemp", refuse)
+    with pytest.raises(BuildError, match="cannot be used .Permission denied.: set MBS_CACHE_DIR"):
+        build.build_file(_fixture(), cache_dir=tmp_path / "ro")
+
+
+def test_mbs_cache_lists_verifies_and_cleans(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("MBS_CACHE_DIR", str(tmp_path))
+    result = build.build_file(_fixture(), cache_dir=tmp_path)
+    assert main(["cache", "list"]) == 0
+    out = capsys.readouterr().out
+    assert result.module_name in out and "1 entry" in out
+    assert main(["cache", "verify"]) == 0
+    with open(result.path, "r+b") as f:
+        f.truncate(100)
+    assert main(["cache", "verify"]) == 1
+    assert "damaged: its size is 100 bytes" in capsys.readouterr().err
+    assert main(["cache", "clean", "--older-than", "1"]) == 0  # built just now: kept
+    assert result.path.exists()
+    assert main(["cache", "clean"]) == 0
+    assert not any(tmp_path.iterdir())
