@@ -19,6 +19,7 @@ from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
+from .guard import STALL_TIME, RunGuard
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
@@ -67,13 +68,15 @@ def output_times(t0: float, t_end: float, t_eval=None, sample: float | None = No
 def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None, sample: float | None = None,
              integrator=None, rtol: float = 1e-6, atol=1e-9, first_step: float | None = None,
              max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
-             outputs: bool = True, progress: Progress | None = None) -> Results:
+             outputs: bool = True, progress: Progress | None = None, max_wall_time: float | None = None,
+             stall_time: float | None = STALL_TIME) -> Results:
     """Integrate from (data.t, data.x) to t_end [s] and return sampled results.
 
     Columns: "time", the state names (q then v), then the model outputs (when ``outputs`` and the model
     has them).  ``progress(t, t_end)`` is called about PROGRESS_CHUNKS times; returning False stops the
     run (status "stopped").  On return data.t, data.x hold the last state reached and data.stats the
-    integrator's counters.
+    integrator's counters.  Ctrl-C, SIGTERM, ``max_wall_time`` [s] and a stall (``stall_time`` [s] without
+    progress; None: never) end the run early with the samples so far (guard.py).
     """
     check_workspace(model, data)
     t0 = float(data.t)
@@ -87,8 +90,11 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     started = time.perf_counter()
     solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
                  max_step=max_step, min_step=min_step, max_steps=max_steps)
+    guard = RunGuard(t0, t_end, progress, max_wall_time, stall_time)
+    guard.watch(solver)
     states = np.empty((times.size, model.nx))
-    status, filled = _run(solver, times, states, progress, t_end)
+    with guard:
+        status, filled = _run(solver, times, states, guard.progress, t_end)
     message = explain_failure(model, data, solver.message, solver.t, solver.y) if status == FAILED else ""
     loops = "project" in model.functions
     if loops:  # closed loops: store the samples projected onto the constraints
@@ -97,7 +103,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
             filled, status = projected, FAILED
             message = f"the closed loops cannot be closed at t = {times[projected]:.6g} s (see loop_report)"
     if status == "stopped":
-        message = f"stopped by the progress callback at t = {solver.t:.6g} s"
+        message = guard.stop_message(solver.t)
+        status = "interrupted" if guard.interrupted else status
     columns = [times[:filled, None], states[:filled]]
     names = [TIME, *model.x_names]
     if outputs and model.ny and "outputs" in model.functions:

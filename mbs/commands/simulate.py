@@ -28,6 +28,8 @@ class Simulate:
         p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy)")
         p.add_argument("--rtol", type=float)
         p.add_argument("--atol", type=float)
+        p.add_argument("--max-wall-time", type=float, metavar="SECONDS",
+                       help="stop a run after this much wall time, keeping (and writing) the samples so far")
         param_arg(p)
 
     @staticmethod
@@ -45,7 +47,8 @@ class Simulate:
         progress = ProgressBar()
         try:
             res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
-                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress)
+                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
+                                  max_wall_time=args.max_wall_time)
         finally:
             progress.close()
         if args.out:
@@ -57,7 +60,7 @@ class Simulate:
         _summary(system, scene, res, args)
         if not res.success:
             print(f"{args.file}: {res.message}", file=sys.stderr)
-            return 1
+            return 130 if res.metadata.get("status") == "interrupted" else 1
         return 0
 
 
@@ -94,7 +97,8 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
         progress = ProgressBar()
         try:
             res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
-                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress)
+                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
+                                  max_wall_time=args.max_wall_time)
         finally:
             progress.close()
         runs[scene] = res

@@ -381,6 +381,18 @@ static PyObject *solver_step(SolverObject *self, PyObject *unused)
     return PyLong_FromLong(status);
 }
 
+/* s.budget(n): allow n more steps from now; a run that stopped at its step budget resumes (the caller
+   returns to Python between budgets to check for interruption, wall time and stalls) */
+static PyObject *solver_budget(SolverObject *self, PyObject *arg)
+{
+    long n = PyLong_AsLong(arg);
+    if (n == -1 && PyErr_Occurred()) return NULL;
+    if (n < 0) { PyErr_SetString(PyExc_ValueError, "budget(n) needs n >= 0"); return NULL; }
+    self->ode.max_steps = self->ode.nsteps + n;
+    if (self->ode.status == MBS_ODE_TOO_MANY_STEPS) self->ode.status = MBS_ODE_RUNNING;
+    Py_RETURN_NONE;
+}
+
 /* s.sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start */
 static PyObject *solver_sample(SolverObject *self, PyObject *args)
 {
@@ -452,6 +464,8 @@ static PyGetSetDef solver_getset[] = {
 
 static PyMethodDef solver_methods[] = {
     {"step", (PyCFunction)solver_step, METH_NOARGS, "step() -> status: advance by one accepted step"},
+    {"budget", (PyCFunction)solver_budget, METH_O, "budget(n): allow n more steps (resumes a run stopped at its "
+     "step budget)"},
     {"sample", (PyCFunction)solver_sample, METH_VARARGS,
      "sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start"},
     {NULL, NULL, 0, NULL},

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from mbs.language.diagnostics import MbsError
-from mbs.runtime import build
+from mbs.runtime import build, cache
 from mbs.runtime.errors import BuildError
 
 FIXTURES = Path(__file__).parent / "fixtures"
@@ -50,6 +50,7 @@ def test_cache_dir_from_environment(builds, tmp_path, monkeypatch):
     # seed the environment's cache with the session's module: the build is then a hit there
     (tmp_path / "env-cache").mkdir()
     shutil.copy(builds["pendulum.c"].path, tmp_path / "env-cache")
+    shutil.copy(cache.record_path(builds["pendulum.c"].path), tmp_path / "env-cache")  # its build record
     result = build.build_file(PENDULUM)
     assert result.cached and result.path.parent == tmp_path / "env-cache"
 
