@@ -91,8 +91,19 @@ class System:
         settings = _settings(sc, t_end, sample, integrator, rtol, atol)
         if t_eval is not None:
             settings.pop("sample", None)
+        options.setdefault("owners", self.coordinate_owners(compiled))
         return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
                          **settings, **options)
+
+    def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
+        """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
+        owners = {}
+        for name in compiled.q_names:
+            interaction = next((i for i in self.model.interactions if name.startswith(i.name + ".")), None)
+            if interaction is not None:
+                forces = ", ".join(f.name for f in interaction.forces)
+                owners[name] = f"interaction {interaction.name}" + (f": force {forces}" if forces else "")
+        return owners
 
 
     @staticmethod

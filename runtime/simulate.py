@@ -20,6 +20,7 @@ from .errors import EvaluationError, UsageError, status_text
 from .integrators import FAILED, FINISHED, get_integrator
 from .model import CompiledModel
 from .results import TIME, Results
+from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
 #: Samples when neither t_eval nor sample is given.
@@ -60,13 +61,14 @@ def output_times(t0: float, t_end: float, t_eval=None, sample: float | None = No
 def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None, sample: float | None = None,
              integrator=None, rtol: float = 1e-6, atol=1e-9, first_step: float | None = None,
              max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
-             outputs: bool = True, progress: Progress | None = None) -> Results:
+             outputs: bool = True, progress: Progress | None = None, owners=None) -> Results:
     """Integrate from (data.t, data.x) to t_end [s] and return sampled results.
 
     Columns: "time", the state names (q then v), then the model outputs (when ``outputs`` and the model
     has them).  ``progress(t, t_end)`` is called about PROGRESS_CHUNKS times; returning False stops the
     run (status "stopped").  On return data.t, data.x hold the last state reached and data.stats the
-    integrator's counters.
+    integrator's counters.  metadata["warnings"] holds a diagnosis when dopri5 found the model stiff
+    (runtime/stiffness.py; ``owners`` maps coordinates to the interactions named in it).
     """
     check_workspace(model, data)
     t0 = float(data.t)
@@ -105,10 +107,12 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     if loops and status != FAILED:
         data.x = data.project(data.t, data.x)
     data.stats = dict(solver.stats)
+    warnings = stiffness_warnings(model, data, solver, times[:filled], states[:filled], t_end, owners)
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,
         "atol": atol, "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+        "warnings": warnings,
     }
     return Results(names, np.hstack(columns), metadata)
 

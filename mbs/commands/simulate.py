@@ -55,6 +55,8 @@ class Simulate:
             names = list(compiled.y_names) or list(compiled.q_names)
             res.plot(names, args.plot, title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
         _summary(system, scene, res, args)
+        for warning in res.metadata.get("warnings", ()):
+            print(f"{args.file}: warning: {warning}", file=sys.stderr)
         if not res.success:
             print(f"{args.file}: {res.message}", file=sys.stderr)
             return 1
