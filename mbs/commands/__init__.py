@@ -4,6 +4,7 @@ A command is a class with ``help``, ``arguments(parser)`` and ``run(args) -> exi
 module in this package and a line in COMMANDS.
 """
 
+from .accuracy import Accuracy
 from .analysis import Equilibrium, Info, Linearize
 from .compile import Compile
 from .eom import Eom
@@ -11,4 +12,4 @@ from .model_files import Check, Export, Fmt
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy}
