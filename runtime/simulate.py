@@ -79,7 +79,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     cls = get_integrator(integrator or default_integrator(model))
     started = time.perf_counter()
     solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
-                 max_step=max_step, min_step=min_step, max_steps=max_steps)
+                 max_step=max_step, min_step=min_step, max_steps=max_steps, jac=state_jacobian(data))
     states = np.empty((times.size, model.nx))
     status, filled = _run(solver, times, states, progress, t_end)
     message = solver.message if status == FAILED else ""
@@ -115,6 +115,14 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "warnings": warnings,
     }
     return Results(names, np.hstack(columns), metadata)
+
+
+def state_jacobian(data: Workspace):
+    """jac(t, x) -> d xdot/d x from the generated mbs_jacobian (compiler/jacobian.py), or None without one."""
+    if "jacobian" not in data.model.functions:
+        return None
+    full = data.function("jacobian")
+    return lambda t, x: full(t, x)[:, :-1]
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):
