@@ -9,7 +9,9 @@ from .analysis import Equilibrium, Info, Linearize
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
+from .numerics import Numerics
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy,
+            "numerics": Numerics}
