@@ -35,6 +35,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_UNARY, CodegenError, ExprPrinte
                           printable, table_slopes)
 from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
 from .equations import Equations
+from .jacobian import jacobian_or_none
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
 GENERATOR = "mbs.compiler.ccode"
@@ -98,8 +99,11 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None, run_time_inputs=()):
+                 constraints=None, run_time_inputs=(), jacobian: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        self.jacobian = None
+        if jacobian and not (constraints is not None and constraints.nc):
+            self.eqs, self.jacobian = jacobian_or_none(equations)
         self.run_time_inputs = tuple(run_time_inputs)
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
@@ -107,7 +111,7 @@ class CEmitter:
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints, self.run_time_inputs)
-        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
+        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs)
         self.names = self.naming.names
 
     # ---- the file ---------------------------------------------------------------------------------------------
@@ -131,7 +135,7 @@ class CEmitter:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
         routines = equation_routines(self.eqs, self.outputs)
         if self.constraints is None:
-            return routines
+            return routines + ([self.jacobian] if self.jacobian else [])
         return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
 
     def write(self, path: str | Path) -> Path:
@@ -157,6 +161,8 @@ class CEmitter:
                  f"#define MBS_NWORK {self._work()}   /* doubles of work memory the caller provides */"]
         if self.outputs:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
+        if self.jacobian:
+            lines.append("#define MBS_JACOBIAN 1   /* mbs_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]
@@ -277,7 +283,8 @@ class CEmitter:
 
 
 #: The length of each contract function's output, as the file's size macros.
-_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY"}
+_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY",
+                "J": "MBS_NX*(MBS_NX+1)"}
 
 
 def _comment(text: str) -> str:
@@ -322,7 +329,7 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None, run_time_inputs=()) -> str:
+               constraints=None, run_time_inputs=(), jacobian: bool = False) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -330,7 +337,8 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     tables: the lookup tables the expressions call as mbs_table_k (`Lowered.tables` or its `.tables` list).
     origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment.
     run_time_inputs: (symbol, array, index) of the accelerations and multipliers the outputs read
-    (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first."""
+    (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first.
+    jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs).source()
+                    run_time_inputs=run_time_inputs, jacobian=jacobian).source()

@@ -34,6 +34,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_LOGIC, CodegenError, ExprPrinte
                           Routine, check_inputs, describe, equation_routines, plan_routine, printable,
                           table_slopes)
 from .equations import Equations
+from .jacobian import jacobian_or_none
 from .reactions import ACCELERATION_ARRAY
 
 GENERATOR = "mbs.compiler.pycode"
@@ -122,22 +123,25 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=()):
+                 run_time_inputs=(), jacobian: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        self.jacobian = None
+        if jacobian:
+            self.eqs, self.jacobian = jacobian_or_none(equations)
         self.run_time_inputs = tuple(run_time_inputs)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
-        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
+        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs)
 
     def source(self) -> str:
         printer = PyPrinter(self.naming.names, len(self.tables))
         functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
                                                  inline_max_chars=self.inline_max_chars))
-                     for name, out, doc, shape, results, positive in equation_routines(self.eqs, self.outputs)]
+                     for name, out, doc, shape, results, positive in self._routines()]
         used = printer.used | {"sqrt"}  # mbs_positive_definite
         if self.tables:
             used.add("mbs_lookup")
@@ -146,6 +150,9 @@ class PyEmitter:
         parts = [self._header(used), *(HELPERS[h] for h in sorted(HELPERS) if h in used), ALWAYS,
                  *self._tables(), *(text for text, _ in functions)]
         return "\n\n\n".join(parts) + "\n"
+
+    def _routines(self) -> list:
+        return equation_routines(self.eqs, self.outputs) + ([self.jacobian] if self.jacobian else [])
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -237,11 +244,12 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=()) -> str:
+                   run_time_inputs=(), jacobian: bool = False) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
-                     inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs).source()
+                     inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
+                     jacobian=jacobian).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

@@ -66,6 +66,18 @@ class Tape:
     def __len__(self) -> int:
         return len(self.entries)
 
+    def fork(self) -> "Tape":
+        """A new tape that starts with this one's entries and shares none of its future ones: what a later stage
+        (differentiation) adds to the fork leaves the original, and so every function already planned on it,
+        unchanged."""
+        other = Tape()
+        other.entries = list(self.entries)
+        other._by_expr = dict(self._by_expr)
+        other._entry_of = dict(self._entry_of)
+        other._names = set(self._names)
+        other._section = self._section
+        return other
+
     def section(self, label: str) -> None:
         """Label the entries created from now on (e.g. "body 3 (link3): velocity")."""
         self._section = label

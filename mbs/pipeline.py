@@ -20,6 +20,7 @@ import sympy as sp
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
 from mbs.compiler.equations import Equations, derive_equations
+from mbs.compiler.jacobian import JACOBIAN_INTEGRATORS
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
 from mbs.compiler.symbolic import parameter_symbol
@@ -72,8 +73,17 @@ def structurally_singular(lowered, text: str) -> Diagnostic:
     return Diagnostic("error", f"the mass matrix is singular for every parameter value ({text})", lowered.model.span)
 
 
-def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
-    """Validated model -> generated source (symbolic derivation included)."""
+def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool:
+    """Whether the run's integrator (given, else the scene's) uses the generated Jacobian of the right-hand side."""
+    name = integrator or (scene.integrator if scene is not None else None)
+    return bool(name) and str(name).lower() in JACOBIAN_INTEGRATORS
+
+
+def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None) -> Generated:
+    """Validated model -> generated source (symbolic derivation included).
+
+    jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
+    no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
     lowered = lower(model, scene)
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
@@ -89,6 +99,8 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
+    if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
+        options["jacobian"] = True
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""

@@ -48,17 +48,18 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None) -> pipeline.Generated:
-        key = ("generated", scene)
+    def generate(self, scene: str | None = None, *, jacobian: bool | None = None) -> pipeline.Generated:
+        """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it)."""
+        key = ("generated", scene) if jacobian is None else ("generated", scene, jacobian)
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene))
+            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian)
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None) -> CompiledModel:
+    def compile(self, scene: str | None = None, *, jacobian: bool | None = None) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs."""
-        key = ("compiled", scene)
+        key = ("compiled", scene) if jacobian is None else ("compiled", scene, jacobian)
         if key not in self._compiled:
-            gen = self.generate(scene)
+            gen = self.generate(scene, jacobian=jacobian)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
@@ -77,23 +78,54 @@ class System:
                  rtol: float | None = None, atol: float | None = None,
                  progress: Callable[[float, float], bool | None] | None = None, **options) -> Results:
         """Run a scene (or the model with default settings); arguments given here override the scene's."""
+        data, settings = self.start(scene, params=params, x0=x0, t_end=t_end, sample=sample,
+                                    integrator=integrator, rtol=rtol, atol=atol)
+        compiled = data.model
+        if t_eval is not None:
+            settings.pop("sample", None)
+        options.setdefault("owners", self.coordinate_owners(compiled))
+        return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
+                         **settings, **options)
+
+    def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
+        """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
+        owners = {}
+        for name in compiled.q_names:
+            interaction = next((i for i in self.model.interactions if name.startswith(i.name + ".")), None)
+            if interaction is not None:
+                forces = ", ".join(f.name for f in interaction.forces)
+                owners[name] = f"interaction {interaction.name}" + (f": force {forces}" if forces else "")
+        return owners
+
+
+    def start(self, scene: str | None = None, *, params: Mapping[str, float] | None = None, x0=None,
+              jacobian: bool | None = None, **overrides) -> tuple[Workspace, dict]:
+        """(workspace at the scene's start, run settings): what a run of the scene begins with. overrides:
+        t_end, sample, integrator, rtol, atol as for simulate. jacobian: as for compile."""
         sc = self.scene(scene)
-        compiled = self.compile(scene)
-        gen = self.generate(scene)
-        overrides = pipeline.scene_overrides(sc)
-        overrides.update(params or {})
-        values = pipeline.parameter_values(self.model, overrides)
+        settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
+        if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
+            jacobian = True
+        compiled = self.compile(scene, jacobian=jacobian)
+        gen = self.generate(scene, jacobian=jacobian)
+        values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc), **(params or {})})
         data = self._workspace(compiled, gen, values)
         if x0 is not None:
             data.x = np.asarray(x0, dtype=float)
         elif sc is not None and sc.start == "equilibrium":
             data.x = static_equilibrium(compiled, data, data.x).x
-        settings = _settings(sc, t_end, sample, integrator, rtol, atol)
-        if t_eval is not None:
-            settings.pop("sample", None)
-        return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
-                         **settings, **options)
+        return data, settings
 
+    def accuracy(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
+                 t_end: float | None = None, **options):
+        """The work-precision table of a scene (mbs.runtime.accuracy.work_precision; options: integrators,
+        tolerances, repeats), built with the generated Jacobian for the stiff integrators."""
+        from mbs.runtime.accuracy import work_precision
+        from mbs.runtime.simulate import output_times
+        data, settings = self.start(scene, params=params, jacobian=True)
+        t_end = settings["t_end"] if t_end is None else t_end
+        times = output_times(data.t, t_end, sample=settings.get("sample"))
+        return work_precision(data.model, data, t_end, t_eval=times, **options)
 
     @staticmethod
     def _workspace(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]) -> Workspace:

@@ -33,6 +33,7 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "forces": ("NV",),
     "qdot": ("NQ",),
     "outputs": ("NY",),
+    "jacobian": ("NX", "NX1"),  # [d xdot/d x | d xdot/d t], when generated (compiler/jacobian.py)
     # models with closed loops (NC constraint rows; runtime/c/loops.c)
     "constraints": ("NC",),
     "constraint_velocity": ("NC",),
@@ -90,6 +91,7 @@ class NumpyBackend:
         except AttributeError as exc:
             raise UsageError(f"{module.__name__} is not a generated model module: {exc}") from None
         self.sizes["NY"] = int(getattr(module, "MBS_NY", 0))
+        self.sizes["NX1"] = self.sizes["NX"] + 1
         self.functions = {}
         for name, dims in FUNCTION_SHAPES.items():
             fn = getattr(module, "mbs_" + name, None)

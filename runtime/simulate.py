@@ -23,6 +23,7 @@ from .guard import STALL_TIME, RunGuard
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
+from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
 #: Samples when neither t_eval nor sample is given.
@@ -69,7 +70,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
              integrator=None, rtol: float = 1e-6, atol=1e-9, first_step: float | None = None,
              max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
              outputs: bool = True, progress: Progress | None = None, max_wall_time: float | None = None,
-             stall_time: float | None = STALL_TIME) -> Results:
+             stall_time: float | None = STALL_TIME, owners=None) -> Results:
     """Integrate from (data.t, data.x) to t_end [s] and return sampled results.
 
     Columns: "time", the state names (q then v), then the model outputs (when ``outputs`` and the model
@@ -77,6 +78,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     run (status "stopped").  On return data.t, data.x hold the last state reached and data.stats the
     integrator's counters.  Ctrl-C, SIGTERM, ``max_wall_time`` [s] and a stall (``stall_time`` [s] without
     progress; None: never) end the run early with the samples so far (guard.py).
+    metadata["warnings"] holds a diagnosis when dopri5 found the model stiff
+    (runtime/stiffness.py; ``owners`` maps coordinates to the interactions named in it).
     """
     check_workspace(model, data)
     t0 = float(data.t)
@@ -89,7 +92,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     cls, note = runnable_integrator(model, integrator or default_integrator(model))
     started = time.perf_counter()
     solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
-                 max_step=max_step, min_step=min_step, max_steps=max_steps)
+                 max_step=max_step, min_step=min_step, max_steps=max_steps, jac=state_jacobian(data))
     guard = RunGuard(t0, t_end, progress, max_wall_time, stall_time)
     guard.watch(solver)
     states = np.empty((times.size, model.nx))
@@ -121,13 +124,23 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     if loops and status != FAILED:
         data.x = data.project(data.t, data.x)
     data.stats = dict(solver.stats)
+    warnings = stiffness_warnings(model, data, solver, times[:filled], states[:filled], t_end, owners)
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,
         "atol": atol, "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
         "notes": [note] if note else [],
+        "warnings": warnings,
     }
     return Results(names, np.hstack(columns), metadata)
+
+
+def state_jacobian(data: Workspace):
+    """jac(t, x) -> d xdot/d x from the generated mbs_jacobian (compiler/jacobian.py), or None without one."""
+    if "jacobian" not in data.model.functions:
+        return None
+    full = data.function("jacobian")
+    return lambda t, x: full(t, x)[:, :-1]
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):

@@ -4,12 +4,15 @@ A command is a class with ``help``, ``arguments(parser)`` and ``run(args) -> exi
 module in this package and a line in COMMANDS.
 """
 
+from .accuracy import Accuracy
 from .analysis import Equilibrium, Info, Linearize
 from .cache import Cache
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
+from .numerics import Numerics
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "cache": Cache}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "cache": Cache,
+            "accuracy": Accuracy, "numerics": Numerics}

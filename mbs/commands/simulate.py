@@ -25,7 +25,11 @@ class Simulate:
         p.add_argument("--out", help="results file: .csv or .npz (several scenes: one file each, NAME_SCENE.csv)")
         p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG; several scenes: the "
                                       "motion of every scene in one plot, tyre loads in NAME_tyres.png")
-        p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy)")
+        p.add_argument("--integrator", help="dopri5, rodasp, auto (in C), cvode_adams, cvode_bdf, ida (SUNDIALS), "
+                                            "RK45, DOP853, Radau, BDF, LSODA (scipy)")
+        p.add_argument("--error-estimate", action="store_true",
+                       help="run again at a tenth of the tolerances; print and store the estimated global error "
+                            "of every output")
         p.add_argument("--rtol", type=float)
         p.add_argument("--atol", type=float)
         p.add_argument("--max-wall-time", type=float, metavar="SECONDS",
@@ -51,6 +55,8 @@ class Simulate:
                                   max_wall_time=args.max_wall_time)
         finally:
             progress.close()
+        if args.error_estimate and res.success:
+            _estimate_error(system, scene, params, res, args)
         if args.out:
             (res.to_npz if args.out.endswith(".npz") else res.to_csv)(args.out)
         if args.plot:
@@ -58,12 +64,34 @@ class Simulate:
             names = list(compiled.y_names) or list(compiled.q_names)
             res.plot(names, args.plot, title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
         _summary(system, scene, res, args)
+        for warning in res.metadata.get("warnings", ()):
+            print(f"{args.file}: warning: {warning}", file=sys.stderr)
         if not res.success:
             print(f"{args.file}: {res.message}", file=sys.stderr)
             return 130 if res.metadata.get("status") == "interrupted" else 1
         return 0
 
 
+
+
+def _estimate_error(system, scene, params, res, args) -> None:
+    """Second run at a tenth of the tolerances: the estimated global error per column, printed and stored."""
+    from mbs.runtime.accuracy import global_error_estimate
+    rtol, atol = res.metadata["rtol"], res.metadata["atol"]
+    fine = system.simulate(scene, t_end=args.t_end, t_eval=res.t, params=params, integrator=args.integrator,
+                           rtol=rtol / 10, atol=(atol / 10 if isinstance(atol, float) else [a / 10 for a in atol]))
+    if not fine.success:
+        print(f"{args.file}: the error estimate's second run failed: {fine.message}", file=sys.stderr)
+        return
+    errors = global_error_estimate(res, fine)
+    res.metadata["error_estimate"] = errors
+    res.metadata["error_estimate_method"] = f"difference to a second run at rtol {rtol / 10:g}"
+    units = res.metadata.get("units", {})
+    shown = list(system.compile(scene).y_names) or list(errors)
+    print(f"estimated global error (largest over the samples; second run at rtol {rtol / 10:g}):")
+    for name in shown:
+        if name in errors:
+            print(f"  {name:32s} {errors[name]:.3g} {units.get(name, '')}".rstrip())
 
 
 def _check_suffixes(args) -> None:

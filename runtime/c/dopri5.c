@@ -33,12 +33,47 @@ static const double DP_D1 = -12715105075.0 / 11282082432.0, DP_D3 = 87487479700.
 #define DP_BETA 0.04
 #define DP_EXPO1 (0.2 - DP_BETA * 0.75)
 #define DP_FAC_MIN 0.2  /* h_new >= 0.2 h */
+/* Stiffness test of dopri5.f: h |lambda| ~ h |k7 - k6| / |y1 - ysti| beyond the stability boundary
+ * (3.25 on the real axis) on DP_STIFF_STEPS accepted steps without DP_NONSTIFF_STEPS good ones between. */
+#define DP_STIFF_HLAMB 3.25
+#define DP_STIFF_STEPS 15
+#define DP_NONSTIFF_STEPS 6
 
 typedef struct {
     double facold;  /* previous accepted error, for the PI controller */
     int reject;     /* the last attempt was rejected: do not grow h on the next accepted step */
+    int iasti, nonsti;  /* stiffness test: steps at the stability boundary, ordinary steps since */
     double *k2, *k3, *k4, *k5, *k6, *k7, *y1, *ysti;
 } dp_mem;
+
+/* h |lambda| estimated from the last two stages, both at t + h: |k7 - k6| / |y1 - ysti| (dopri5.f). */
+static double dp_hlamb(int n, double h, const dp_mem *m)
+{
+    double num = 0.0, den = 0.0;
+    int i;
+    for (i = 0; i < n; i++) {
+        double a = m->k7[i] - m->k6[i], b = m->y1[i] - m->ysti[i];
+        num += a * a;
+        den += b * b;
+    }
+    return den > 0.0 ? h * sqrt(num / den) : 0.0;
+}
+
+/* Record stiffness once: the step has sat at the stability boundary for DP_STIFF_STEPS accepted steps. */
+static void dp_stiffness(mbs_ode *o, dp_mem *m, double h, double hlamb)
+{
+    if (hlamb > DP_STIFF_HLAMB) {
+        m->nonsti = 0;
+        if (++m->iasti == DP_STIFF_STEPS && !o->stiff) {
+            o->stiff = 1;
+            o->stiff_t = o->t + h;
+            o->stiff_h = h;
+            o->stiff_hlamb = hlamb;
+        }
+    } else if (++m->nonsti == DP_NONSTIFF_STEPS) {
+        m->iasti = 0;
+    }
+}
 
 static int dp_step(mbs_ode *o)
 {
@@ -47,7 +82,7 @@ static int dp_step(mbs_ode *o)
     double *y = o->y, *k1 = o->f;
     int i;
     while (o->status == MBS_ODE_RUNNING) {
-        double h, err, fac11, fac, t = o->t;
+        double h, err, fac11, fac, hlamb, t = o->t;
         int last, s;
         if (mbs_ode_next_h(o, &h, &last)) break;
         for (i = 0; i < n; i++) m->y1[i] = y[i] + h * DP_A21 * k1[i];
@@ -84,6 +119,7 @@ static int dp_step(mbs_ode *o)
             m->reject = 1;
             continue;
         }
+        hlamb = dp_hlamb(n, h, m);
         /* error estimate, kept in ysti (no longer needed) */
         for (i = 0; i < n; i++)
             m->ysti[i] = h * (DP_E1 * k1[i] + DP_E3 * m->k3[i] + DP_E4 * m->k4[i] + DP_E5 * m->k5[i]
@@ -110,7 +146,9 @@ static int dp_step(mbs_ode *o)
             if (m->reject) h_new = fmin(h_new, h);
             m->reject = 0;
             o->h = h_new;
+            dp_stiffness(o, m, h, hlamb);
             mbs_ode_accept(o, h, last);
+            if (o->stiff && o->stop_on_stiff && o->status == MBS_ODE_RUNNING) o->status = MBS_ODE_STIFF;
             break;
         }
         /* rejected (err > 1 or non-finite) */

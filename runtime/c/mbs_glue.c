@@ -56,6 +56,9 @@ static const mbs_entry MBS_TABLE[] = {
 #ifdef MBS_NY
     {"outputs", mbs_outputs, MBS_NY, 0},
 #endif
+#ifdef MBS_JACOBIAN
+    {"jacobian", mbs_jacobian, MBS_NX, MBS_NX + 1},
+#endif
 #ifdef MBS_NC
     {"constraints", mbs_constraints, MBS_NC, 0},
     {"constraint_velocity", mbs_constraint_velocity, MBS_NC, 0},
@@ -339,6 +342,9 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);
     Py_XDECREF(atol_tmp);
+#ifdef MBS_JACOBIAN
+    if (!rc && fn->entry->fn == mbs_rhs) self->ode.jac = mbs_jacobian;  /* the generated one, exact */
+#endif
 #ifdef MBS_NC
     /* the mechanism's own right-hand side: keep the integrated state on its loop-closure constraints */
     if (!rc && fn->entry->fn == mbs_rhs) {
@@ -452,6 +458,11 @@ static PyMemberDef solver_members[] = {
     {"fail_h", T_DOUBLE, offsetof(SolverObject, ode.fail_h), READONLY, "step size at failure [s]"},
     {"status", T_INT, offsetof(SolverObject, ode.status), READONLY, "0 running, 101 finished, >101 failed"},
     {"model_status", T_INT, offsetof(SolverObject, ode.model_status), READONLY, "last non-zero model status"},
+    {"stop_on_stiff", T_INT, offsetof(SolverObject, ode.stop_on_stiff), 0, "end the run when stiffness is found"},
+    {"stiff", T_INT, offsetof(SolverObject, ode.stiff), READONLY, "1 once an explicit method found stiffness"},
+    {"stiff_t", T_DOUBLE, offsetof(SolverObject, ode.stiff_t), READONLY, "when stiffness was found [s]"},
+    {"stiff_h", T_DOUBLE, offsetof(SolverObject, ode.stiff_h), READONLY, "the step size then [s]"},
+    {"stiff_hlamb", T_DOUBLE, offsetof(SolverObject, ode.stiff_hlamb), READONLY, "h |lambda| estimated then"},
     {NULL, 0, 0, 0, NULL},
 };
 

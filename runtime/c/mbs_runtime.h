@@ -31,6 +31,7 @@ typedef int (*mbs_fn)(double t, const double *x, const double *p, double *out, d
 #define MBS_ODE_MODEL_FAILED 104    /* the model failed at the initial point (no step can help) */
 #define MBS_ODE_SINGULAR 105        /* iteration matrix singular at every step size tried */
 #define MBS_ODE_BAD_SAMPLE 106      /* output times not increasing or before the current step */
+#define MBS_ODE_STIFF 107           /* stiffness detected and stop_on_stiff set (the auto integrator switches) */
 
 typedef struct mbs_ode mbs_ode;
 
@@ -62,6 +63,14 @@ struct mbs_ode {
     mbs_fn project;         /* NULL: no projection */
     double *yproj;          /* [n], owned: the projection's output */
     long nproject_failed;   /* accepted steps whose projection failed (y then kept as integrated) */
+    /* Jacobian: if set, jac(t, y) writes [d f/d y | d f/d t] (n rows of n + 1 columns, row-major; the generated
+     * mbs_jacobian); the implicit methods use it instead of finite differences of fn */
+    mbs_fn jac;             /* NULL: finite differences */
+    /* stiffness (explicit methods, Hairer's test): the first time the step was held by stability for many
+     * steps in a row; stop_on_stiff ends the run there with MBS_ODE_STIFF */
+    int stop_on_stiff;
+    int stiff;              /* 1 once detected */
+    double stiff_t, stiff_h, stiff_hlamb;  /* when, the step then, h |lambda| estimated at that step */
     /* method hooks */
     int (*step)(mbs_ode *);                               /* one accepted step; returns status */
     void (*dense)(const mbs_ode *, double t, double *out);  /* interpolate within the last step */

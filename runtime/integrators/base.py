@@ -2,7 +2,7 @@
 
 Contract for a method (a subclass):
 
-* ``__init__(fun, t0, y0, t_bound, *, rtol, atol, first_step, max_step, min_step, max_steps)`` calls
+* ``__init__(fun, t0, y0, t_bound, *, rtol, atol, first_step, max_step, min_step, max_steps, jac)`` calls
   ``super().__init__`` first, then sets up its own state.  ``fun(t, y)`` returns a NEW array each call.
 * ``_step_impl()`` advances ``self.t, self.y`` by one accepted step and sets ``self.t_old`` to the start
   of that step; it never passes ``t_bound``.  It returns ``(True, None)``, or ``(False, reason)`` for a
@@ -55,7 +55,8 @@ class OdeSolver:
 
     def __init__(self, fun: Callable[[float, np.ndarray], np.ndarray], t0: float, y0, t_bound: float, *,
                  rtol: float = 1e-6, atol=1e-9, first_step: float | None = None, max_step: float = np.inf,
-                 min_step: float = 0.0, max_steps: int = 1_000_000):
+                 min_step: float = 0.0, max_steps: int = 1_000_000,
+                 jac: Callable[[float, np.ndarray], np.ndarray] | None = None):
         y0 = np.array(y0, dtype=float)
         if y0.ndim != 1:
             raise UsageError(f"y0 must be a vector, got shape {y0.shape}")
@@ -77,6 +78,8 @@ class OdeSolver:
         self.rtol, self.atol = float(rtol), atol_arr
         self.first_step, self.max_step, self.min_step = first_step, float(max_step), float(min_step)
         self.max_steps = int(max_steps)
+        #: jac(t, y) -> d f/d y, (n, n), or None: the implicit methods then difference f themselves
+        self.jac = jac
         self.n = y0.size
         self.status = FINISHED if self.t >= self.t_bound else RUNNING
         self.message = ""

@@ -18,7 +18,9 @@ from .base import FAILED, FINISHED, DenseOutput, OdeSolver
 
 # outcome codes of c/mbs_runtime.h (MBS_ODE_*)
 _C_RUNNING, _C_FINISHED, _C_COLLAPSED, _C_TOO_MANY = 0, 101, 102, 103
-_C_MODEL, _C_SINGULAR, _C_BAD_SAMPLE = 104, 105, 106
+_C_MODEL, _C_SINGULAR, _C_BAD_SAMPLE, _C_STIFF = 104, 105, 106, 107
+#: status of a run that stopped because it found stiffness (only when asked to: stop_on_stiff)
+STIFF = "stiff"
 
 
 def native_module(fun):
@@ -43,6 +45,8 @@ class NativeSolver(OdeSolver):
         if module is None or self.native_method not in module.METHODS:
             raise UsageError(f"integrator '{self.name}' runs in C and needs the right-hand side of a model "
                              "built with the C back end; use 'RK45' or 'Radau' with the NumPy back end")
+        #: {"t", "h", "h_lambda"} once an explicit method has found the problem stiff (c/dopri5.c), else None
+        self.stiffness = None
         self._c = module.Solver(self.native_method, fun, self.t0, self.y, self.t_bound, self.rtol,
                                 float(self.atol) if self.atol.ndim == 0 else self.atol,
                                 first_step=self.first_step or 0.0,
@@ -58,8 +62,12 @@ class NativeSolver(OdeSolver):
             self.t_old = c.t_old
         self.nfev, self.njev, self.nlu = stats["nfev"], stats["njev"], stats["nlu"]
         self.nsteps, self.nreject = stats["nsteps"], stats["nreject"]
+        if c.stiff and self.stiffness is None:
+            self.stiffness = {"t": c.stiff_t, "h": c.stiff_h, "h_lambda": c.stiff_hlamb}
         if c.status == _C_FINISHED:
             self.status = FINISHED
+        elif c.status == _C_STIFF:
+            self.status = STIFF
         elif c.status == _C_BAD_SAMPLE:
             raise UsageError("output times must increase and lie within [t0, t_bound]")
         elif c.status != _C_RUNNING:
@@ -76,6 +84,10 @@ class NativeSolver(OdeSolver):
         if c.status == _C_SINGULAR:
             return f"the iteration matrix is singular at every step size tried{model}"
         return f"unknown integrator status {c.status}"
+
+    def stop_on_stiffness(self) -> None:
+        """End the run (status STIFF) as soon as stiffness is detected, for a caller that switches method."""
+        self._c.stop_on_stiff = 1
 
     def _step_impl(self):
         self._c.step()

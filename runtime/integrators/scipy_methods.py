@@ -37,6 +37,8 @@ class ScipyMethod(OdeSolver):
         kwargs = {"rtol": self.rtol, "atol": self.atol, "max_step": self.max_step}
         if self.first_step is not None:
             kwargs["first_step"] = min(self.first_step, max(t_bound - t0, 1e-300))
+        if self.jac is not None and self.scipy_class in (integrate.Radau, integrate.BDF, integrate.LSODA):
+            kwargs["jac"] = self.jac
         if self.min_step > 0 and self.scipy_class is integrate.LSODA:
             kwargs["min_step"] = self.min_step
         self._solver = None

@@ -1,0 +1,98 @@
+"""Forward differentiation of results on a tape: d(result)/d(symbol) as new temporaries.
+
+The equations of motion live on a tape of small expressions (compiler/tape.py), so their derivatives are best
+taken the way forward-mode automatic differentiation does it: walk the tape once in order and, for every
+temporary that depends on one of the symbols `wrt`, put its derivative on the tape as a temporary of its own,
+
+    d(entry)/d(s) = sum over the symbols a the entry reads of  d(entry.expr)/d(a) * d(a)/d(s).
+
+Only non-zero derivatives are kept (a body's velocity does not depend on the coordinates of the bodies below
+it), so the cost is the tape's length times the number of symbols it actually depends on, and the result is
+itself a tape the emitters print like any other function. `wrt` may be any symbols: the states and t for the
+Jacobian of the right-hand side (compiler/jacobian.py), parameters for sensitivities.
+
+The original tape is not touched: the derivatives go on a fork (`Tape.fork`), so differentiating is a pure
+function of the equations. Functions without a usable derivative (lookup tables, undefined functions) raise
+NotDifferentiable; callers then fall back to finite differences.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import sympy as sp
+
+from .emit_common import CodegenError
+from .tape import Tape
+
+
+class NotDifferentiable(CodegenError):
+    """An expression on the tape has no derivative the code generators can print."""
+
+
+def forward_derivatives(tape: Tape, results: Sequence, wrt: Sequence[sp.Symbol], *,
+                        labels: Sequence[str] | None = None) -> tuple[Tape, list[list[sp.Expr]]]:
+    """(fork, D) with D[i][k] = d results[i] / d wrt[k], expressions on `fork` (a fork of `tape`).
+
+    labels: readable names of the symbols, for the section comments of the derivative temporaries."""
+    fork = tape.fork()
+    seeds = {s: k for k, s in enumerate(wrt)}
+    labels = list(labels) if labels is not None else [str(s) for s in wrt]
+    derivative: dict = {}  # temporary -> {k: d temporary / d wrt[k]} (non-zero entries only)
+    results = [sp.sympify(r) for r in results]
+    for entry in tape.entries_for(results):
+        found = _differentiate(entry.expr, seeds, derivative)
+        if found:
+            fork.section(f"derivatives of {entry.section}")
+            derivative[entry.symbol] = {k: fork.temp(d, f"{entry.name}_d{k}") for k, d in found.items()}
+    rows = []
+    for r in results:
+        found = _differentiate(r, seeds, derivative)
+        rows.append([found.get(k, sp.S.Zero) for k in range(len(wrt))])
+    return fork, rows
+
+
+def _differentiate(expr: sp.Expr, seeds: dict, derivative: dict) -> dict:
+    """{k: d expr / d wrt[k]} by the chain rule through the symbols expr reads."""
+    total: dict = {}
+    for a in expr.free_symbols:
+        if a in seeds:
+            inner = {seeds[a]: sp.S.One}
+        else:
+            inner = derivative.get(a)
+            if not inner:
+                continue
+        partial = partial_derivative(expr, a)
+        if partial == 0:
+            continue
+        for k, d in inner.items():
+            total[k] = total.get(k, sp.S.Zero) + partial * d
+    return {k: d for k, d in total.items() if d != 0}
+
+
+def partial_derivative(expr: sp.Expr, a: sp.Symbol) -> sp.Expr:
+    """d expr / d a, with the generalised functions sympy produces for kinks and jumps replaced by what a
+    Jacobian of a piecewise smooth function needs: the derivative of the piece in force (sign' = 0, |u|' =
+    sign(u) u', max/min follow their active argument)."""
+    expr = expr.replace(lambda e: isinstance(e, sp.Abs), lambda e: e.args[0] * sp.sign(e.args[0]))
+    expr = expr.replace(lambda e: isinstance(e, (sp.Max, sp.Min)), _as_piecewise)
+    # piecewise constant functions: constants for the differentiation, put back afterwards
+    steps = {e: sp.Dummy("step") for e in expr.atoms(*_PIECEWISE_CONSTANT)}
+    d = sp.diff(expr.xreplace(steps), a).xreplace({v: k for k, v in steps.items()})
+    bad = d.atoms(sp.Derivative, sp.Subs)
+    if bad:
+        raise NotDifferentiable(f"no derivative of {sorted(map(str, bad))[0]} for the generated Jacobian")
+    return d
+
+
+_PIECEWISE_CONSTANT = (sp.sign, sp.Heaviside, sp.floor, sp.ceiling)
+
+
+def _as_piecewise(e):
+    """max(a, b, ...) or min(...) as nested conditionals, whose derivative sympy takes branch by branch."""
+    first, *rest = e.args
+    better = (lambda x, y: x > y) if isinstance(e, sp.Max) else (lambda x, y: x < y)
+    result = first
+    for arg in rest:
+        result = sp.Piecewise((arg, better(arg, result)), (result, True))
+    return result

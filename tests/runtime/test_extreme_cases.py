@@ -1,0 +1,74 @@
+"""Extreme cases (issue 11): each gives a checked result against a closed-form solution, or a clear diagnosis.
+
+* a 1e-6 kg part next to a 1e3 kg one (mass matrix over nine decades): both motions against their closed forms;
+* the round-off floor: the pendulum at rtol 1e-13 against the elliptic-integral period;
+* a 1000 s conservative run: energy drift of every integrator (slow);
+* the stiff mount: tests/runtime/test_stiffness.py.
+
+Bounds: the runs are tolerance-controlled, so the global error is a multiple of rtol times the amplitude
+that grows with the number of periods (at rtol 1e-8 over 160 periods of the tiny part: 2e-8 m for dopri5 and
+rodasp, 3e-6 m for the BDF codes, whose phase error is larger). The mass-ratio runs use rtol 1e-10, where
+every method stays well inside BOUND = 1e-6 m, still 1e-5 of the amplitudes and far below any modelling error
+(a missing coupling term changes the tiny part's motion by its full forced amplitude, 2.4e-2 m).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.special import ellipk
+
+import mbs
+
+MODELS = Path(__file__).parent / "models"
+G = 9.81
+BOUND = 1e-6
+
+
+@pytest.fixture(scope="module")
+def mass_ratio():
+    return mbs.load(MODELS / "mass_ratio.mbs")
+
+
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "auto", "cvode_bdf", "ida"])
+def test_tiny_part_next_to_a_heavy_one(mass_ratio, integrator):
+    res = mass_ratio.simulate("swing", integrator=integrator, rtol=1e-10, atol=1e-12)
+    assert res.metadata["status"] == "finished", res.message
+    m1, m2, k1, k2 = 1000.0, 1e-6, 1e6, 0.01
+    w1, w2 = np.sqrt(k1 / m1), np.sqrt(k2 / m2)
+    z_eq = 1.0 - (m1 + m2) * G / k1
+    amplitude = 1.1 - z_eq
+    t = res.t
+    heavy = z_eq + amplitude * np.cos(w1 * t)  # the tiny part's pull (1e-8 N) shifts it by < 1e-14 m
+    # the tiny part relative to the heavy one, w = s + l0: w'' + w2^2 w = -g - z1'' , w(0) = w'(0) = 0
+    forced = amplitude * w1**2 / (w2**2 - w1**2)
+    tiny = -G / w2**2 + forced * np.cos(w1 * t) + (G / w2**2 - forced) * np.cos(w2 * t) - 0.5
+    assert np.max(np.abs(res["heavy_z"] - heavy)) < BOUND
+    assert np.max(np.abs(res["tiny_guide.s"] - tiny)) < BOUND
+
+
+def test_round_off_floor_rtol_1e_13():
+    system = mbs.load("library/examples/pendulum.mbs")
+    phi0 = np.radians(30)
+    omega0 = np.sqrt(G / (1 + 1e-6))
+    period = 4 / omega0 * ellipk(np.sin(phi0 / 2) ** 2)
+    res = system.simulate("swing", t_eval=[0.0, period, 2 * period], rtol=1e-13, atol=1e-15)
+    assert res.metadata["status"] == "finished", res.message
+    # at the round-off floor the error is a few hundred ulps of the state after some 7,000 steps
+    assert np.max(np.abs(res["hinge.phi"][1:] - phi0)) < 1e-11
+    assert np.max(np.abs(res["der(hinge.phi)"][1:])) < 1e-10
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "cvode_adams", "cvode_bdf", "DOP853"])
+def test_energy_drift_over_1000_s(integrator):
+    system = mbs.load("library/examples/pendulum.mbs")
+    res = system.simulate("swing", t_end=1000.0, sample=1.0, integrator=integrator, rtol=1e-8, atol=1e-10)
+    assert res.metadata["status"] == "finished", res.message
+    inertia = 1.0 + 1e-6
+    phi, rate = res["hinge.phi"], res["der(hinge.phi)"]
+    energy = 0.5 * inertia * rate**2 + G * (1 - np.cos(phi))
+    drift = np.max(np.abs(energy - energy[0])) / energy[0]
+    print(f"{integrator}: relative energy drift over 1000 s at rtol 1e-8: {drift:.2e}")
+    # tolerance-proportional methods drift linearly in time, about rtol per period; 1000 s are 2200 periods
+    assert drift < 1e-8 * 2200 * 10
