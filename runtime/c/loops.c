@@ -98,6 +98,7 @@ typedef struct {
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one) */
+    double pivot;               /* the smallest pivot of the last factors relative to max |G| */
 } mbs_loop_work;
 
 typedef struct {
@@ -121,6 +122,7 @@ static mbs_loop_work mbs_loop_layout(double *work)
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
     w.fresh = w.singular = 0;
+    w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
     w.G = s; s += MBS_NC * MBS_NV;
     w.G0 = s; s += MBS_NC * MBS_NV;
@@ -394,11 +396,13 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
     if (valid) {
         pivot = mbs_loop_factor_kept(w);
         if (pivot < 0.0) return -1;
+        w->pivot = pivot;
         if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2]) return (int)w->keep[1];
         memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
     }
     r = mbs_loop_factor(w, &pivot);
     w->fresh = 1;
+    w->pivot = pivot;
     if (r > 0 && r < MBS_NC && r < MBS_NV && r < (valid ? (int)w->keep[1] : mbs_loop_generic_rank(t, q, p, w, r)))
         w->singular = 1;
     if (r > 0 && (adopt > 0 || (adopt == 0 && !valid)) && !w->singular) {
