@@ -42,7 +42,7 @@ def loop_work_size(nq: int, nv: int, nc: int) -> int:
     """Doubles of work memory the loop solver needs beyond the tree functions' (the formula of
     MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time)."""
     nx = nq + nv
-    return 4 * nv * nv + 2 * nc * nv + 4 * nc + 3 * nx + 8 * nv + nq + LOOP_SCALARS
+    return 3 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS
 
 
 def loop_routines(constraints: Constraints) -> list:
@@ -75,6 +75,7 @@ def loop_definitions(constraints: Constraints) -> str:
         "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",
         " * after this file. */",
         "int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
+        "int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work);",
         ""])
 

@@ -43,6 +43,7 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "normalize": ("NX",),
     "multipliers": ("NC",),
     "loop_report": ("NREPORT",),
+    "loop_rhs": ("NX",),  # x' without projection (what the C integrators call between projected steps)
 }
 
 ModelFunction = Callable[[float, np.ndarray], np.ndarray]

@@ -49,8 +49,8 @@
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
-#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 2 * MBS_NC * MBS_NV + 4 * MBS_NC + 3 * (MBS_NQ + MBS_NV) \
-                               + 8 * MBS_NV + MBS_NQ + 16)
+#define MBS_LOOP_NWORK_NEEDED (3 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
+                               + 10 * MBS_NV + MBS_NQ + 4 + 16)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -69,6 +69,8 @@
 #define MBS_LOOP_RANK_TOL 1e-9
 /* Pivots of T^T M T below this fraction of its largest diagonal entry are motions without inertia. */
 #define MBS_LOOP_MASS_TOL 1e-12
+/* The rows a partition drops hold on its accelerations to this fraction of the size of their terms. */
+#define MBS_LOOP_ROWS_HOLD 1e-6
 
 #define MBS_LOOP_SINGULAR 1
 #define MBS_LOOP_NONFINITE 2
@@ -85,32 +87,56 @@
 typedef struct {
     double *tree;               /* MBS_TREE_NWORK: work of the generated functions */
     double *G;                  /* NC x NV: the constraint Jacobian, then its factors (rows, columns permuted) */
+    double *G0, *K;             /* NC x NV each: a copy of G; its rate along the motion (singular positions) */
     double *rp, *cp;            /* NC, NV: original row / column at each pivot position (stored as doubles) */
+    double *rp2, *cp2;          /* NC, NV: the same for the probe of the generic rank (mbs_loop_generic_rank) */
     double *xc, *xt;            /* NX each: the projected state, a scratch state for evaluations */
-    double *g, *h, *y;          /* NC each: residuals, g_t or gddot0, solve scratch */
+    double *g, *h, *y, *c3;     /* NC each: residuals, g_t or gddot0, solve scratch, third-order rates */
     double *dv, *f, *c0, *b, *a, *vd;  /* NV each */
     double *dq;                 /* NQ */
     double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis */
+    double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
+    int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
+    int singular;               /* ... and their rank is below that of the positions around (a singular one) */
+    double pivot;               /* the smallest pivot of the last factors relative to max |G| */
 } mbs_loop_work;
 
 typedef struct {
-    int status, iterations, worst, rank, jacobians;
+    int status, iterations, worst, rank, jacobians, refreshed, singular;
     double residual0, residual;
 } mbs_loop_info;
+
+/* The kept partition, the one piece of state the loop functions carry from call to call (in the caller's work,
+ * so one per workspace): keep[0] a marker (valid when equal to MBS_LOOP_KEEP_MARK), keep[1] its rank r,
+ * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot order (the first r dependent) and the r pivot rows.  Anything else
+ * (zeroed or overwritten work) reads as "no partition" and is chosen afresh. */
+#define MBS_LOOP_KEEP_MARK 1517.0
+#define MBS_LOOP_KEEP_SIZE (4 + MBS_NV + MBS_NC)
+/* Keep the partition while its smallest relative pivot stays above this fraction of its value when chosen
+ * (the hysteresis: a fresh choice happens only when the dependent block has clearly degraded). */
+#define MBS_LOOP_KEEP_RATIO 0.1
 
 static mbs_loop_work mbs_loop_layout(double *work)
 {
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
+    w.fresh = w.singular = 0;
+    w.pivot = 0.0;
+    w.keep = s; s += MBS_LOOP_KEEP_SIZE;
     w.G = s; s += MBS_NC * MBS_NV;
+    w.G0 = s; s += MBS_NC * MBS_NV;
+    w.K = s; s += MBS_NC * MBS_NV;
     w.rp = s; s += MBS_NC;
     w.cp = s; s += MBS_NV;
+    w.rp2 = s; s += MBS_NC;
+    w.cp2 = s; s += MBS_NV;
     w.xc = s; s += MBS_NX;
     w.xt = s; s += MBS_NX;
     w.g = s; s += MBS_NC;
     w.h = s; s += MBS_NC;
     w.y = s; s += MBS_NC;
+    w.c3 = s; s += MBS_NC;
     w.dv = s; s += MBS_NV;
     w.f = s; s += MBS_NV;
     w.c0 = s; s += MBS_NV;
@@ -150,35 +176,54 @@ static void mbs_loop_normalize_q(double *x)
     }
 }
 
-/* G (NC x NV) and h = g_t at the positions of x: gdot is affine in v, so column k is gdot(e_k) - gdot(0). */
-static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w)
+/* Gout (NC x NV) and hout = g_t at the positions of x: gdot is affine in v, so column k is gdot(e_k) - gdot(0). */
+static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mbs_loop_work *w, double *Gout,
+                                  double *hout)
 {
     int i, k, s;
-    memcpy(w->xt, x, MBS_NQ * sizeof(double));
+    if (x != w->xt) memcpy(w->xt, x, MBS_NQ * sizeof(double));
     memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
-    if ((s = mbs_constraint_velocity(t, w->xt, p, w->h, w->tree)) != 0) return s;
+    if ((s = mbs_constraint_velocity(t, w->xt, p, hout, w->tree)) != 0) return s;
     for (k = 0; k < MBS_NV; k++) {
         w->xt[MBS_NQ + k] = 1.0;
         s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree);
         w->xt[MBS_NQ + k] = 0.0;
         if (s != 0) return s;
-        for (i = 0; i < MBS_NC; i++) w->G[i * MBS_NV + k] = w->y[i] - w->h[i];
+        for (i = 0; i < MBS_NC; i++) Gout[i * MBS_NV + k] = w->y[i] - hout[i];
     }
     return 0;
 }
 
-/* Gaussian elimination with complete pivoting of G in place (rows and columns physically exchanged; rp, cp
- * record the original indices).  Returns the rank, or -1 if G is not finite. */
-static int mbs_loop_factor(mbs_loop_work *w)
+/* G (NC x NV) and h = g_t at the positions of x, with a copy of G in G0. */
+static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w)
 {
-    double *A = w->G, amax0 = 0.0;
+    int s = mbs_loop_jacobian_into(t, x, p, w, w->G, w->h);
+    if (s == 0) memcpy(w->G0, w->G, MBS_NC * MBS_NV * sizeof(double));
+    return s;
+}
+
+static double mbs_loop_gmax(const mbs_loop_work *w)
+{
+    double amax = 0.0;
+    int i;
+    for (i = 0; i < MBS_NC * MBS_NV; i++) {
+        if (!isfinite(w->G0[i])) return -1.0;
+        amax = fmax(amax, fabs(w->G0[i]));
+    }
+    return amax;
+}
+
+/* Gaussian elimination with complete pivoting of G in place (rows and columns physically exchanged; rp, cp
+ * record the original indices).  Returns the rank, or -1 if G is not finite; *minpivot: the smallest pivot
+ * relative to max |G|. */
+static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
+{
+    double *A = w->G, amax0 = mbs_loop_gmax(w);
     int i, j, k, r = 0;
+    *minpivot = 0.0;
+    if (amax0 < 0.0) return -1;
     for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
     for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
-    for (i = 0; i < MBS_NC * MBS_NV; i++) {
-        if (!isfinite(A[i])) return -1;
-        amax0 = fmax(amax0, fabs(A[i]));
-    }
     for (k = 0; k < MBS_NC && k < MBS_NV; k++) {
         int pi = k, pj = k;
         double amax = 0.0, tmp;
@@ -186,6 +231,7 @@ static int mbs_loop_factor(mbs_loop_work *w)
             for (j = k; j < MBS_NV; j++)
                 if (fabs(A[i * MBS_NV + j]) > amax) { amax = fabs(A[i * MBS_NV + j]); pi = i; pj = j; }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) break;
+        *minpivot = k == 0 ? amax / amax0 : fmin(*minpivot, amax / amax0);
         if (pi != k) {
             for (j = 0; j < MBS_NV; j++) {
                 tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
@@ -207,6 +253,84 @@ static int mbs_loop_factor(mbs_loop_work *w)
         r++;
     }
     return r;
+}
+
+/* Is w->keep a partition (marker, rank in range, columns a permutation, rows distinct and in range)? */
+static int mbs_loop_keep_valid(const mbs_loop_work *w)
+{
+    const double *kp = w->keep;
+    int r, j, seen = 0;
+    if (kp[0] != MBS_LOOP_KEEP_MARK) return 0;
+    r = (int)kp[1];
+    if (kp[1] != r || r < 1 || r > MBS_NC || r > MBS_NV) return 0;
+    for (j = 0; j < MBS_NV; j++) {  /* a permutation: every index in range, all distinct (dv as marks) */
+        double c = kp[4 + j];
+        if (c != (int)c || c < 0 || c >= MBS_NV) return 0;
+    }
+    memset(w->dv, 0, MBS_NV * sizeof(double));
+    for (j = 0; j < MBS_NV; j++) {
+        int c = (int)kp[4 + j];
+        if (w->dv[c] != 0.0) return 0;
+        w->dv[c] = 1.0;
+        seen++;
+    }
+    for (j = 0; j < r; j++) {
+        double row = kp[4 + MBS_NV + j];
+        if (row != (int)row || row < 0 || row >= MBS_NC) return 0;
+    }
+    return seen == MBS_NV;
+}
+
+/* Remember the partition of the factors in w->G (rank r, smallest relative pivot `pivot`). */
+static void mbs_loop_keep_store(mbs_loop_work *w, int r, double pivot)
+{
+    double *kp = w->keep;
+    kp[0] = MBS_LOOP_KEEP_MARK;
+    kp[1] = r;
+    kp[2] = pivot;
+    kp[3] = 0.0;
+    memcpy(kp + 4, w->cp, MBS_NV * sizeof(double));
+    memcpy(kp + 4 + MBS_NV, w->rp, r * sizeof(double));
+}
+
+/* Factor G (unfactored, in w->G) with the kept partition: the kept pivot rows in the kept column order, row
+ * exchanges among the pivot rows only (they leave the partition unchanged).  Returns the smallest pivot
+ * relative to max |G|, 0 when a pivot vanishes, -1 when G is not finite. */
+static double mbs_loop_factor_kept(mbs_loop_work *w)
+{
+    const double *kp = w->keep;
+    const int r = (int)kp[1];
+    double *A = w->G, amax0 = mbs_loop_gmax(w), minpivot = HUGE_VAL;
+    int i, j, k;
+    if (amax0 < 0.0) return -1.0;
+    if (!(amax0 > 0.0)) return 0.0;
+    for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
+    for (k = 0; k < r; k++) {
+        const double *src = w->G0 + (int)kp[4 + MBS_NV + k] * MBS_NV;
+        w->rp[k] = kp[4 + MBS_NV + k];
+        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[(int)w->cp[j]];
+    }
+    for (k = 0; k < r; k++) {
+        int pi = k;
+        double amax = 0.0, tmp;
+        for (i = k; i < r; i++)
+            if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
+        if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
+        minpivot = fmin(minpivot, amax / amax0);
+        if (pi != k) {
+            for (j = 0; j < MBS_NV; j++) {
+                tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
+            }
+            tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+        }
+        for (i = k + 1; i < r; i++) {
+            double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
+            A[i * MBS_NV + k] = l;
+            if (l != 0.0)
+                for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+        }
+    }
+    return minpivot;
 }
 
 /* Given the independent entries of z (NV, original column order), set its dependent entries so that the pivot
@@ -231,8 +355,65 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
     for (k = 0; k < r; k++) z[(int)w->cp[k]] = y[k];
 }
 
+/* The rank of G at positions near q along a motion the factors in w->G allow (dv in their null space, a fixed
+ * mix of the independent velocities, 3e-6 in the largest coordinate): the rank of the regular positions
+ * around q.  Where q is regular, or the rows are redundant along the whole motion (an overconstrained but
+ * mobile mechanism), the rank stays (the deviation from the motion is of second order, about 1e-11); at a
+ * singular position (a bifurcation) the lost rank returns at first order. */
+static int mbs_loop_generic_rank(double t, const double *q, const double *p, mbs_loop_work *w, int r)
+{
+    mbs_loop_work v = *w;
+    double pivot, scale;
+    int i;
+    for (i = 0; i < MBS_NV; i++) w->dv[i] = 1.0 + 0.5 * sin(12.9898 * (i + 1));
+    mbs_loop_solve(w, r, NULL, w->dv);
+    memcpy(w->xt, q, MBS_NQ * sizeof(double));
+    memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
+    if (mbs_qdot(t, w->xt, p, w->dq, w->tree) != 0) return -1;
+    scale = mbs_loop_maxabs(w->dq, MBS_NQ, NULL);
+    if (!(scale > 0.0) || !isfinite(scale)) return -1;
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = q[i] + 3e-6 / scale * w->dq[i];
+    mbs_loop_normalize_q(w->xt);
+    if (mbs_loop_jacobian_into(t, w->xt, p, w, w->K, w->c3) != 0) return -1;
+    v.G = v.G0 = w->K;
+    v.rp = w->rp2;
+    v.cp = w->cp2;
+    return mbs_loop_factor(&v, &pivot);
+}
+
+/* Factor G (just evaluated at the positions q by mbs_loop_jacobian_at) and return the rank, -1 if not finite.
+ * The kept partition is used while its pivots have not degraded (hysteresis, MBS_LOOP_KEEP_RATIO); otherwise
+ * complete pivoting chooses afresh, and the new choice is kept when `adopt` (or when none was kept), unless the
+ * position is singular (w->singular: rank below that of the positions around it).  `adopt` is set between
+ * steps (the projection of an accepted state), so that within a step the partition does not change; -1 asks
+ * for the choice of complete pivoting at q, the kept partition neither used nor changed (mbs_loop_report). */
+static int mbs_loop_partition(double t, const double *q, const double *p, mbs_loop_work *w, int adopt,
+                              mbs_loop_info *info)
+{
+    double pivot;
+    int r, valid = adopt >= 0 && mbs_loop_keep_valid(w);
+    w->fresh = w->singular = 0;
+    if (valid) {
+        pivot = mbs_loop_factor_kept(w);
+        if (pivot < 0.0) return -1;
+        w->pivot = pivot;
+        if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2]) return (int)w->keep[1];
+        memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
+    }
+    r = mbs_loop_factor(w, &pivot);
+    w->fresh = 1;
+    w->pivot = pivot;
+    if (r > 0 && r < MBS_NC && r < MBS_NV && r < (valid ? (int)w->keep[1] : mbs_loop_generic_rank(t, q, p, w, r)))
+        w->singular = 1;
+    if (r > 0 && (adopt > 0 || (adopt == 0 && !valid)) && !w->singular) {
+        mbs_loop_keep_store(w, r, pivot);
+        if (info) info->refreshed++;
+    }
+    return r;
+}
+
 /* Project the positions of w->xc onto g = 0 (velocities of w->xc untouched as a state, used as scratch). */
-static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, mbs_loop_info *info)
+static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
     double *q = w->xc, res;
     int s, i, keep = 0;
@@ -246,7 +427,7 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, mbs_l
         if (!keep) {
             if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
             info->jacobians++;
-            if ((info->rank = mbs_loop_factor(w)) < 0) return MBS_LOOP_NONFINITE;
+            if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
             if (info->rank == 0) return MBS_LOOP_NOT_ASSEMBLED;
         }
         memset(w->dv, 0, MBS_NV * sizeof(double));
@@ -267,20 +448,27 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, mbs_l
 }
 
 /* w->xc = x projected onto the position and velocity constraints; leaves G factored at the projected
- * positions with info->rank pivots (the partition) and h = g_t there. */
-static int mbs_loop_project_state(double t, const double *x, const double *p, mbs_loop_work *w,
+ * positions with info->rank pivots (the partition) and h = g_t there.  `adopt`: a new partition chosen here is
+ * kept for the following calls (see mbs_loop_partition). */
+static int mbs_loop_project_state(double t, const double *x, const double *p, mbs_loop_work *w, int adopt,
                                   mbs_loop_info *info)
 {
-    int s, j;
+    int s;
     memset(info, 0, sizeof *info);
     info->worst = -1;
-    for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
     memcpy(w->xc, x, MBS_NX * sizeof(double));
-    s = mbs_loop_positions(t, p, w, info);
+    s = mbs_loop_positions(t, p, w, adopt, info);
+    if (s != 0 && adopt >= 0 && mbs_loop_keep_valid(w)) {  /* far off: Newton again, choosing afresh */
+        w->keep[0] = 0.0;
+        memset(info, 0, sizeof *info);
+        info->worst = -1;
+        memcpy(w->xc, x, MBS_NX * sizeof(double));
+        s = mbs_loop_positions(t, p, w, -1, info);
+    }
     if (s == 0) {
         s = mbs_loop_jacobian_at(t, w->xc, p, w);
         info->jacobians++;
-        if (s == 0 && (info->rank = mbs_loop_factor(w)) < 0) s = MBS_LOOP_NONFINITE;
+        if (s == 0 && (info->rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) s = MBS_LOOP_NONFINITE;
     }
     if (s == 0)  /* keep v_I, solve G_D v_D = -(G_I v_I + g_t) */
         mbs_loop_solve(w, info->rank, w->h, w->xc + MBS_NQ);
@@ -288,13 +476,94 @@ static int mbs_loop_project_state(double t, const double *x, const double *p, mb
     return s;
 }
 
-/* vdot at the projected state w->xc (after mbs_loop_project_state) into w->vd. */
-static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int r)
+/* At a singular position (the rank of G below that of the regular positions around it, e.g. a four-bar
+ * stretched flat) the accelerations are not fixed by G vdot + gddot0 = 0: the limit of the motion through
+ * the position is.  For each row i that the factors found dependent, with u its left null vector (u^T G = 0),
+ * the third time derivative of u^T g along the motion gives u^T (3 K vdot + c3) = 0 with K = dG/dt and
+ * c3 = d(gddot0)/dq qdot (both by central differences along the motion).  Rows of exactly redundant
+ * constraints have u^T K = 0 and stay dropped.  Replaces w->G0 and w->h by the extended rows (the pivot rows
+ * kept) and returns 1 when a row was added, 0 when none (at rest the velocities give no direction). */
+static int mbs_loop_singular_rows(double t, const double *p, mbs_loop_work *w, int r, int *status)
 {
-    const int m = MBS_NV - r;
+    const double *A = w->G;
+    double eps, vmax = 0.0, kmax;
+    int i, j, k, added = 0, s;
+    *status = 0;
+    memcpy(w->xt, w->xc, MBS_NX * sizeof(double));
+    if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) { *status = s; return 0; }
+    vmax = mbs_loop_maxabs(w->dq, MBS_NQ, NULL);
+    if (!(vmax > 0.0) || !isfinite(vmax)) return 0;
+    eps = 6e-6 / vmax;  /* about the cube root of the round-off: balances truncation and cancellation */
+    /* K = (G(q + eps qdot) - G(q - eps qdot)) / (2 eps); c3 likewise from gddot0 (velocities of x kept) */
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = w->xc[i] + eps * w->dq[i];
+    if ((s = mbs_loop_jacobian_into(t, w->xt, p, w, w->K, w->g)) != 0) { *status = s; return 0; }
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = w->xc[i] + eps * w->dq[i];
+    memcpy(w->xt + MBS_NQ, w->xc + MBS_NQ, MBS_NV * sizeof(double));
+    if ((s = mbs_constraint_acceleration(t, w->xt, p, w->c3, w->tree)) != 0) { *status = s; return 0; }
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = w->xc[i] - eps * w->dq[i];
+    memcpy(w->xt + MBS_NQ, w->xc + MBS_NQ, MBS_NV * sizeof(double));
+    if ((s = mbs_constraint_acceleration(t, w->xt, p, w->g, w->tree)) != 0) { *status = s; return 0; }
+    for (i = 0; i < MBS_NC; i++) w->c3[i] = (w->c3[i] - w->g[i]) / (2.0 * eps);
+    /* the minus side column by column: K = (K - G(q - eps qdot)) / (2 eps) */
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = w->xc[i] - eps * w->dq[i];
+    memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
+    if ((s = mbs_constraint_velocity(t, w->xt, p, w->g, w->tree)) != 0) { *status = s; return 0; }
+    for (k = 0; k < MBS_NV; k++) {
+        w->xt[MBS_NQ + k] = 1.0;
+        s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree);
+        w->xt[MBS_NQ + k] = 0.0;
+        if (s != 0) { *status = s; return 0; }
+        for (i = 0; i < MBS_NC; i++)
+            w->K[i * MBS_NV + k] = (w->K[i * MBS_NV + k] - (w->y[i] - w->g[i])) / (2.0 * eps);
+    }
+    kmax = mbs_loop_maxabs(w->K, MBS_NC * MBS_NV, NULL);
+    if (!(kmax > 0.0) || !isfinite(kmax)) return 0;
+    /* each dependent row (pivot position i >= r): u = e_i - L21_i L11^-1 in pivot-row order */
+    for (i = r; i < MBS_NC; i++) {
+        int row = (int)w->rp[i];
+        double rmax = 0.0, c = 0.0;
+        for (k = 0; k < r && k < MBS_NV; k++) w->y[k] = A[i * MBS_NV + k];
+        for (k = r - 1; k >= 0; k--)  /* L11^T y = L21_i^T (L11 unit lower triangular) */
+            for (j = k + 1; j < r; j++) w->y[k] -= A[j * MBS_NV + k] * w->y[j];
+        for (j = 0; j < MBS_NV; j++) {  /* the new row 3 u^T K into dv */
+            double sum = w->K[row * MBS_NV + j];
+            for (k = 0; k < r; k++) sum -= w->y[k] * w->K[(int)w->rp[k] * MBS_NV + j];
+            w->dv[j] = 3.0 * sum;
+            rmax = fmax(rmax, fabs(w->dv[j]));
+        }
+        c = w->c3[row];
+        for (k = 0; k < r; k++) c -= w->y[k] * w->c3[(int)w->rp[k]];
+        if (!(rmax > 1e-6 * kmax)) continue;  /* exactly redundant: u^T G stays zero along the motion */
+        memcpy(w->G0 + row * MBS_NV, w->dv, MBS_NV * sizeof(double));
+        w->h[row] = c;
+        added++;
+    }
+    return added > 0;
+}
+
+/* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
+ * their factors and w->G0, w->h the rows themselves). */
+static int mbs_loop_limit_rows(double t, const double *p, mbs_loop_work *w, int r, int *status)
+{
+    double pivot;
+    *status = 0;
+    if (!w->singular || !mbs_loop_singular_rows(t, p, w, r, status)) return r;
+    memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
+    return mbs_loop_factor(w, &pivot);
+}
+
+/* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
+ * position (mbs_loop_limit_rows). */
+static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
+{
+    int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
     int i, j, k, s;
     if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+    r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
+    if (s != 0) return s;
+    if (r < 0) return MBS_LOOP_NONFINITE;
+    m = MBS_NV - r;
     s = mbs_mass_matrix(t, w->xc, p, M, w->tree);  /* status 1 (M singular with massless parts) is no error */
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
@@ -363,14 +632,55 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
+/* Rows outside the partition were dropped as dependent on its rows: they must hold too.  Checked on the
+ * accelerations (max |G vdot + gddot0| over all rows against the size of the terms), it catches a kept
+ * partition whose rank has become too small (chosen at a singular position). */
+static int mbs_loop_rows_hold(const mbs_loop_work *w)
+{
+    double worst = 0.0, scale = mbs_loop_maxabs(w->h, MBS_NC, NULL), gmax = 0.0;
+    double vmax = mbs_loop_maxabs(w->vd, MBS_NV, NULL);
+    int i, j;
+    for (i = 0; i < MBS_NC; i++) {
+        double sum = w->h[i];
+        for (j = 0; j < MBS_NV; j++) {
+            sum += w->G0[i * MBS_NV + j] * w->vd[j];
+            gmax = fmax(gmax, fabs(w->G0[i * MBS_NV + j]));
+        }
+        worst = fmax(worst, fabs(sum));
+    }
+    return worst <= MBS_LOOP_ROWS_HOLD * (scale + gmax * vmax);
+}
+
+/* vdot at w->xc (G evaluated there by mbs_loop_jacobian_at) into w->vd, with the partition (and its rank in
+ * *rank) that solved it. */
+static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work *w, int adopt, int *rank,
+                                        mbs_loop_info *info)
+{
+    int s;
+    if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
+    s = mbs_loop_accelerations(t, p, w, rank);
+    if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
+        w->keep[0] = 0.0;
+        if ((s = mbs_loop_jacobian_at(t, w->xc, p, w)) != 0) return s;
+        if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
+        s = mbs_loop_accelerations(t, p, w, rank);
+    }
+    return s;
+}
+
 /* ---- the functions of the model table (exported: a standalone library offers them too) ------------- */
 
+/* x' at the projected state: robust for integrators that cannot project (scipy's), and the mbs_rhs of every
+ * other consumer (linearisation, outputs, equilibrium). */
 int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    int s = mbs_loop_project_state(t, x, p, &w, &info);
-    if (s == 0) s = mbs_loop_accelerations(t, p, &w, info.rank);
+    int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
+    if (s == 0) {
+        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));  /* factored again by the kept partition */
+        s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
+    }
     if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
@@ -380,11 +690,28 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
     return s;
 }
 
+/* x' at x itself, without projection, by the kept partition: the right-hand side of the C integrators, which
+ * project every accepted state (ode.c) so that the state stays on the constraints; between accepted states
+ * the partition does not change, so x' is as smooth as the mechanism. */
+int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int r, s;
+    memset(&info, 0, sizeof info);
+    memcpy(w.xc, x, MBS_NX * sizeof(double));
+    s = mbs_loop_jacobian_at(t, x, p, &w);
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
+    if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
+    if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    return s;
+}
+
 int mbs_project(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    int s = mbs_loop_project_state(t, x, p, &w, &info);
+    int s = mbs_loop_project_state(t, x, p, &w, 1, &info);
     memcpy(out, w.xc, MBS_NX * sizeof(double));
     return s;
 }
@@ -394,10 +721,12 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
     const double *A = w.G;
-    int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, &info);
-    if (s == 0) s = mbs_loop_accelerations(t, p, &w, info.rank);
+    int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
+    if (s == 0) {
+        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
+        s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
+    }
     if (s != 0) return s;
-    r = info.rank;
     /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
     for (k = 0; k < r; k++) {
         int c = (int)w.cp[k];
@@ -433,8 +762,12 @@ int mbs_loop_report(double t, const double *x, const double *p, double *out, dou
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    int j;
-    mbs_loop_project_state(t, x, p, &w, &info);
+    int j, r;
+    mbs_loop_project_state(t, x, p, &w, -1, &info);
+    if (info.status == 0) {  /* the rank of the motion: at a singular position, with the limit's rows */
+        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
+        if (mbs_loop_solve_accelerations(t, p, &w, -1, &r, &info) == 0) info.rank = r;
+    }
     out[0] = info.status;
     out[1] = info.iterations;
     out[2] = info.residual0;

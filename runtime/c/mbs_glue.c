@@ -68,6 +68,7 @@ static const mbs_entry MBS_TABLE[] = {
     {"normalize", mbs_loop_normalize, MBS_NX, 0},
     {"multipliers", mbs_loop_multipliers, MBS_NC, 0},
     {"loop_report", mbs_loop_report, MBS_LOOP_NREPORT, 0},
+    {"loop_rhs", mbs_loop_rhs_direct, MBS_NX, 0},  /* x' without projection: what the C integrators call */
 #endif
 };
 #define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))
@@ -304,6 +305,7 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     const double *y0, *atol;
     int natol, i, rc;
     FunctionObject *fn;
+    mbs_fn rhs;
     SolverObject *self;
     if (!PyArg_ParseTupleAndKeywords(args, kwds, "sO!dOddO|dddl:Solver", kwlist, &method, &FunctionType, &fn_obj,
                                      &t0, &y0_obj, &t_bound, &rtol, &atol_obj, &first_step, &max_step, &min_step,
@@ -338,7 +340,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     if (!self) { Py_XDECREF(y0_tmp); Py_XDECREF(atol_tmp); return NULL; }
     Py_INCREF(fn_obj);
     self->function = fn_obj;
-    rc = MBS_METHODS[i].init(&self->ode, MBS_NX, fn->entry->fn, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
+    rhs = fn->entry->fn;
+    rc = MBS_METHODS[i].init(&self->ode, MBS_NX, rhs, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);
     Py_XDECREF(atol_tmp);

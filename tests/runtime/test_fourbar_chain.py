@@ -1,0 +1,101 @@
+"""The planar chain of coupled four-bars (fourbar_chain.py) through its singular (flat) positions: the loop
+solver's partition, its limit answer at a singular position and the integrated motion, against the chain's
+one-coordinate equation theta'' = -k cos(theta) (energy of the parallelogram motion, derived independently in
+fourbar_chain.py) integrated by scipy."""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+sys.path.insert(0, str(Path(__file__).parent))
+from fourbar_chain import acceleration_gain, fourbar_chain  # noqa: E402
+
+import mbs  # noqa: E402
+from mbs.runtime import build  # noqa: E402
+from mbs.runtime.workspace import Workspace  # noqa: E402
+
+pytestmark = pytest.mark.skipif(not build.have_c_compiler(), reason="needs a C compiler")
+REPORT_RANK, REPORT_DOF = 5, 6
+
+
+def chain(n, cache_dir):
+    system = mbs.loads(fourbar_chain(n), cache_dir=str(cache_dir))
+    return system, system.compile()
+
+
+def state(compiled, theta, omega):
+    """The parallelogram state: every rocker at theta (rate omega), every coupler level."""
+    x = np.zeros(compiled.nx)
+    for i, name in enumerate(compiled.x_names):
+        rate = name.startswith("der(")
+        joint = name[4:-1] if rate else name
+        value = omega if rate else theta
+        x[i] = value if joint.startswith("pivot") else -value if joint.startswith("top") else 0.0
+    return x
+
+
+def reference(n, t_end, sample):
+    k = acceleration_gain(n)
+    times = np.arange(0.0, t_end + sample / 2, sample)
+    sol = solve_ivp(lambda t, y: [y[1], -k * math.cos(y[0])], (0.0, t_end), [math.pi / 2, -1.0], method="DOP853",
+                    rtol=1e-13, atol=1e-13, t_eval=times)
+    return sol.y[0]
+
+
+def crank_acceleration(compiled, data, theta, omega):
+    return data.rhs(0.0, state(compiled, theta, omega))[compiled.x_names.index("der(pivot0.phi)")]
+
+
+@pytest.mark.parametrize("omega", [-3.0, 0.7])
+def test_the_flat_position_gets_the_limit_of_the_motion(cache_dir, omega):
+    """Flat, every loop is singular (its rank drops): G vdot = -gddot0 leaves 4 DOF and a wrong acceleration;
+    the limit of the motion through the position has one DOF and theta'' = k (cos(pi) = -1)."""
+    n = 3
+    _, compiled = chain(n, cache_dir)
+    data = Workspace(compiled)
+    k = acceleration_gain(n)
+    for theta in (math.pi, 0.0):
+        assert crank_acceleration(compiled, data, theta, omega) == pytest.approx(-k * math.cos(theta), rel=1e-7)
+        report = data.loop_report(0.0, state(compiled, theta, omega))
+        assert report[REPORT_DOF] == 1
+    # regular positions just beside it, and far from it
+    for theta in (math.pi + 1e-5, math.pi - 1e-3, math.pi / 3):
+        assert crank_acceleration(compiled, data, theta, omega) == pytest.approx(-k * math.cos(theta), rel=1e-6)
+
+
+def test_the_chain_runs_through_its_flat_positions(cache_dir):
+    """Two flat crossings in 1.5 s (the rockers fall from upright through the ground line and back up)."""
+    n = 3
+    system, _ = chain(n, cache_dir)
+    errors = []
+    for rtol in (1e-6, 1e-8):
+        result = system.simulate(t_end=1.5, sample=0.01, integrator="dopri5", rtol=rtol, atol=rtol * 1e-2)
+        assert result.success, result.message
+        errors.append(np.max(np.abs(result["pivot0.phi"] - reference(n, 1.5, 0.01))))
+    theta = result["pivot0.phi"]
+    assert np.min(theta) < -math.pi / 2  # through both flat positions (0 and -pi)
+    assert errors[1] < 1e-5 and errors[1] < 0.1 * errors[0]
+
+
+@pytest.mark.slow
+def test_forty_four_bars_through_their_singular_positions(cache_dir):
+    """The 40-cell chain: the limit answer at the flat position (11.059 rad/s^2, one DOF) and 20 s of motion
+    (about three turns, six flat crossings) converging to the reference as the tolerance tightens."""
+    n = 40
+    system, compiled = chain(n, cache_dir)
+    data = Workspace(compiled)
+    assert crank_acceleration(compiled, data, math.pi, -3.0) == pytest.approx(11.059, abs=5e-4)
+    assert data.loop_report(0.0, state(compiled, math.pi, -3.0))[REPORT_DOF] == 1
+    ref = reference(n, 20.0, 0.1)
+    errors = []
+    for rtol in (1e-6, 1e-8):
+        result = system.simulate(t_end=20.0, sample=0.1, integrator="dopri5", rtol=rtol, atol=rtol * 1e-2)
+        assert result.success, result.message
+        errors.append(np.max(np.abs(result["pivot0.phi"] - ref)))
+    assert errors[1] < 1e-3 and errors[1] < 0.1 * errors[0]
