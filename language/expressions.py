@@ -13,6 +13,7 @@ from fractions import Fraction
 from typing import TYPE_CHECKING
 
 from . import ast
+from . import catalog
 from . import expr as X
 from . import units as U
 from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, OutputEntry, ParamEntry,
@@ -250,10 +251,13 @@ class ExprResolver:
             if len(rest) == 1 and components and self.vector_components is not None:
                 self.vector_components[:] = [
                     (c, X.Sym("sensor", f"{entry.full}.{member}.{c}"),
-                     (U.FORCE if c.startswith("f") else U.TORQUE) if kind == "reaction" else dim)
+                     (U.FORCE if c.startswith("f") else U.TORQUE) if kind == "reaction"
+                     else catalog.TYRE_OUTPUTS[c] if kind == "tyre" else dim)
                     for c in components]
                 return self.vector_components[0][1:]
             if len(rest) == 2 and rest[1].text in components:
+                if kind == "tyre":
+                    dim = catalog.TYRE_OUTPUTS[rest[1].text]
                 if kind == "reaction":
                     dim = U.FORCE if rest[1].text.startswith("f") else U.TORQUE
                 return X.Sym("sensor", f"{entry.full}.{member}.{rest[1].text}"), dim
