@@ -8,7 +8,9 @@ from .analysis import Equilibrium, Info, Linearize
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
+from .modes import Modes
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
+            "modes": Modes}
