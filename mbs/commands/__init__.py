@@ -5,6 +5,7 @@ module in this package and a line in COMMANDS.
 """
 
 from .analysis import Equilibrium, Info, Linearize
+from .comfort import Comfort
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
@@ -13,4 +14,4 @@ from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
-            "modes": Modes}
+            "modes": Modes, "comfort": Comfort}
