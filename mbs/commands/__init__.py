@@ -11,7 +11,8 @@ from .eom import Eom
 from .model_files import Check, Export, Fmt
 from .modes import Modes
 from .simulate import Simulate
+from .tir import Tir
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
-            "modes": Modes, "comfort": Comfort}
+            "modes": Modes, "comfort": Comfort, "tir": Tir}
