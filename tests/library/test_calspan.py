@@ -3,14 +3,19 @@ here, at a point in the light-load branch with camber (the numbers also worked b
 figure: a cornering stiffness of about 41.6 kN/rad at the static front load."""
 
 import math
+import sys
 from pathlib import Path
 
 import pytest
 
 import mbs
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tyrekit import fade as library_fade  # noqa: E402
+from tyrekit import tyre_forces as forces  # noqa: E402
+
 MODEL = Path(__file__).parent / "models" / "calspan_probe.mbs"
-R0, K = 0.364325, 460000.0
+R0, K, V_LOW = 0.364325, 460000.0, 0.3
 A0, A1, A2, A3, A4, AW = 2625.0, 14.47, 12930.0, 2.29, 18175.0, 1.0
 B1, B3, B4, SN = -0.464e-4, 1.216, 2.18e-11, 1.0274
 AF1, AF2 = -0.171e-4, 0.171e-4
@@ -29,19 +34,14 @@ def calspan(fz, alpha, gamma):
     return fy, (AF1 * fz + AF2 * abs(fy)) * fy
 
 
+
+def fade(vx):
+    return library_fade(vx, V_LOW)
+
+
 @pytest.fixture(scope="module")
 def probe(tmp_path_factory):
     return mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
-
-
-def forces(system, **params):
-    res = system.simulate("probe", params=params)
-    return {name.rsplit(".", 1)[1]: res[name][0] for name in res.names if name.startswith("tyre.radial.forces")}
-
-
-def fade(vx, v_low=0.3):
-    """The component fades the lateral force in from standstill (see library/tyres/calspan.mbs)."""
-    return vx ** 2 / (vx ** 2 + v_low ** 2)
 
 
 def test_light_load_point_with_camber(probe):

@@ -4,12 +4,17 @@ against the standard form's defining properties: the slope B C D at zero slip is
 (longitudinal) and K_ya (lateral) of their own formulas, the peak of a pure-slip curve is D = mu Fz."""
 
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbs
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tyrekit import fade as library_fade  # noqa: E402
+from tyrekit import tyre_forces as forces  # noqa: E402
 
 MODEL = Path(__file__).parent / "models" / "mf_probe.mbs"
 R0, K, FNOMIN, V_LOW = 0.3135, 200000.0, 4000.0, 0.5
@@ -37,18 +42,14 @@ def book(fz, kappa, alpha, gamma):
     return gx * fx0, gy * fy0, kx, ky, dy
 
 
+
+def fade(vx):
+    return library_fade(vx, V_LOW)
+
+
 @pytest.fixture(scope="module")
 def probe(tmp_path_factory):
     return mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
-
-
-def forces(system, **params):
-    res = system.simulate("probe", params=params)
-    return {name.rsplit(".", 1)[1]: res[name][0] for name in res.names if name.startswith("tyre.radial.forces")}
-
-
-def fade(vx):
-    return vx ** 2 / (vx ** 2 + V_LOW ** 2)
 
 
 @pytest.mark.parametrize("vy", [0.1, 1.0, 4.0])        # small, near the peak, beyond it
