@@ -174,3 +174,31 @@ def plot_root_locus(locus: dict[float, list[NamedMode]], path, title: str) -> No
     ax.legend(fontsize=7, loc="best")
     with atomic_path(path) as tmp, open(tmp, "wb") as f:
         fig.savefig(f, format=Path(path).suffix.lstrip(".").lower() or "png", dpi=120)
+
+
+def plot_shapes(modes: list[NamedMode], path, title: str) -> None:
+    """One bar per mode (frequency and name), split into the kinetic-energy shares of the motions: the mode
+    shapes as a picture; written atomically."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from mbs.atomic import atomic_path
+    shown = [m for m in modes if m.frequency > 0]
+    motions = sorted({k for m in shown for k in m.shares}, key=lambda k: -sum(m.shares.get(k, 0.0) for m in shown))
+    fig = Figure(figsize=(9, 0.45 * len(shown) + 1.6))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    left = np.zeros(len(shown))
+    for motion in motions:
+        share = np.array([m.shares.get(motion, 0.0) for m in shown])
+        ax.barh(range(len(shown)), share, left=left, label=motion)
+        left += share
+    ax.set_yticks(range(len(shown)), [f"{m.frequency:.3g} Hz, {100 * m.damping_ratio:.0f} %: {m.name}" for m in shown],
+                  fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlabel("kinetic energy share")
+    ax.set_title(title)
+    ax.legend(fontsize=7, loc="lower right", ncol=2)
+    fig.tight_layout()
+    with atomic_path(path) as tmp, open(tmp, "wb") as f:
+        fig.savefig(f, format=Path(path).suffix.lstrip(".").lower() or "png", dpi=120)

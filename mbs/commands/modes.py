@@ -34,6 +34,7 @@ class Modes:
         p.add_argument("--rigid", action="store_true", help="also list the rigid-body motions (0 Hz)")
         p.add_argument("--out", help="mode shapes and energy shares as JSON")
         p.add_argument("--plot", help="root locus over the speeds (PNG/PDF/SVG)")
+        p.add_argument("--shapes", help="the mode shapes as a picture: energy shares per mode, at the first speed")
         param_arg(p)
 
     @staticmethod
@@ -42,7 +43,7 @@ class Modes:
 
         import mbs
         from mbs.atomic import write_text_atomic
-        from mbs.modes import plot_root_locus, root_locus, table
+        from mbs.modes import plot_root_locus, plot_shapes, root_locus, table
         system = mbs.load(args.file, args.model)
         if args.speed_param not in system.model.parameter_map:
             from mbs.language.diagnostics import Diagnostic, MbsError
@@ -62,4 +63,8 @@ class Modes:
         if args.plot:
             plot_root_locus(locus, args.plot, system.model.name)
             print(f"root locus written to {args.plot}")
+        if args.shapes:
+            speed, modes = next(iter(locus.items()))
+            plot_shapes(modes, args.shapes, f"{system.model.name}: modes at {speed:g} m/s")
+            print(f"mode shapes drawn in {args.shapes}")
         return 0

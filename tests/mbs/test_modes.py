@@ -44,10 +44,12 @@ def test_lateral_and_yaw_modes_are_the_single_track_models(car, speed):
 def test_command_prints_the_table_and_draws_the_root_locus(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("MBS_CACHE_DIR", str(tmp_path / "cache"))
     plot, out = tmp_path / "locus.png", tmp_path / "modes.json"
-    assert main(["modes", str(MODEL), "--speed", "10:30:10", "--plot", str(plot), "--out", str(out)]) == 0
+    shapes = tmp_path / "shapes.png"
+    assert main(["modes", str(MODEL), "--speed", "10:30:10", "--plot", str(plot), "--out", str(out),
+                 "--shapes", str(shapes)]) == 0
     text = capsys.readouterr().out
     assert "steady run at 20 m/s" in text and "bounce" in text and "damping [%]" in text
-    assert plot.stat().st_size > 0 and out.stat().st_size > 0
+    assert plot.stat().st_size > 0 and out.stat().st_size > 0 and shapes.stat().st_size > 0
 
 
 def test_bad_speed_is_a_usage_error(capsys):
