@@ -22,6 +22,7 @@ from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
+from .tyre import attach_tyre
 from .tree import JointSpec, Tree, TreeBody, t
 
 
@@ -215,6 +216,9 @@ class _Lowering:
         if sensor.kind == "force":
             element = sensor.arg("element")
             return (self._force_values[element],)
+        if sensor.kind == "tyre":
+            values = self._tyre_values[sensor.arg("element")]
+            return tuple(values[c] for c in sensor.components)
         raise _error(f"sensor kind '{sensor.kind}' is not supported by the compiler", sensor.span)
 
     def _reaction(self, inter: M.Interaction, pb) -> tuple:
@@ -230,6 +234,7 @@ class _Lowering:
     # ---------------------------------------------------------------------------------------- forces
     def attach_forces(self) -> None:
         self._force_values: dict[str, sp.Expr] = {}
+        self._tyre_values: dict[str, dict[str, sp.Expr]] = {}
         for inter in self.model.interactions:
             for force in inter.forces:
                 self._attach(inter, force)
@@ -238,6 +243,10 @@ class _Lowering:
         kind = force.kind
         if kind == "joint":
             self._joint_force(inter, force)
+            return
+        if kind == "tyre":
+            self._tyre_values[force.name] = attach_tyre(self, inter, force)
+            self._force_values[force.name] = self._tyre_values[force.name]["fz"]
             return
         ba, pa_local, pa, Ra = self.frame_world(inter.a)
         bb, pb_local, pb, _ = self.frame_world(inter.b)

@@ -92,6 +92,14 @@ def speed_names(kind: str, rotation: str) -> tuple[str, ...]:
 _ALONG = Arg("along", "axis", optional=True,
              doc="act along this axis of frame a (deflection = projection) instead of along the line a-b")
 _LINE_LOCALS = (("l", LENGTH), ("v", U.VELOCITY))
+# What a tyre's laws may read (each law only those computed before it: road < fz < fx < fy < mz).
+TYRE_LOCALS = (("x", LENGTH), ("y", LENGTH), ("rho", LENGTH), ("rho_dot", U.VELOCITY), ("gamma", ANGLE),
+               ("vx", U.VELOCITY), ("fz", U.FORCE), ("alpha", ANGLE), ("kappa", U.DIMENSIONLESS),
+               ("vsx", U.VELOCITY), ("vsy", U.VELOCITY), ("omega", U.ANGULAR_VELOCITY), ("fx", U.FORCE),
+               ("fy", U.FORCE))
+# The tyre sensor's components and their dimensions.
+TYRE_OUTPUTS = {"fx": U.FORCE, "fy": U.FORCE, "fz": U.FORCE, "mz": U.TORQUE, "alpha": ANGLE,
+                "kappa": U.DIMENSIONLESS, "gamma": ANGLE, "rho": LENGTH, "vx": U.VELOCITY}
 
 FORCES: dict[str, ElementKind] = {k.name: k for k in (
     ElementKind("spring", (Arg("k", "scalar", U.STIFFNESS), Arg("l0", "scalar", LENGTH, default=0.0), _ALONG),
@@ -108,6 +116,17 @@ FORCES: dict[str, ElementKind] = {k.name: k for k in (
                 doc="force and torque on frame b (components in frame 'in', default frame a); reaction on a"),
     ElementKind("joint", (), (), extra_args=True,
                 doc="generalized forces on the interaction's joint coordinates: joint(phi = -d * der(phi))"),
+    ElementKind("tyre", (Arg("radius", "scalar", LENGTH, doc="unloaded radius"),
+                         Arg("road", "law", LENGTH, optional=True, doc="road height z(x, y) in frame a (default 0)"),
+                         Arg("fz", "law", U.FORCE, doc="normal load from the deflection rho and its rate rho_dot"),
+                         Arg("fx", "law", U.FORCE, optional=True, doc="longitudinal force (tyre x forward)"),
+                         Arg("fy", "law", U.FORCE, optional=True, doc="lateral force (tyre y to the left)"),
+                         Arg("mz", "law", U.TORQUE, optional=True, doc="aligning torque about the road normal"),
+                         Arg("v_low", "scalar", U.VELOCITY, default=0.5,
+                             doc="speed added (in quadrature) to |vx| in the slip denominators: finite at standstill")),
+                TYRE_LOCALS,
+                doc="wheel (frame b, spin axis y) on a road (frame a, height along z): contact kinematics and "
+                    "force laws of the slip quantities (compiler/tyre.py)"),
 )}
 
 SENSORS: dict[str, ElementKind] = {k.name: k for k in (
@@ -123,6 +142,8 @@ SENSORS: dict[str, ElementKind] = {k.name: k for k in (
     ElementKind("joint", (), components=(), doc="the joint's coordinates and speeds"),
     ElementKind("force", (Arg("element", "word", optional=True),),
                 doc="the scalar force of a force element of this interaction"),
+    ElementKind("tyre", (Arg("element", "word", optional=True),), components=tuple(TYRE_OUTPUTS),
+                doc="forces, slip quantities and deflection of a tyre force element of this interaction"),
     ElementKind("reaction", (Arg("in", "frame", optional=True),),
                 components=("fx", "fy", "fz", "mx", "my", "mz"),
                 doc="constraint force and torque the joint transmits to frame b, components in frame 'in'"),

@@ -13,6 +13,7 @@ from fractions import Fraction
 from typing import TYPE_CHECKING
 
 from . import ast
+from . import catalog
 from . import expr as X
 from . import tables
 from . import units as U
@@ -261,10 +262,13 @@ class ExprResolver:
             if len(rest) == 1 and components and self.vector_components is not None:
                 self.vector_components[:] = [
                     (c, X.Sym("sensor", f"{entry.full}.{member}.{c}"),
-                     (U.FORCE if c.startswith("f") else U.TORQUE) if kind == "reaction" else dim)
+                     (U.FORCE if c.startswith("f") else U.TORQUE) if kind == "reaction"
+                     else catalog.TYRE_OUTPUTS[c] if kind == "tyre" else dim)
                     for c in components]
                 return self.vector_components[0][1:]
             if len(rest) == 2 and rest[1].text in components:
+                if kind == "tyre":
+                    dim = catalog.TYRE_OUTPUTS[rest[1].text]
                 if kind == "reaction":
                     dim = U.FORCE if rest[1].text.startswith("f") else U.TORQUE
                 return X.Sym("sensor", f"{entry.full}.{member}.{rest[1].text}"), dim
@@ -386,10 +390,12 @@ class ExprResolver:
         return X.Table(x, tuple(xs), tuple(ys), method), ty
 
     def random_road(self, node: ast.Call) -> tuple[X.E, Dim]:
-        """iso8608(x, C, seed, length): a random road of an ISO 8608 class, reproducible by its seed."""
+        """iso8608(x, C, seed, length [, track = right, width = 1.23 m, gd = 256e-6 m^3, waviness = 2]): a random
+        road of an ISO 8608 class (or of the level gd = Gd(n0)), reproducible by its seed; see language/roads.py."""
         from . import roads
-        if len(node.args) != 4 or node.kwargs:
-            raise self.error("iso8608() takes (x, class, seed, length), e.g. iso8608(x, C, 42, 500 m)", node.span)
+        usage = "iso8608() takes (x, class, seed, length), e.g. iso8608(x, C, 42, 500 m)"
+        if len(node.args) != 4:
+            raise self.error(usage, node.span)
         x, xd = self.scalar(node.args[0])
         self.same(xd, U.LENGTH, node.args[0], "use")
         cls = node.args[1]
@@ -397,21 +403,42 @@ class ExprResolver:
         if letter not in roads.CLASSES:
             raise self.error(f"an ISO 8608 road class is one of {', '.join(roads.CLASSES)}", cls.span)
         constant = ExprResolver(self.elab, self.scope, None, False, False, "a road definition")
-        seed_e, _ = constant.scalar(node.args[2])
-        length_e, length_d = constant.scalar(node.args[3])
-        self.same(length_d, U.LENGTH, node.args[3], "use")
-        for arg, value in ((node.args[2], seed_e), (node.args[3], length_e)):
-            if tables.depends_on_parameters(value):  # the profile is drawn once, when the model is built
+
+        def value(expr, dim):
+            e, d = constant.scalar(expr)
+            if dim is not None:
+                self.same(d, dim, expr, "use")
+            if tables.depends_on_parameters(e):  # the profile is drawn once, when the model is built
                 raise self.error("the seed and length of a random road are fixed when the model is built: give "
                                  "numbers, not parameters (a parameter changed at run time could not reach them)",
-                                 arg.span)
-        seed = self.elab.constant(seed_e, self.scope, node.args[2].span)
-        length = self.elab.constant(length_e, self.scope, node.args[3].span)
+                                 expr.span)
+            return self.elab.constant(e, self.scope, expr.span)
+        seed = value(node.args[2], None)
+        length = value(node.args[3], U.LENGTH)
         if seed != int(seed) or seed < 0:
             raise self.error("the seed is a whole number >= 0", node.args[2].span)
         if not 0 < length <= 100_000:
             raise self.error("the road length must be positive and at most 100 km", node.args[3].span)
-        xs, zs = roads.profile(letter, int(seed), length)
+        options = {"track": "left", "width": 0.0, "waviness": 2.0}
+        level: str | float = letter
+        for kw in node.kwargs:
+            key = kw.name.text
+            if key == "track":
+                side = kw.value.ref.dotted if isinstance(kw.value, ast.Name) else ""
+                if side not in ("left", "right"):
+                    raise self.error("track is left or right", kw.value.span)
+                options["track"] = side
+            elif key == "width":
+                options["width"] = value(kw.value, U.LENGTH, key)
+            elif key == "waviness":
+                options["waviness"] = value(kw.value, U.DIMENSIONLESS, key)
+            elif key == "gd":
+                level = value(kw.value, U.LENGTH ** 3, key)
+                if level <= 0:
+                    raise self.error("gd, the PSD at 0.1 cycles/m, must be positive", kw.value.span)
+            else:
+                raise self.error(f"iso8608() has no option '{key}' (track, width, gd, waviness)", kw.name.span)
+        xs, zs = roads.profile(level, int(seed), length, **options)
         return X.Table(x, tuple(float(v) for v in xs), tuple(float(v) for v in zs), "linear"), U.LENGTH
 
     def user_function(self, node: ast.Call, decl: ast.Func, scope: Scope) -> tuple[X.E, Dim]:

@@ -283,7 +283,7 @@ def build_sensors(elab: "Elaborator", scope: Scope, entry: InteractEntry, st: as
             args = _element_args(elab, scope, entry, member, kind, f"sensor '{kind.name}'")
         except Invalid:
             continue
-        if kind.name == "force":
+        if kind.name in ("force", "tyre"):
             element = args.get("element")
             if element is None and len(entry.forces) == 1:
                 element = next(iter(entry.forces))
@@ -291,6 +291,10 @@ def build_sensors(elab: "Elaborator", scope: Scope, entry: InteractEntry, st: as
                 elab.diags.error("a force sensor names one force element of its interaction: "
                                  f"force(element = name){did_you_mean(str(element), entry.forces)}",
                                  scope.at(member.span))
+                continue
+            if kind.name == "tyre" and entry.forces[element] != "tyre":
+                elab.diags.error(f"a tyre sensor reads a tyre force element, and '{element}' is a "
+                                 f"{entry.forces[element]} force", scope.at(member.span))
                 continue
             args["element"] = f"{entry.full}.{element}"
         if kind.name in ("joint", "reaction") and not any(isinstance(m, ast.Joint) for m in st.members):

@@ -7,12 +7,15 @@ module in this package and a line in COMMANDS.
 from .accuracy import Accuracy
 from .analysis import Equilibrium, Info, Linearize
 from .cache import Cache
+from .comfort import Comfort
 from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
+from .modes import Modes
 from .numerics import Numerics
 from .simulate import Simulate
+from .tir import Tir
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "cache": Cache,
-            "accuracy": Accuracy, "numerics": Numerics}
+            "accuracy": Accuracy, "numerics": Numerics, "modes": Modes, "comfort": Comfort, "tir": Tir}

@@ -13,11 +13,20 @@ def model_args(p):
 def param_arg(p) -> None:
     p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
                    help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
+    p.add_argument("--params", metavar="SET", help="a named parameter set: SET.params beside the model file "
+                                                   "(e.g. --params benchmark), or a path; --param overrides it")
 
 
 def params_from_args(args, system) -> dict[str, float]:
-    """The --param overrides, checked against the model (an unknown name or unit is a located error)."""
-    return dict(parse_param(text, system.model) for text in args.param)
+    """The --params set and the --param overrides, checked against the model (an unknown name or unit is a
+    located error)."""
+    values = {}
+    if getattr(args, "params", None):
+        from mbs import paramsets
+        values.update(paramsets.read(paramsets.locate(args.params, paramsets.model_path(system.model)),
+                                     system.model))
+    values.update(parse_param(text, system.model) for text in args.param)
+    return values
 
 
 def parse_param(text: str, model):

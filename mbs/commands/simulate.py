@@ -145,7 +145,7 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
 
 
 def _is_load(name: str) -> bool:
-    return name.endswith(".load")
+    return name.endswith(".load") or name.endswith(".forces.fy")   # tyre loads and lateral forces
 
 
 def plot_scenes(system, runs: dict, path: str) -> list[Path]:
