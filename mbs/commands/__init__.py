@@ -9,6 +9,8 @@ from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
 from .simulate import Simulate
+from .sweep import Sweep
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
+            "sweep": Sweep}
