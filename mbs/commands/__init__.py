@@ -7,10 +7,11 @@ module in this package and a line in COMMANDS.
 from .analysis import Equilibrium, Info, Linearize
 from .compile import Compile
 from .eom import Eom
+from .fmu import Fmu
 from .model_files import Check, Export, Fmt
 from .simulate import Simulate
 from .sweep import Sweep
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
-            "sweep": Sweep}
+            "sweep": Sweep, "fmu": Fmu}
