@@ -9,9 +9,11 @@ from .compile import Compile
 from .eom import Eom
 from .fmu import Fmu
 from .model_files import Check, Export, Fmt
+from .optimize import Optimize
 from .simulate import Simulate
 from .sweep import Sweep
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
-            "sweep": Sweep, "fmu": Fmu}
+            "sweep": Sweep, "fmu": Fmu,
+            "optimize": Optimize}

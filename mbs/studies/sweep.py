@@ -93,10 +93,11 @@ def local_cluster(workers: int | None = None):
     return Client(cluster)
 
 
-def run_on_dask(package: ModelPackage, variants: Sequence[Variant], metrics: tuple[str, ...], *,
+def run_on_dask(package, variants: Sequence[Variant], metrics: tuple[str, ...], *,
                 scheduler: str | None = None, client=None, progress: Progress | None = None, done: int = 0,
                 total: int | None = None) -> list[Outcome]:
-    """Outcomes of the variants, run as Dask tasks (a lost worker fails its variants, not the study)."""
+    """Outcomes of the variants, run as Dask tasks (a lost worker fails its variants, not the study). `package` is
+    a ModelPackage, or the future of one already scattered to the cluster (a caller running many batches)."""
     from distributed import Client, as_completed
     total = len(variants) + done if total is None else total
     if not variants:
@@ -105,7 +106,7 @@ def run_on_dask(package: ModelPackage, variants: Sequence[Variant], metrics: tup
     if own:
         client = Client(scheduler) if scheduler else local_cluster()
     try:
-        shipped = client.scatter(package, broadcast=True)
+        shipped = client.scatter(package, broadcast=True, hash=False) if isinstance(package, ModelPackage) else package
         futures = {client.submit(run_variant, shipped, v, metrics, pure=False): v for v in variants}
         outcomes = []
         for future in as_completed(futures):
