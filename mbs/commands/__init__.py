@@ -5,6 +5,7 @@ module in this package and a line in COMMANDS.
 """
 
 from .analysis import Equilibrium, Info, Linearize
+from .animate import Animate
 from .compile import Compile
 from .eom import Eom
 from .fmu import Fmu
@@ -16,4 +17,4 @@ from .sweep import Sweep
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize,
             "sweep": Sweep, "fmu": Fmu,
-            "optimize": Optimize}
+            "optimize": Optimize, "animate": Animate}
