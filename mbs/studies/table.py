@@ -103,7 +103,7 @@ class StudyTable:
             ys = self.column(metric)
             for key, rows in groups.items():
                 order = rows[np.argsort(xs[rows])]
-                label = f"{key[0]} = {key[1]:g}" if key else None
+                label = f"{key[0]} = {key[1]:g} {units.get(key[0], '')}".rstrip() if key else None
                 style = "o-" if len(groups) > 1 or len(others) == 0 else "o"
                 ax.plot(xs[order], ys[order], style, label=label)
             bad = ~np.isfinite(ys)
