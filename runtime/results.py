@@ -136,6 +136,23 @@ class Results:
         with np.load(path, allow_pickle=False) as z:
             return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])))
 
+    def to_hdf5(self, path: str | os.PathLike) -> Path:
+        """Write HDF5 atomically: a dataset per column with its unit and description (see hdf5.py)."""
+        from . import hdf5
+        return hdf5.write(self, path)
+
+    @classmethod
+    def from_hdf5(cls, path: str | os.PathLike) -> "Results":
+        from . import hdf5
+        return hdf5.read(path)
+
+    def to_pandas(self):
+        """A pandas DataFrame indexed by time (pandas is optional: installed by the user)."""
+        import pandas as pd
+        return pd.DataFrame(self.data[:, 1:] if self.names[:1] == (TIME,) else self.data,
+                            columns=list(self.names[1:] if self.names[:1] == (TIME,) else self.names),
+                            index=pd.Index(self.t, name=TIME) if TIME in self else None)
+
     def plot(self, names: Iterable[str] | str, path: str | os.PathLike, *, title: str | None = None) -> Path:
         """Plot the named columns over time into an image file (format from the suffix), atomically.
 

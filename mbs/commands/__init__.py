@@ -6,16 +6,21 @@ module in this package and a line in COMMANDS.
 
 from .accuracy import Accuracy
 from .analysis import Equilibrium, Info, Linearize
+from .animate import Animate
 from .cache import Cache
 from .comfort import Comfort
 from .compile import Compile
 from .eom import Eom
+from .fmu import Fmu
 from .model_files import Check, Export, Fmt
 from .modes import Modes
 from .numerics import Numerics
+from .optimize import Optimize
 from .simulate import Simulate
+from .sweep import Sweep
 from .tir import Tir
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
-            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "cache": Cache,
-            "accuracy": Accuracy, "numerics": Numerics, "modes": Modes, "comfort": Comfort, "tir": Tir}
+            "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy,
+            "animate": Animate, "cache": Cache, "comfort": Comfort, "fmu": Fmu, "modes": Modes,
+            "numerics": Numerics, "optimize": Optimize, "sweep": Sweep, "tir": Tir}

@@ -7,6 +7,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from .common import ProgressBar, model_args, param_arg, params_from_args
+from .results_file import RESULT_FORMATS, write_results
 
 PLOT_FORMATS = (".png", ".pdf", ".svg")
 
@@ -22,7 +23,7 @@ class Simulate:
                             "and compare them in one plot")
         p.add_argument("--t-end", type=float, help="end time [s]")
         p.add_argument("--sample", type=float, help="output interval [s]")
-        p.add_argument("--out", help="results file: .csv or .npz (several scenes: one file each, NAME_SCENE.csv)")
+        p.add_argument("--out", help="results file: .csv, .npz or .h5 (several scenes: one file each, NAME_SCENE.csv)")
         p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG; several scenes: the "
                                       "motion of every scene in one plot, tyre loads in NAME_tyres.png")
         p.add_argument("--integrator", help="dopri5, rodasp, auto (in C), cvode_adams, cvode_bdf, ida (SUNDIALS), "
@@ -58,7 +59,7 @@ class Simulate:
         if args.error_estimate and res.success:
             _estimate_error(system, scene, params, res, args)
         if args.out:
-            (res.to_npz if args.out.endswith(".npz") else res.to_csv)(args.out)
+            write_results(res, args.out, system, scene)
         if args.plot:
             compiled = system.compile(scene)
             names = list(compiled.y_names) or list(compiled.q_names)
@@ -97,8 +98,8 @@ def _estimate_error(system, scene, params, res, args) -> None:
 def _check_suffixes(args) -> None:
     """Refuse unknown file types before a long run, not after it."""
     from mbs.language.diagnostics import Diagnostic, MbsError
-    if args.out and Path(args.out).suffix.lower() not in (".csv", ".npz"):
-        raise MbsError([Diagnostic("error", f"--out {args.out}: results are written as .csv or .npz", None)])
+    if args.out and Path(args.out).suffix.lower() not in RESULT_FORMATS:
+        raise MbsError([Diagnostic("error", f"--out {args.out}: results are written as .csv, .npz or .h5", None)])
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
         raise MbsError([Diagnostic("error", f"--plot {args.plot}: plots are written as "
                                             f"{', '.join(PLOT_FORMATS)}", None)])
@@ -133,7 +134,7 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
         out = None
         if args.out:
             out = scene_path(args.out, scene)
-            (res.to_npz if out.suffix == ".npz" else res.to_csv)(out)
+            write_results(res, out, system, scene)
         _summary(system, scene, res, SimpleNamespace(out=out, plot=None))
     if args.plot:
         for path in plot_scenes(system, runs, args.plot):

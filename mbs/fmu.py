@@ -1,0 +1,181 @@
+"""FMI 2.0 export: a model (one scene's outputs and settings) as an FMU for Model Exchange and Co-Simulation.
+
+    mbs fmu library/examples/pendulum.mbs --scene swing -o pendulum.fmu
+
+The FMU's binary is the generated C compiled together with runtime/c/mbs_fmu.c, which implements the FMI
+functions over the run time's entry points (mbs_rhs, mbs_outputs, mbs_project) and co-simulates with the run
+time's DOPRI5 in C. modelDescription.xml lists the states and their derivatives, the parameters (tunable,
+with units and descriptions) and the scene's outputs. The start state is the scene's: joint and scene inits,
+closed loops assembled, the static equilibrium when the scene starts there (for the default parameters; an
+importer that changes a parameter may set the states' start values too).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+import re
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+import mbs
+from mbs.atomic import atomic_path
+from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.runtime.build import C_DIR, compiler_command
+
+FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fvisibility=hidden"]
+
+
+def platform_folder() -> str:
+    """binaries/<folder> of the FMI standard for this machine."""
+    bits = "64" if sys.maxsize > 2 ** 32 else "32"
+    system = {"linux": "linux", "darwin": "darwin", "win32": "win"}.get(sys.platform)
+    if system is None:
+        raise MbsError([Diagnostic("error", f"mbs fmu: no FMI platform name for {sys.platform}", None)])
+    return system + bits
+
+
+def identifier(name: str) -> str:
+    """The modelIdentifier: the model name as a C identifier (it names the shared library)."""
+    ident = re.sub(r"\W", "_", name)
+    return ident if re.match(r"[A-Za-z_]", ident) else f"m_{ident}"
+
+
+def start_state(system, scene: str | None) -> np.ndarray:
+    """The state a run of the scene starts from (assembled loops, equilibrium when the scene says so)."""
+    from mbs.runtime.equilibrium import static_equilibrium
+    compiled, gen, values = system._scene_parameters(scene, None)
+    data = system._workspace(compiled, gen, values)
+    sc = system.scene(scene)
+    if sc is not None and sc.start == "equilibrium":
+        data.x = static_equilibrium(compiled, data, data.x).x
+    return np.array(data.x), np.array(data.p)
+
+
+def _number(x: float) -> str:
+    return repr(float(x))
+
+
+def model_description(system, scene: str | None, guid: str, x0, p0) -> str:
+    """modelDescription.xml text (FMI 2.0, flat names: a state 'der(j.phi)' has the derivative "der(j.phi)'")."""
+    from mbs.system import _settings
+    compiled = system.compile(scene)
+    model = system.model
+    sc = system.scene(scene)
+    settings = _settings(sc, None, None, None, None, None)
+    units = dict(compiled.units)
+    described = {p.name: p.description for p in model.parameters}
+    described.update({o.name: o.description for o in model.outputs})
+    if sc is not None:
+        described.update({o.name: o.description for o in sc.outputs if o.description})
+    ident = identifier(model.name)
+    variables, used_units = [], set()
+
+    def variable(name, vr, attrs, real):
+        unit = units.get(name.rstrip("'")) if not name.endswith("'") else None
+        if unit:
+            used_units.add(unit)
+            real += f" unit={quoteattr(unit)}"
+        text = f" description={quoteattr(described[name])}" if described.get(name) else ""
+        variables.append(f'    <ScalarVariable name={quoteattr(name)} valueReference="{vr}"{text} {attrs}>\n'
+                         f'      <Real{real}/>\n    </ScalarVariable>')
+
+    nx, npar = compiled.nx, compiled.np
+    # a scene output that is a state ("output hinge.phi") is that state variable with causality output
+    asked = set(compiled.y_names) | {o.name for o in (sc.outputs if sc is not None else ())}
+    state_outputs = [i for i, name in enumerate(compiled.x_names) if name in asked]
+    for i, name in enumerate(compiled.x_names):
+        causality = "output" if i in state_outputs else "local"
+        variable(name, i, f'causality="{causality}" variability="continuous" initial="exact"',
+                 f' start="{_number(x0[i])}"')
+    for i, name in enumerate(compiled.x_names):
+        variable(f"{name}'", nx + i, 'causality="local" variability="continuous" initial="calculated"',
+                 f' derivative="{i + 1}"')
+    for i, name in enumerate(compiled.p_names):
+        variable(name, 2 * nx + i, 'causality="parameter" variability="tunable" initial="exact"',
+                 f' start="{_number(p0[i])}"')
+    index, outputs = 2 * nx + npar, [i + 1 for i in state_outputs]
+    for i, name in enumerate(compiled.y_names):
+        if name not in compiled.x_names:
+            variable(name, 2 * nx + npar + i, 'causality="output" variability="continuous" initial="calculated"',
+                     "")
+            index += 1
+            outputs.append(index)
+    derivatives = [nx + i + 1 for i in range(nx)]
+    unknowns = sorted(derivatives + [i for i in outputs if i > 2 * nx + npar])
+    step = settings["sample"] or settings["t_end"] / 500
+    description = f" description={quoteattr(model.description)}" if model.description else ""
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model.name)} guid="{guid}"{description}',
+        f'  generationTool="Baukasten {mbs.__version__}" variableNamingConvention="flat"'
+        ' numberOfEventIndicators="0">',
+        f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true"'
+        ' canNotUseMemoryManagementFunctions="true"/>',
+        f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true"'
+        ' canGetAndSetFMUstate="true" canNotUseMemoryManagementFunctions="true"/>',
+    ]
+    if used_units:
+        lines += ["  <UnitDefinitions>"] + [f"    <Unit name={quoteattr(u)}/>" for u in sorted(used_units)]
+        lines += ["  </UnitDefinitions>"]
+    lines += [f'  <DefaultExperiment startTime="0" stopTime="{_number(settings["t_end"])}"'
+              f' tolerance="{_number(settings["rtol"])}" stepSize="{_number(step)}"/>',
+              "  <ModelVariables>", *variables, "  </ModelVariables>", "  <ModelStructure>"]
+    if outputs:
+        lines += ["    <Outputs>"] + [f'      <Unknown index="{i}"/>' for i in outputs] + ["    </Outputs>"]
+    lines += ["    <Derivatives>"] + [f'      <Unknown index="{i}"/>' for i in derivatives] + ["    </Derivatives>"]
+    lines += ["    <InitialUnknowns>"] + [f'      <Unknown index="{i}"/>' for i in unknowns]
+    lines += ["    </InitialUnknowns>", "  </ModelStructure>", "</fmiModelDescription>", ""]
+    return "\n".join(lines)
+
+
+def _defaults_header(guid: str, x0, p0, rtol: float, atol: float) -> str:
+    def array(name, values):
+        body = ", ".join(_number(v) for v in values) or "0.0"
+        return f"static const double {name}[] = {{{body}}};"
+    return "\n".join(["/* start values and settings of this FMU, written by mbs/fmu.py */",
+                      f'#define MBS_FMU_GUID "{guid}"', f"#define MBS_FMU_RTOL {_number(rtol)}",
+                      f"#define MBS_FMU_ATOL {_number(atol)}", array("MBS_FMU_X0", x0), array("MBS_FMU_P0", p0),
+                      ""])
+
+
+def _compile(model_c: str, defaults: str, library: str, tmp: Path) -> bytes:
+    (tmp / "model.c").write_text(model_c, encoding="utf-8")
+    (tmp / "fmu_defaults.h").write_text(defaults, encoding="utf-8")
+    cmd = [*compiler_command(), *FLAGS, f"-I{tmp}", f"-I{C_DIR}", str(C_DIR / "mbs_fmu.c"), "-o",
+           str(tmp / library), "-lm"]
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    if proc.returncode != 0:
+        raise MbsError([Diagnostic("error", f"the C compiler failed on the FMU:\n{proc.stderr}", None)])
+    return (tmp / library).read_bytes()
+
+
+def export_fmu(system, scene: str | None, path: str | Path) -> Path:
+    """Write the FMU (a zip: modelDescription.xml, binaries/<platform>/<id>.so) atomically."""
+    from mbs.system import _settings
+    compiled = system.compile(scene)
+    gen = system.generate(scene)
+    x0, p0 = start_state(system, scene)
+    settings = _settings(system.scene(scene), None, None, None, None, None)
+    guid_source = gen.c_source + repr((list(x0), list(p0), compiled.x_names, compiled.y_names))
+    digest = hashlib.sha256(guid_source.encode()).hexdigest()
+    guid = f"{{{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}}}"
+    ident = identifier(system.model.name)
+    suffix = {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so")
+    defaults = _defaults_header(guid, x0, p0, settings["rtol"], settings["atol"])
+    with tempfile.TemporaryDirectory() as tmp:
+        binary = _compile(gen.c_source, defaults, ident + suffix, Path(tmp))
+    xml = model_description(system, scene, guid, x0, p0)
+    with atomic_path(path) as tmp_path, zipfile.ZipFile(tmp_path, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", xml)
+        z.writestr(f"binaries/{platform_folder()}/{ident}{suffix}", binary)
+    return Path(path)
+
+
+__all__ = ["export_fmu", "model_description", "platform_folder", "identifier", "platform"]

@@ -1,0 +1,92 @@
+"""A compiled model packed for other processes: what a Dask worker needs to run variants without deriving or
+compiling anything.
+
+The client derives and compiles once; the package carries the built extension module's bytes (plus the C
+source, for a worker on another platform, which then compiles it once), the names, defaults and units of the
+CompiledModel, and what starting a run needs (the loop rows and the states the user fixed). Parameters are
+run-time values, so one package serves every variant of a study. A worker loads a package once per process.
+"""
+
+from __future__ import annotations
+
+import platform
+import sys
+import sysconfig
+import types
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from mbs.atomic import write_bytes_atomic
+from mbs.runtime import build as _build
+from mbs.runtime.model import CompiledModel, load_c, load_numpy
+
+
+def _platform_tag() -> str:
+    return f"{sys.implementation.cache_tag}|{sysconfig.get_config_var('EXT_SUFFIX')}|{platform.machine()}|" \
+           f"{sys.platform}|numpy {np.__version__}"
+
+
+@dataclass(frozen=True)
+class ModelPackage:
+    """A picklable compiled model (C extension bytes, or the NumPy source) and how to start its runs."""
+
+    key: str                       #: identifies the build (a worker keeps one loaded model per key)
+    kind: str                      #: "c" or "numpy"
+    module_name: str               #: import name of the C extension ("" for NumPy)
+    binary: bytes                  #: the extension module file (empty for NumPy)
+    platform: str                  #: where the binary runs
+    source: str                    #: generated C (to rebuild elsewhere) or NumPy source
+    info: dict                     #: CompiledModel.from_backend keywords: names, defaults, units
+    loops: bool = False            #: closed loops: every start is assembled
+    fixed: tuple[str, ...] = ()    #: states the user gave initial values (assembly keeps them)
+    rows: tuple[str, ...] = ()     #: names of the loop-closure rows (for assembly messages)
+
+    @classmethod
+    def of(cls, system, scene: str | None) -> "ModelPackage":
+        """Pack the compiled model of a System's scene (compiled here if it was not yet)."""
+        from mbs import pipeline
+        compiled = system.compile(scene)
+        gen = system.generate(scene)
+        info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names,
+                    p_names=compiled.p_names, y_names=compiled.y_names, p_default=np.array(compiled.p_default),
+                    x0=np.array(compiled.x0), units=dict(compiled.units))
+        loops = dict(loops=gen.constraints is not None,
+                     fixed=tuple(pipeline.fixed_state_names(gen)) if gen.constraints is not None else (),
+                     rows=tuple(gen.constraints.names) if gen.constraints is not None else ())
+        if compiled.backend.kind == "c":
+            module = compiled.backend.module
+            return cls(key=module.__name__, kind="c", module_name=module.__name__,
+                       binary=Path(module.__file__).read_bytes(), platform=_platform_tag(), source=gen.c_source,
+                       info=info, **loops)
+        import hashlib
+        key = "numpy_" + hashlib.sha256(gen.numpy_source.encode()).hexdigest()[:24]
+        return cls(key=key, kind="numpy", module_name="", binary=b"", platform="", source=gen.numpy_source,
+                   info=info, **loops)
+
+    def load(self) -> CompiledModel:
+        """The CompiledModel in this process: the shipped binary when it runs here, else built from source."""
+        if self.kind == "numpy":
+            module = types.ModuleType(f"mbs_numpy_{self.info['name']}")
+            exec(compile(self.source, f"<generated numpy code of {self.info['name']}>", "exec"), module.__dict__)
+            return load_numpy(module, **self.info)
+        if self.platform != _platform_tag():
+            return load_c(code=self.source, **self.info)
+        path = _build.default_cache_dir() / (self.module_name + sysconfig.get_config_var("EXT_SUFFIX"))
+        if not path.exists():
+            write_bytes_atomic(path, self.binary)
+        module = _build.load(_build.BuildResult(path, self.module_name, self.key, True, ""))
+        from mbs.runtime.backends import CBackend
+        return CompiledModel.from_backend(CBackend(module), **self.info)
+
+
+_LOADED: dict[str, CompiledModel] = {}
+
+
+def compiled_model(package: ModelPackage) -> CompiledModel:
+    """The package's model, loaded once per process."""
+    model = _LOADED.get(package.key)
+    if model is None:
+        model = _LOADED[package.key] = package.load()
+    return model
