@@ -169,25 +169,27 @@ def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:
 
 
 def units_of(generated: Generated) -> dict[str, str]:
-    """Unit text of every state and parameter name, for result files and plots."""
+    """Unit text of every state, parameter and output name, for result files, plots and tables: the unit the
+    model wrote for a parameter when it is an SI one, the named SI unit otherwise (N*m, not kg*m^2/s^2)."""
     units: dict[str, str] = {}
     for c in generated.model.coordinates:
-        units[c.name] = _unit(c.dimension)
-        units[f"der({c.name})"] = _unit(c.dimension / U.TIME)
+        if c.local in ("qw", "qx", "qy", "qz"):  # unit quaternion components; their speeds are j.wx ...
+            units[c.name] = "1"
+            if c.local != "qw":
+                units[f"{c.name.rsplit('.', 1)[0]}.w{c.local[1]}"] = "rad/s"
+            continue
+        angle = c.dimension.is_dimensionless
+        units[c.name] = U.unit_text(c.dimension, angle=angle)
+        units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
     for p in generated.model.parameters:
-        if p.dimension is not None:
-            units[p.name] = _unit(p.dimension)
+        unit = p.unit or U.unit_text(p.dimension)
+        if unit is not None:
+            units[p.name] = unit
+    scene_outputs = generated.scene.outputs if generated.scene is not None else ()
+    for o in (*generated.model.outputs, *scene_outputs):
+        if o.unit is not None and o.name in generated.y_names:
+            units[o.name] = o.unit
     return units
-
-
-def _unit(dim: U.Dimension) -> str:
-    if dim.is_dimensionless:
-        return "rad"
-    if dim == U.FREQUENCY:
-        return "rad/s"
-    if dim == U.FREQUENCY / U.TIME:
-        return "rad/s^2"
-    return str(dim)
 
 
 __all__ = ["Generated", "generate", "parameter_values", "initial_state", "display_name", "units_of", "sp"]

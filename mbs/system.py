@@ -27,6 +27,7 @@ from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
 
 from . import pipeline
+from .quantities import parameter_overrides
 
 
 @dataclass
@@ -73,7 +74,7 @@ class System:
         return self._compiled[key]
 
     def simulate(self, scene: str | None = None, *, t_end: float | None = None, sample: float | None = None,
-                 t_eval=None, params: Mapping[str, float] | None = None, x0=None, integrator: str | None = None,
+                 t_eval=None, params: Mapping[str, float | str] | None = None, x0=None, integrator: str | None = None,
                  rtol: float | None = None, atol: float | None = None,
                  progress: Callable[[float, float], bool | None] | None = None, **options) -> Results:
         """Run a scene (or the model with default settings); arguments given here override the scene's."""
@@ -81,7 +82,7 @@ class System:
         compiled = self.compile(scene)
         gen = self.generate(scene)
         overrides = pipeline.scene_overrides(sc)
-        overrides.update(params or {})
+        overrides.update(parameter_overrides(self.model, params))
         values = pipeline.parameter_values(self.model, overrides)
         data = self._workspace(compiled, gen, values)
         if x0 is not None:
@@ -114,18 +115,18 @@ class System:
         data.x = assembly.x
         return data, assembly
 
-    def _scene_parameters(self, scene: str | None, params: Mapping[str, float] | None):
+    def _scene_parameters(self, scene: str | None, params: Mapping[str, float | str] | None):
         """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
         overrides = pipeline.scene_overrides(self.scene(scene))
-        overrides.update(params or {})
+        overrides.update(parameter_overrides(self.model, params))
         return self.compile(scene), self.generate(scene), pipeline.parameter_values(self.model, overrides)
 
-    def assemble(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
         what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
         return self._start(*self._scene_parameters(scene, params))[1]
 
-    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""
         compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
@@ -133,7 +134,7 @@ class System:
         outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
         return result, outputs
 
-    def linearize(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
+    def linearize(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                   at="equilibrium", t: float = 0.0):
         """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes) about the static
         equilibrium at rest (at="equilibrium"; modes are only defined about a state that stays put, so the

@@ -80,6 +80,17 @@ class Results:
         return np.column_stack([self[n] for n in names]) if names else np.empty((len(self), 0))
 
     @property
+    def units(self) -> dict[str, str]:
+        """{column: unit} of the columns with a unit (values are SI; units as the model named them)."""
+        known = {TIME: "s", **self.metadata.get("units", {})}
+        return {n: known[n] for n in self.names if n in known}
+
+    def unit(self, name: str) -> str | None:
+        """The unit of a column ('N*m', 'rad', '1' for a plain number), None when unknown."""
+        self[name]  # an unknown column is a KeyError listing the columns
+        return self.units.get(name)
+
+    @property
     def success(self) -> bool:
         return self.metadata.get("status", "finished") == "finished"
 
