@@ -76,8 +76,18 @@ class System:
     def simulate(self, scene: str | None = None, *, t_end: float | None = None, sample: float | None = None,
                  t_eval=None, params: Mapping[str, float | str] | None = None, x0=None, integrator: str | None = None,
                  rtol: float | None = None, atol: float | None = None,
-                 progress: Callable[[float, float], bool | None] | None = None, **options) -> Results:
-        """Run a scene (or the model with default settings); arguments given here override the scene's."""
+                 progress: Callable[[float, float], bool | None] | None = None, inputs: Mapping | None = None,
+                 **options) -> Results:
+        """Run a scene (or the model with default settings); arguments given here override the scene's.
+        inputs: {input: number, quantity ('2 N*m'), callable u(t) or u(t, x) in SI, or table (times, values)} replace
+        the model's input expressions (mbs.inputs: the model is compiled once more with switchable inputs)."""
+        if inputs:
+            from .inputs import driven_run
+            system, params, drive, integrator = driven_run(self, scene, inputs, params, integrator)
+            return system.simulate(scene, t_end=t_end, sample=sample, t_eval=t_eval, params=params, x0=x0,
+                                   integrator=integrator, rtol=rtol, atol=atol, progress=progress, _drive=drive,
+                                   **options)
+        drive = options.pop("_drive", None)
         sc = self.scene(scene)
         compiled = self.compile(scene)
         gen = self.generate(scene)
@@ -85,6 +95,8 @@ class System:
         overrides.update(parameter_overrides(self.model, params))
         values = pipeline.parameter_values(self.model, overrides)
         data = self._workspace(compiled, gen, values)
+        if drive is not None:
+            drive(data)
         if x0 is not None:
             data.x = np.asarray(x0, dtype=float)
         elif sc is not None and sc.start == "equilibrium":
@@ -136,11 +148,16 @@ class System:
 
     def linearize(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                   at="equilibrium", t: float = 0.0):
-        """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes) about the static
+        """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes, and A, B, C, D for
+        the declared inputs and the outputs: .to_scipy(), .to_control()) about the static
         equilibrium at rest (at="equilibrium"; modes are only defined about a state that stays put, so the
         initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
         array [q; v])."""
         from mbs.runtime.linearize import linearize as _linearize
+        from .inputs import is_driven, linearization_system, state_space_of
+        if self.model.inputs and not is_driven(self.model):
+            system, params = linearization_system(self, scene, params, t)  # B and D need switchable inputs
+            return system.linearize(scene, params=params, at=at, t=t)
         compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
@@ -157,7 +174,7 @@ class System:
             if x.shape != (compiled.nx,):
                 raise MbsError([Diagnostic("error", f"linearize: the state needs {compiled.nx} values "
                                                     f"({', '.join(compiled.x_names)}), got shape {x.shape}", None)])
-        return _linearize(compiled, data, t, x)
+        return state_space_of(self, scene, compiled, data, _linearize(compiled, data, t, x))
 
 
 def _numpy_module(gen: pipeline.Generated):

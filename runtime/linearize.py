@@ -94,6 +94,33 @@ class Linearization:
     undamped_frequencies: np.ndarray
     coordinate_names: tuple
     dof: int
+    state_space: object = None  # runtime.statespace.StateSpace: B, C, D for the inputs and outputs
+
+    @property
+    def B(self) -> np.ndarray:
+        return self._ss().B
+
+    @property
+    def C(self) -> np.ndarray:
+        return self._ss().C
+
+    @property
+    def D(self) -> np.ndarray:
+        return self._ss().D
+
+    def to_scipy(self):
+        """scipy.signal.StateSpace of x' = A x + B u, y = C x + D u."""
+        return self._ss().to_scipy()
+
+    def to_control(self):
+        """control.StateSpace with signal names (python-control, when installed)."""
+        return self._ss().to_control()
+
+    def _ss(self):
+        if self.state_space is None:
+            raise UsageError("this linearisation has no input/output model (made by runtime.linearize alone; "
+                             "System.linearize adds B, C, D)")
+        return self.state_space
 
     @property
     def frequencies(self) -> np.ndarray:

@@ -79,6 +79,10 @@ class Workspace:
             return functions[name]
         raise AttributeError(f"'Workspace' object has no attribute '{name}'")
 
+    def wrap_functions(self, wrap) -> None:
+        """Bind every model function through wrap(f) (inputs driven from Python set parameters first)."""
+        self._functions = {name: wrap(f) for name, f in self._functions.items()}
+
     def set_param(self, name: str, value: float) -> None:
         """Set one parameter by name (SI units)."""
         self._p[self.model.parameter_index(name)] = value
