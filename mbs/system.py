@@ -174,7 +174,9 @@ class System:
             if x.shape != (compiled.nx,):
                 raise MbsError([Diagnostic("error", f"linearize: the state needs {compiled.nx} values "
                                                     f"({', '.join(compiled.x_names)}), got shape {x.shape}", None)])
-        return state_space_of(self, scene, compiled, data, _linearize(compiled, data, t, x))
+        from mbs.runtime.mode_energy import part_groups
+        lin = _linearize(compiled, data, t, x, groups=part_groups(self.model))
+        return state_space_of(self, scene, compiled, data, lin)
 
 
 def _numpy_module(gen: pipeline.Generated):
