@@ -10,7 +10,9 @@ quaternions normalised).
 
 from __future__ import annotations
 
+import logging
 import math
+import time
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -27,6 +29,8 @@ from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -56,10 +60,14 @@ def display_name(symbol_name: str) -> str:
 
 def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     """Validated model -> generated source (symbolic derivation included)."""
+    what = model.name + (f", scene {scene.name}" if scene is not None else "")
+    clock = _Phases(what)
     lowered = lower(model, scene)
+    clock("lowered to a tree")
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
+    clock("derived the equations of motion")
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
@@ -71,12 +79,26 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
-    return Generated(model, scene, lowered, equations,
-                     generate_c(equations, parameters, model.name, constraints=constraints, **options),
-                     numpy_source,
+    c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
+    clock("generated C and NumPy code")
+    return Generated(model, scene, lowered, equations, c_source, numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
                      tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
+
+
+class _Phases:
+    """Logs each compile phase with its time (`mbs -v`): a long compile says what it is doing."""
+
+    def __init__(self, what: str):
+        self.what = what
+        self.last = time.perf_counter()
+        _log.info("compiling %s", what)
+
+    def __call__(self, phase: str) -> None:
+        now = time.perf_counter()
+        _log.info("%s: %s in %.2f s", self.what, phase, now - self.last)
+        self.last = now
 
 
 # ------------------------------------------------------------------------------------------ parameters

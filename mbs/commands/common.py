@@ -4,6 +4,33 @@ from __future__ import annotations
 
 import sys
 
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+
+class ArgumentError(MbsError):
+    """A command-line argument that parsed but makes no sense (unknown scene, parameter or integrator, a
+    results file type we do not write): exit status 2, like argparse's own usage errors."""
+
+    def __init__(self, message: str):
+        super().__init__([Diagnostic("error", message, None)])
+
+
+def usage_errors(function):
+    """Run `function`, turning the model errors it raises about the arguments into ArgumentErrors."""
+    def checked(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except MbsError as err:
+            raise ArgumentError("\n".join(d.message for d in err.diagnostics)) from None
+    return checked
+
+
+def is_usage_error(err) -> bool:
+    """Exit status 2: our ArgumentError, or the run-time layer's UsageError (only if that layer was loaded)."""
+    runtime_errors = sys.modules.get("mbs.runtime.errors")
+    return isinstance(err, ArgumentError) or (runtime_errors is not None
+                                              and isinstance(err, runtime_errors.UsageError))
+
 
 def model_args(p):
     p.add_argument("file", metavar="FILE")
@@ -15,14 +42,29 @@ def param_arg(p) -> None:
                    help="override a parameter, unit optional: --param l=2m (repeatable; no recompile)")
 
 
+@usage_errors
 def params_from_args(args, system) -> dict[str, float]:
-    """The --param overrides, checked against the model (an unknown name or unit is a located error)."""
+    """The --param overrides, checked against the model (an unknown name or unit: exit status 2)."""
     return dict(parse_param(text, system.model) for text in args.param)
+
+
+@usage_errors
+def check_scene(system, name: str | None) -> None:
+    """An unknown --scene is a usage error (listing the scenes)."""
+    system.scene(name)
+
+
+def check_integrator(name: str | None) -> None:
+    """--integrator against the registered methods (exit status 2, listing them)."""
+    if name is None:
+        return
+    from mbs.runtime.integrators import available
+    if name.lower() not in {n.lower() for n in available()}:
+        raise ArgumentError(f"unknown integrator '{name}' (available: {', '.join(available())})")
 
 
 def parse_param(text: str, model):
     """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
-    from mbs.language.diagnostics import Diagnostic, MbsError
     from mbs.quantities import parameter_overrides
     name, sep, value = text.partition("=")
     if not sep:

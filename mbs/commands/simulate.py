@@ -6,7 +6,8 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
-from .common import ProgressBar, model_args, param_arg, params_from_args
+from .common import (ArgumentError, ProgressBar, check_integrator, check_scene, model_args, param_arg,
+                     params_from_args)
 
 PLOT_FORMATS = (".png", ".pdf", ".svg")
 
@@ -25,17 +26,23 @@ class Simulate:
         p.add_argument("--out", help="results file: .csv or .npz (several scenes: one file each, NAME_SCENE.csv)")
         p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG; several scenes: the "
                                       "motion of every scene in one plot, tyre loads in NAME_tyres.png")
-        p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy)")
-        p.add_argument("--rtol", type=float)
-        p.add_argument("--atol", type=float)
+        p.add_argument("--integrator", help="dopri5, rodasp (in C), RK45, DOP853, Radau, BDF, LSODA (scipy), or "
+                                            "any registered one (default: the scene's, else dopri5)")
+        p.add_argument("--rtol", type=float, help="relative tolerance of the integrator's local error (default: "
+                                                  "the scene's, else 1e-8)")
+        p.add_argument("--atol", type=float, help="absolute tolerance, in the units of each state (m, rad, m/s, "
+                                                  "rad/s; default: the scene's, else 1e-10)")
         param_arg(p)
 
     @staticmethod
     def run(args) -> int:
         import mbs
         _check_suffixes(args)
+        check_integrator(args.integrator)
         system = mbs.load(args.file, args.model)
         scenes = list(dict.fromkeys(args.scene))  # a scene named twice runs once
+        for scene in scenes:
+            check_scene(system, scene)  # every name checked before the first run
         if len(scenes) > 1:
             return _simulate_scenes(system, scenes, args)
         scene = scenes[0] if scenes else None
@@ -51,9 +58,8 @@ class Simulate:
         if args.out:
             (res.to_npz if args.out.endswith(".npz") else res.to_csv)(args.out)
         if args.plot:
-            compiled = system.compile(scene)
-            names = list(compiled.y_names) or list(compiled.q_names)
-            res.plot(names, args.plot, title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
+            res.plot(requested_outputs(system, scene, res), args.plot,
+                     title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
         _summary(system, scene, res, args)
         if not res.success:
             print(f"{args.file}: {res.message}", file=sys.stderr)
@@ -65,12 +71,21 @@ class Simulate:
 
 def _check_suffixes(args) -> None:
     """Refuse unknown file types before a long run, not after it."""
-    from mbs.language.diagnostics import Diagnostic, MbsError
     if args.out and Path(args.out).suffix.lower() not in (".csv", ".npz"):
-        raise MbsError([Diagnostic("error", f"--out {args.out}: results are written as .csv or .npz", None)])
+        raise ArgumentError(f"--out {args.out}: results are written as .csv or .npz")
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
-        raise MbsError([Diagnostic("error", f"--plot {args.plot}: plots are written as "
-                                            f"{', '.join(PLOT_FORMATS)}", None)])
+        raise ArgumentError(f"--plot {args.plot}: plots are written as {', '.join(PLOT_FORMATS)}")
+
+
+def requested_outputs(system, scene, res) -> list[str]:
+    """What the scene (or model) asks to see, in its order, coordinates included (`output hinge.phi` is a
+    state column, not a compiled output); without outputs the coordinates."""
+    sc = system.scene(scene)
+    wanted = [o.name for o in sc.outputs] if sc is not None and sc.outputs else \
+        [o.name for o in system.model.outputs]
+    compiled = system.compile(scene)
+    names = [n for n in dict.fromkeys(wanted + list(compiled.y_names)) if n in res]
+    return names or [n for n in compiled.q_names if n in res]
 
 
 def scene_path(path: str, scene: str, tag: str = "") -> Path:
@@ -81,8 +96,6 @@ def scene_path(path: str, scene: str, tag: str = "") -> Path:
 
 def _simulate_scenes(system, scenes: list[str], args) -> int:
     """Run several scenes of one model (compiled once when their outputs agree) and compare them."""
-    for scene in scenes:
-        system.scene(scene)  # every name checked before the first run
     params = params_from_args(args, system)
     runs = {}
     for scene in scenes:
@@ -120,10 +133,7 @@ def plot_scenes(system, runs: dict, path: str) -> list[Path]:
     """
     first = next(iter(runs.values()))
     names = [n for n in first.names if n != "time" and all(n in r for r in runs.values())]
-    sc = system.scene(next(iter(runs)))
-    wanted = [o.name for o in sc.outputs] if sc is not None and sc.outputs else []
-    wanted = wanted or list(system.compile(next(iter(runs))).y_names)  # a scene's outputs may be coordinates
-    outputs = [n for n in wanted if n in names]
+    outputs = [n for n in requested_outputs(system, next(iter(runs)), first) if n in names]
     loads = [n for n in outputs if _is_load(n)]
     motion = ["heave"] if "heave" in outputs else [n for n in outputs if not _is_load(n)]
     if not motion and not loads:
@@ -206,8 +216,11 @@ def _summary(system, scene, res, args) -> None:
     t = res.t
     head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
     print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
-    for name in [n for n in res.names if n != "time"][:12]:
-        print(f"  {name:32s} final {res[name][-1]: .6g}")
+    units = res.units
+    for name in requested_outputs(system, scene, res) if len(res) else []:
+        column = res[name]
+        unit = f" {units[name]}" if name in units else ""
+        print(f"  {name:32s} final {column[-1]: .6g}{unit}   (min {column.min(): .4g}, max {column.max(): .4g})")
     for what, path in (("results", args.out), ("plot", args.plot)):
         if path:
             print(f"  {what} written to {path}")
