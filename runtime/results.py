@@ -147,28 +147,14 @@ class Results:
         with np.load(path, allow_pickle=False) as z:
             return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])))
 
-    def plot(self, names: Iterable[str] | str, path: str | os.PathLike, *, title: str | None = None) -> Path:
-        """Plot the named columns over time into an image file (format from the suffix), atomically.
-
-        Uses matplotlib's object API with the Agg canvas: no global pyplot state, no display needed.
-        """
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        names = [names] if isinstance(names, str) else list(names)
-        units = self.metadata.get("units", {})
-        fig = Figure(figsize=(8, 2.2 + 1.6 * len(names)), layout="constrained")
-        FigureCanvasAgg(fig)
-        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-        for ax, name in zip(axes, names):
-            ax.plot(self.t, self[name])
-            ax.set_ylabel(f"{name} [{units[name]}]" if name in units else name)
-            ax.grid(True, alpha=0.3)
-        axes[-1].set_xlabel("time [s]")
-        fig.suptitle(title or self.metadata.get("model", ""))
-        if not self.success:
-            axes[0].set_title(self.message, fontsize=8, color="tab:red")
-        fmt = Path(path).suffix.lstrip(".") or "png"
-        with atomic_path(path) as tmp, open(tmp, "wb") as f:
-            fig.savefig(f, format=fmt)
-        return Path(path)
+    def plot(self, names: Iterable[str] | str | None = None, path: str | os.PathLike | None = None, *,
+             title: str | None = None):
+        """The named columns (default: every column but time) over time, grouped by unit into few panels,
+        channels that stay zero named in a note instead of drawn (runtime/plotting.py). Returns the matplotlib
+        Figure; with `path` it is also written there atomically (format from the suffix)."""
+        from . import plotting
+        names = [names] if isinstance(names, str) else list(names if names is not None else self.names[1:])
+        fig = plotting.figure({"": self}, names, title=title or "")
+        if path is not None:
+            plotting.save(fig, path)
+        return fig

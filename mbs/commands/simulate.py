@@ -139,15 +139,14 @@ def plot_scenes(system, runs: dict, path: str) -> list[Path]:
     if not motion and not loads:
         compiled = system.compile(next(iter(runs)))
         motion = [n for n in compiled.q_names if n in names]
-    units = _output_units(system, names, first.metadata.get("units", {}))
     labels = {scene: _scene_label(system, scene) for scene in runs}
     written = []
     if motion:
-        written.append(_overlay(runs, motion, units, labels, Path(path), f"{system.model.name}: "
+        written.append(_overlay(runs, motion, labels, Path(path), f"{system.model.name}: "
                                 + ("vertical motion of the car body" if motion == ["heave"] else "outputs")))
     if loads:
         target = Path(path).with_name(f"{Path(path).stem}_tyres{Path(path).suffix}")
-        written.append(_overlay(runs, loads, units, labels, target, f"{system.model.name}: tyre loads"))
+        written.append(_overlay(runs, loads, labels, target, f"{system.model.name}: tyre loads"))
     return written
 
 
@@ -156,60 +155,11 @@ def _scene_label(system, scene: str) -> str:
     return f"{scene}: {sc.description}" if sc.description else scene
 
 
-def _output_units(system, names, known: dict) -> dict[str, str]:
-    """Units of outputs that are a sensor (heave = attitude.cg.z: m) or a coordinate (heave = lift.s).
-
-    Outputs carry no dimension in the data model; an output that is an expression stays without a unit.
-    """
-    from mbs.language import expr as X
-    kinds = {"position": "m", "distance": "m", "velocity": "m/s", "acceleration": "m/s^2", "angles": "rad",
-             "force": "N"}
-    sensors = {s.name: s.kind for i in system.model.interactions for s in i.sensors}
-    values = {o.name: o.value for o in system.model.outputs}
-
-    def sensor_unit(name: str):
-        for key in (name, name.rpartition(".")[0]):
-            if key in sensors:
-                return kinds.get(sensors[key])
-        return None
-
-    units = {}
-    for name in names:
-        value = values.get(name)
-        if isinstance(value, X.Sym) and value.kind == "coord":
-            unit = known.get(value.name)
-        elif isinstance(value, X.Sym) and value.kind == "sensor":
-            unit = sensor_unit(value.name)
-        else:
-            unit = known.get(name) or sensor_unit(name)
-        if unit:
-            units[name] = unit
-    return units
-
-
-def _overlay(runs: dict, names: list[str], units: dict, labels: dict, path: Path, title: str) -> Path:
-    """One panel per output, one line per scene; written atomically (matplotlib's object API, no pyplot)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from mbs.atomic import atomic_path
-    fig = Figure(figsize=(8, 2.2 + 2.0 * len(names)), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, name in zip(axes, names):
-        for scene, res in runs.items():
-            unit = units.get(name) or res.metadata.get("units", {}).get(name)
-            ax.plot(res.t, res[name], label=labels[scene])
-            ax.set_ylabel(f"{name} [{unit}]" if unit else name)
-            if not res.success:
-                ax.axvline(res.t[-1], color="tab:red", lw=0.8, ls=":")
-        ax.grid(True, alpha=0.3)
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", fontsize=8, ncols=1)
-    axes[-1].set_xlabel("time [s]")
-    fig.suptitle(title)
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        fig.savefig(f, format=path.suffix.lstrip(".").lower() or "png")
-    return path
+def _overlay(runs: dict, names: list[str], labels: dict, path: Path, title: str) -> Path:
+    """The scenes in one figure, grouped by unit, one line style per scene (runtime/plotting.py)."""
+    from mbs.runtime import plotting
+    fig = plotting.figure({labels[scene]: res for scene, res in runs.items()}, names, title=title)
+    return plotting.save(fig, path)
 
 
 def _summary(system, scene, res, args) -> None:
