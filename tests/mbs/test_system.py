@@ -84,7 +84,7 @@ def test_cli_compile_writes_a_standalone_library(tmp_path):
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["libpendulum.so", "pendulum.c", "pendulum.h"]
     header = (tmp_path / "pendulum.h").read_text()
-    assert "int mbs_rhs(double t, const double *x, const double *p, double *xdot, double *work);" in header
+    assert "int pendulum_rhs(double t, const double *x, const double *p, double *xdot, double *work);" in header
 
 
 def test_cli_eom_prints_readable_equations(capsys):
