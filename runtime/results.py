@@ -107,6 +107,27 @@ class Results:
     def __repr__(self) -> str:
         return f"Results({len(self)} rows, columns={list(self.names)}, status={self.metadata.get('status')!r})"
 
+    # -- hand-off to data-analysis libraries (imported only when asked for) --------------------------
+
+    def to_pandas(self):
+        """pandas.DataFrame indexed by time [s], one column per name; ``df.attrs`` holds the metadata, units
+        under "units"."""
+        import pandas as pd
+        frame = pd.DataFrame(self.data[:, 1:], columns=list(self.names[1:]),
+                             index=pd.Index(self.t, name=TIME))
+        frame.attrs = {**self.metadata, "units": self.units}
+        return frame
+
+    def to_xarray(self):
+        """xarray.Dataset over the coordinate time [s]; each variable's ``attrs["units"]`` is its unit, the
+        run's metadata is in ``ds.attrs``."""
+        import xarray as xr
+        units = self.units
+        variables = {n: (TIME, self[n], {"units": units[n]} if n in units else {}) for n in self.names[1:]}
+        attrs = {k: json.dumps(v, default=_jsonable) if isinstance(v, (dict, list)) else v
+                 for k, v in self.metadata.items() if k != "units"}
+        return xr.Dataset(variables, coords={TIME: (TIME, self.t, {"units": "s"})}, attrs=attrs)
+
     # -- files -------------------------------------------------------------------------------------
 
     def to_csv(self, path: str | os.PathLike) -> Path:

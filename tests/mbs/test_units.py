@@ -81,3 +81,24 @@ def test_python_takes_quantities_as_the_cli_does(arm):
 def test_bad_quantities_are_model_errors(arm, params, message):
     with pytest.raises(mbs.MbsError, match=message.replace("(", r"\(").replace(")", r"\)")):
         arm.simulate(t_end=0.1, params=params)
+
+
+def test_results_hand_off_to_pandas_and_xarray_with_units(arm):
+    res = arm.simulate(t_end=0.05, sample=0.01)
+    pd = pytest.importorskip("pandas")
+    frame = res.to_pandas()
+    assert isinstance(frame, pd.DataFrame) and frame.index.name == "time"
+    assert frame["spring_torque"].iloc[-1] == res["spring_torque"][-1]
+    assert frame.attrs["units"]["spring_torque"] == "N*m"
+    pytest.importorskip("xarray")
+    ds = res.to_xarray()
+    assert ds["spring_torque"].attrs["units"] == "N*m" and ds["time"].attrs["units"] == "s"
+    assert float(ds["hinge.phi"][-1]) == res["hinge.phi"][-1]
+
+
+def test_workspace_functions_are_typed_methods(arm):
+    from mbs.runtime.workspace import Workspace
+    compiled = arm.compile()
+    data = Workspace(compiled)
+    assert "rhs" in Workspace.__dict__ and "mass_matrix" in Workspace.__dict__
+    assert data.rhs(0.0, compiled.x0).shape == (compiled.nx,)
