@@ -157,7 +157,18 @@ class _AstBuilder:
         parts = (c[0], *c[1]) if len(c) > 1 else (c[0],)
         return ast.Ref(parts, self._span(parts[0], parts[-1]))
 
-    dotted = ref
+    def dotted(self, c):
+        parts = (c[0], *c[1]) if len(c) > 1 else (c[0],)
+        return ast.Ref(parts, self._span(parts[0], parts[-1]))
+
+    def indexed(self, c):
+        from .formatter import expr  # the canonical text of the index: 'link[i - 1]' in messages and fmt
+        index = _node(c[2])
+        return ast.IndexedIdent(f"{c[0].text}[{expr(index)}]", self._span(c[0], c[-1]), c[0].text, index)
+
+    def for_decl(self, c):
+        return ast.For(c[1], _node(c[3]), tuple(c[-2]) if type(c[-2]) is not Token else (),
+                       self._span(c[0], c[-1]))
 
     def dotted_ident(self, c):
         """Dotted names are allowed where a scene overrides a parameter of a component instance."""
