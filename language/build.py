@@ -170,6 +170,8 @@ class _AstBuilder:
         return ast.For(c[1], _node(c[3]), tuple(c[-2]) if type(c[-2]) is not Token else (),
                        self._span(c[0], c[-1]))
 
+    frame_for = for_decl  # frames of a part repeated: the same node, its statements are frames
+
     def dotted_ident(self, c):
         """Dotted names are allowed where a scene overrides a parameter of a component instance."""
         parts = (c[0], *c[1])
@@ -310,7 +312,7 @@ class _AstBuilder:
         description = c[2].value if len(c) > 2 and type(c[2]) is _Part else None
         statements = c[-2] if type(c[-1]) is Token else ()
         bodies = [s for s in statements if type(s) is ast.Body]
-        frames = tuple(s for s in statements if type(s) is ast.Frame)
+        frames = tuple(s for s in statements if type(s) in (ast.Frame, ast.For))
         part = ast.Part(c[1], rigid, bodies[0] if bodies else None, frames, description, self._span(c[0], c[-1]))
         return part, bodies, statements, description
 

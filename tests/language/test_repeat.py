@@ -99,3 +99,39 @@ def test_nested_loops_and_a_reused_variable():
     reused = grid.replace("for k in (1, 2)", "for i in (1, 2)")
     with pytest.raises(mbs.MbsError, match="already the variable of an enclosing loop"):
         check_text(reused, "m.mbs")
+
+
+def test_an_array_of_component_instances_and_indexed_frames():
+    text = """component cell {
+    param k = 100 N/m
+    port base
+    rigid m {
+        body {
+            mass = 1 kg
+            inertia = diag(1, 1, 1) kg*m^2
+        }
+    }
+    interact slide {
+        connect base -> m
+        joint prismatic(axis = z)
+        force spring = joint(s = -k * s)
+    }
+}
+
+model row {
+    part inertial {
+        for i in (1, 2, 3) {
+            frame anchor[i] at (1 m * i, 0 m, 0 m)
+        }
+    }
+    for i in range(1, 4) {
+        use cell as c[i](k = 100 N/m * i) {
+            base = inertial.anchor[i]
+        }
+    }
+    output top = c[3].slide.s
+}
+"""
+    model = check_text(text, "row.mbs").models[0]
+    assert [c.name for c in model.coordinates] == ["c[1].slide.s", "c[2].slide.s", "c[3].slide.s"]
+    assert [p.value for p in model.parameters if p.name.endswith(".k")] == [100.0, 200.0, 300.0]
