@@ -78,23 +78,22 @@ def measure(n: int, symbolic: bool) -> dict:
 # ---- the whole pipeline, from text ------------------------------------------------------------------------------
 
 def chain_text(n: int) -> str:
-    """The n-link pendulum as a .mbs model."""
-    lines = [f'model chain{n} "{n}-link spatial pendulum" {{']
-    for i in range(1, n + 1):
-        lines += [f"    rigid link{i} {{",
-                  "        body {",
-                  "            mass = 1 kg",
-                  "            com = (0, 0, -0.5) m",
-                  "            inertia = diag(1/12, 1/12, 1e-3) kg*m^2",
-                  "        }",
-                  "        frame tip at (0, 0, -1) m",
-                  "    }"]
-    for i in range(1, n + 1):
-        parent = "inertial" if i == 1 else f"link{i - 1}.tip"
-        lines += [f"    interact j{i} {{",
-                  f"        connect {parent} -> link{i}",
-                  f"        joint revolute(axis = {'xy'[(i - 1) % 2]})",
-                  "    }"]
+    """The n-link pendulum as a .mbs model, written with the language's repetition (`for`, indexed names):
+    the links in one loop, the first joint on the ground, then the joints about y (even links) and x (odd)."""
+    link = ["            body {",
+            "                mass = 1 kg",
+            "                com = (0, 0, -0.5) m",
+            "                inertia = diag(1 / 12, 1 / 12, 1e-3) kg*m^2",
+            "            }",
+            "            frame tip at (0, 0, -1) m"]
+    lines = [f'model chain{n} "{n}-link spatial pendulum" {{',
+             f"    for i in range(1, {n + 1}) {{", "        rigid link[i] {", *link, "        }", "    }",
+             "    interact j[1] {", "        connect inertial -> link[1]", "        joint revolute(axis = x)", "    }"]
+    for first, axis in ((2, "y"), (3, "x")):
+        if first <= n:
+            lines += [f"    for i in range({first}, {n + 1}, 2) {{", "        interact j[i] {",
+                      "            connect link[i - 1].tip -> link[i]", f"            joint revolute(axis = {axis})",
+                      "        }", "    }"]
     return "\n".join(lines + ["}", ""])
 
 

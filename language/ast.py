@@ -20,6 +20,15 @@ class Ident:
 
 
 @dataclass(frozen=True)
+class IndexedIdent(Ident):
+    """A name with an index, ``link[i]`` or ``j[i - 1]``: ``text`` as written (blanks dropped), ``base`` the
+    name before the bracket. The repetition pass (repeat.py) replaces it by the Ident ``link[3]``."""
+
+    base: str = ""
+    index: "Expr | None" = None
+
+
+@dataclass(frozen=True)
 class Ref:
     """A dotted name such as ``bob.pivot`` or ``fl.leaf.phi``."""
 
@@ -276,7 +285,18 @@ class Use:
     span: Span
 
 
-ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use]
+@dataclass(frozen=True)
+class For:
+    """``for i in range(1, 5) { ... }``: the statements once per value of ``var`` (repeat.py unrolls it before
+    validation, so later stages see plain statements named ``link[1]``, ``link[2]`` ...)."""
+
+    var: Ident
+    values: "Expr"
+    statements: tuple["ModelStatement", ...]
+    span: Span
+
+
+ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use, For]
 
 
 @dataclass(frozen=True)

@@ -218,7 +218,20 @@ class _AstBuilder:
         parts = (c[0], *c[1]) if len(c) > 1 else (c[0],)
         return ast.Ref(parts, self._span(parts[0], parts[-1]))
 
-    dotted = ref
+    def dotted(self, c):
+        parts = (c[0], *c[1]) if len(c) > 1 else (c[0],)
+        return ast.Ref(parts, self._span(parts[0], parts[-1]))
+
+    def indexed(self, c):
+        from .formatter import expr  # the canonical text of the index: 'link[i - 1]' in messages and fmt
+        index = _node(c[2])
+        return ast.IndexedIdent(f"{c[0].text}[{expr(index)}]", self._span(c[0], c[-1]), c[0].text, index)
+
+    def for_decl(self, c):
+        return ast.For(c[1], _node(c[3]), tuple(c[-2]) if type(c[-2]) is not Token else (),
+                       self._span(c[0], c[-1]))
+
+    frame_for = for_decl  # frames of a part repeated: the same node, its statements are frames
 
     def dotted_ident(self, c):
         """Dotted names are allowed where a scene overrides a parameter of a component instance."""
@@ -360,7 +373,7 @@ class _AstBuilder:
         description = c[2].value if len(c) > 2 and type(c[2]) is _Part else None
         statements = c[-2] if type(c[-1]) is Token else ()
         bodies = [s for s in statements if type(s) is ast.Body]
-        frames = tuple(s for s in statements if type(s) is ast.Frame)
+        frames = tuple(s for s in statements if type(s) in (ast.Frame, ast.For))
         part = ast.Part(c[1], rigid, bodies[0] if bodies else None, frames, description, self._span(c[0], c[-1]))
         return part, bodies, statements, description
 

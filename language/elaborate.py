@@ -34,6 +34,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self._param_dims: dict[int, object] = {}
         self._param_exprs: dict[str, X.E] = {}
         self._param_spans: dict[str, tuple[Span, str | None, Dimension | None]] = {}
+        self._param_units: dict[str, str | None] = {}
         self._values: dict[str, float] = {}
         self._resolving: set[int] = set()
         self._module_scopes: dict[Path, Scope] = {}
@@ -468,13 +469,14 @@ class Elaborator(PlacementMixin, ParameterMixin):
         if st.value is None:
             r.vector_components = []
         try:
-            value = r.scalar(st.value if st.value is not None else ast.Name(st.name, st.name.span))[0]
+            value, dim = r.scalar(st.value if st.value is not None else ast.Name(st.name, st.name.span))
         except Invalid:
             return None
         name, span = scope.full(st.name.dotted), scope.at(st.span)
         if r.vector_components:
-            return [M.Output(f"{name}.{c}", v, st.description, span) for c, v, _ in r.vector_components]
-        return [M.Output(name, value, st.description, span)]
+            return [M.Output(f"{name}.{c}", v, st.description, span, _shown_unit(v, d))
+                    for c, v, d in r.vector_components]
+        return [M.Output(name, value, st.description, span, _shown_unit(value, dim))]
 
     def output_value(self, entry: OutputEntry, span) -> tuple[X.E, object]:
         """An output used in another expression (another output, or a scene's output list)."""
@@ -510,3 +512,8 @@ def _word_arg(args, name: str) -> str | None:
         if isinstance(a, ast.Kwarg) and a.name.text == name and isinstance(a.value, ast.Name):
             return a.value.ref.dotted
     return None
+
+
+def _shown_unit(value: X.E, dim) -> str | None:
+    """An output's unit for results and plots; a bare joint angle or attitude sensor reads 'rad', not '1'."""
+    return U.unit_text(dim, angle=isinstance(value, X.Sym) and value.kind in ("coord", "sensor"))

@@ -139,6 +139,9 @@ class _Printer:
                 self.open_block(node, depth, head, node.bindings, self.statement)
             else:
                 self.emit(node, depth, head)
+        elif isinstance(node, ast.For):
+            self.open_block(node, depth, f"for {node.var.text} in {expr(node.values)}", node.statements,
+                            self.statement)
         elif isinstance(node, ast.Binding):
             self.emit(node, depth, f"{node.port.text} = {node.target.dotted}")
         else:  # pragma: no cover - the grammar has no other statements

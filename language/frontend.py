@@ -18,6 +18,7 @@ from .elaborate import Elaborator
 from .inertia_check import check_inertia
 from .loader import Loader
 from .parser import parse_source, without_cycle_collection
+from .repeat import expand
 from .rules import check_model
 from .scenes import build_scene, scene_model_name
 from .scope import Module
@@ -61,7 +62,7 @@ def _check_text(text: str, path: str, directory: str | Path) -> CheckResult:
     loader = Loader(diags)
     source = Source(path, text)
     try:
-        file = parse_source(source, diags)
+        file = expand(parse_source(source, diags), diags)
     except MbsError:
         raise MbsError(diags.items) from None
     module = Module(path=Path(directory).resolve() / Path(path).name, dotted=Path(path).stem, file=file)

@@ -8,6 +8,7 @@ from pathlib import Path
 from . import ast
 from .diagnostics import Diagnostics, MbsError
 from .parser import parse_source, read_source
+from .repeat import expand
 from .scope import Module
 
 LIBRARY_ROOT = Path(__file__).resolve().parent.parent / "library"
@@ -27,7 +28,7 @@ class Loader:
             return self.modules[key]
         try:
             source = read_source(path, shown or _shown_path(path))
-            file = parse_source(source, self.diags)
+            file = expand(parse_source(source, self.diags), self.diags)
         except MbsError as err:
             self.diags.extend(err.diagnostics)
             return None

@@ -33,6 +33,7 @@ class Parameter:
     dimension: Dimension | None  # None: a bare number, any dimension accepted
     description: str | None
     span: Span = field(compare=False)
+    unit: str | None = field(default=None, compare=False)  # shown unit (results, tables): as written if SI
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class Output:
     value: E
     description: str | None
     span: Span = field(compare=False)
+    unit: str | None = field(default=None, compare=False)  # the named SI unit of its checked dimension
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from . import model as M
 from .diagnostics import Span
 from .expressions import ExprResolver, Invalid
 from .scope import InputEntry, InstanceEntry, Module, ParamEntry, Scope
+from .units import unit_text
 
 
 class ParameterMixin:
@@ -41,6 +42,7 @@ class ParameterMixin:
         self._param_dims[key] = dim
         self._param_exprs[entry.full] = value
         self._param_spans[entry.full] = (self._entry_scope_span(entry), entry.decl.description, dim)
+        self._param_units[entry.full] = unit_text(dim, getattr(entry.decl.value, "unit", None))
         return dim
 
     def module_param(self, module: Module, name: str, span, scope: Scope):
@@ -122,5 +124,5 @@ class ParameterMixin:
                 if not self._cyclic:  # a cycle is reported once, where it is found
                     self.diags.error(f"parameter '{full}' cannot be evaluated: {exc}", span)
                 value = float("nan")
-            out.append(M.Parameter(full, e, value, dim, description, span))
+            out.append(M.Parameter(full, e, value, dim, description, span, self._param_units.get(full)))
         return tuple(out)

@@ -29,12 +29,24 @@ MAX_SYNTAX_ERRORS = 20  # beyond this, recovery mostly reports consequences of e
 @functools.lru_cache(maxsize=1)
 def _lark() -> Lark:
     lark = Lark(GRAMMAR_FILE.read_text(), parser="lalr", lexer=MbsLexer, start=["start", "expr_only"],
-                maybe_placeholders=False, cache=False)
+                maybe_placeholders=False, cache=_table_cache())
     # lark names rules by Tokens, whose Python-level __eq__ then runs in the goto lookup after every
     # reduction (~8 % of parsing); plain strings are equal and hash the same.
     for rule in lark.rules:
         rule.origin.name = str(rule.origin.name)
     return lark
+
+
+def _table_cache() -> str | bool:
+    """The file lark keeps its LALR tables in (building them is most of a small model's check time); lark
+    stores the grammar's hash inside and rebuilds on a mismatch. False (no cache) when it cannot be made."""
+    from mbs.cachedir import default_cache_dir
+    try:
+        folder = default_cache_dir()
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        return False
+    return str(folder / "grammar.lark-tables")
 
 
 # ------------------------------------------------------------------------------------------ lark -> AST

@@ -229,3 +229,31 @@ def format_quantity(value_si: float, dim: Dimension) -> str:
         return "%g" % value_si
     symbol = _FRIENDLY[dim][1] if dim in _FRIENDLY else str(dim)
     return "%g %s" % (value_si, symbol)
+
+
+# The named unit results, plots and tables show for a dimension (values are SI, so only factor-1 units).
+# Angle is dimensionless: 1/s is shown as rad/s, the common case in multibody results (a joint rate).
+_SHOWN: dict[Dimension, str] = {
+    MASS: "kg", LENGTH: "m", TIME: "s", VELOCITY: "m/s", ACCELERATION: "m/s^2", FREQUENCY: "rad/s",
+    FREQUENCY / TIME: "rad/s^2", FORCE: "N", TORQUE: "N*m", POWER: "W", PRESSURE: "Pa", STIFFNESS: "N/m",
+    DAMPING: "N*s/m", ROT_DAMPING: "N*m*s/rad", INERTIA: "kg*m^2", LENGTH**2: "m^2", LENGTH**3: "m^3",
+    FORCE * TIME: "N*s", TORQUE * TIME: "N*m*s", MASS / LENGTH**3: "kg/m^3", LENGTH / TIME**3: "m/s^3",
+}
+
+
+def unit_text(dim: Dimension | None, written: str | None = None, *, angle: bool = False) -> str | None:
+    """The unit a value of dimension `dim` in SI is shown with: the unit the model wrote when it is an SI one
+    (`N*m/rad` stays `N*m/rad`), else the named SI unit (`N*m`, not `kg*m^2/s^2`), else the SI product.
+    A dimensionless value is 'rad' when `angle` (a joint angle, an attitude), else '1'; None: no dimension."""
+    if dim is None:
+        return None
+    if written:
+        try:
+            factor, parsed = parse_unit(written)
+        except UnitError:
+            factor, parsed = 0.0, None
+        if parsed == dim and abs(factor - 1.0) <= 1e-12:
+            return written
+    if dim.is_dimensionless:
+        return "rad" if angle or (written and re.search(r"rad|deg|rev", written)) else "1"
+    return _SHOWN.get(dim, str(dim))

@@ -11,13 +11,21 @@ import sys
 import traceback
 
 from .commands import COMMANDS
-from .commands.common import render_error
+from .commands.common import is_usage_error, render_error
 
 EXIT_OK, EXIT_MODEL, EXIT_USAGE, EXIT_INTERNAL = 0, 1, 2, 3
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="mbs", description="Baukasten multibody compiler for vehicle dynamics.")
+    from . import __version__
+    parser = argparse.ArgumentParser(prog="mbs", description="Baukasten multibody compiler for vehicle dynamics.",
+                                     epilog="exit status: 0 ok, 1 a model or run failed, 2 bad usage, "
+                                            "3 internal error (a bug)")
+    parser.add_argument("--version", action="version", version=f"mbs {__version__}")
+    parser.add_argument("-v", "--verbose", dest="log_verbose", action="count", default=0,
+                        help="say what happens (compile phases, build cache hit or miss, times); -vv for details")
+    parser.add_argument("-q", "--quiet", dest="log_quiet", action="store_true",
+                        help="errors only (no warnings)")
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, command in COMMANDS.items():
@@ -33,12 +41,13 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "run", None):
         parser.print_help(sys.stderr)
         return EXIT_USAGE
+    _configure_logging(args.log_verbose, args.log_quiet)
     from mbs.language.diagnostics import MbsError
     try:
         return args.run(args)
     except MbsError as err:
         print(render_error(err), file=sys.stderr)
-        return EXIT_MODEL
+        return EXIT_USAGE if is_usage_error(err) else EXIT_MODEL
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return 130
@@ -50,6 +59,19 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mbs: internal error: {type(exc).__name__}: {exc}\n(this is a bug in mbs; rerun with --debug "
               "for the traceback and report it)", file=sys.stderr)
         return EXIT_INTERNAL
+
+
+def _configure_logging(verbose: int, quiet: bool) -> None:
+    """The library logs through `logging` (logger 'mbs.*'); the command shows it on stderr."""
+    import logging
+    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO)[min(verbose, 1)] if verbose < 2 \
+        else logging.DEBUG
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("mbs: %(message)s"))
+    logger = logging.getLogger("mbs")
+    logger.handlers[:] = [handler]
+    logger.setLevel(level)
+    logger.propagate = False
 
 
 if __name__ == "__main__":

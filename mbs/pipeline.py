@@ -10,7 +10,9 @@ quaternions normalised).
 
 from __future__ import annotations
 
+import logging
 import math
+import time
 from dataclasses import dataclass
 from typing import Mapping
 
@@ -28,6 +30,8 @@ from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
+
+_log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -84,13 +88,17 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
+    what = model.name + (f", scene {scene.name}" if scene is not None else "")
+    clock = _Phases(what)
     lowered = lower(model, scene)
+    clock("lowered to a tree")
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     try:
         equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
+    clock("derived the equations of motion")
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
@@ -104,12 +112,26 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
-    return Generated(model, scene, lowered, equations,
-                     generate_c(equations, parameters, model.name, constraints=constraints, **options),
-                     numpy_source,
+    c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
+    clock("generated C and NumPy code")
+    return Generated(model, scene, lowered, equations, c_source, numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
                      tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
+
+
+class _Phases:
+    """Logs each compile phase with its time (`mbs -v`): a long compile says what it is doing."""
+
+    def __init__(self, what: str):
+        self.what = what
+        self.last = time.perf_counter()
+        _log.info("compiling %s", what)
+
+    def __call__(self, phase: str) -> None:
+        now = time.perf_counter()
+        _log.info("%s: %s in %.2f s", self.what, phase, now - self.last)
+        self.last = now
 
 
 # ------------------------------------------------------------------------------------------ parameters
@@ -202,25 +224,27 @@ def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:
 
 
 def units_of(generated: Generated) -> dict[str, str]:
-    """Unit text of every state and parameter name, for result files and plots."""
+    """Unit text of every state, parameter and output name, for result files, plots and tables: the unit the
+    model wrote for a parameter when it is an SI one, the named SI unit otherwise (N*m, not kg*m^2/s^2)."""
     units: dict[str, str] = {}
     for c in generated.model.coordinates:
-        units[c.name] = _unit(c.dimension)
-        units[f"der({c.name})"] = _unit(c.dimension / U.TIME)
+        if c.local in ("qw", "qx", "qy", "qz"):  # unit quaternion components; their speeds are j.wx ...
+            units[c.name] = "1"
+            if c.local != "qw":
+                units[f"{c.name.rsplit('.', 1)[0]}.w{c.local[1]}"] = "rad/s"
+            continue
+        angle = c.dimension.is_dimensionless
+        units[c.name] = U.unit_text(c.dimension, angle=angle)
+        units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
     for p in generated.model.parameters:
-        if p.dimension is not None:
-            units[p.name] = _unit(p.dimension)
+        unit = p.unit or U.unit_text(p.dimension)
+        if unit is not None:
+            units[p.name] = unit
+    scene_outputs = generated.scene.outputs if generated.scene is not None else ()
+    for o in (*generated.model.outputs, *scene_outputs):
+        if o.unit is not None and o.name in generated.y_names:
+            units[o.name] = o.unit
     return units
-
-
-def _unit(dim: U.Dimension) -> str:
-    if dim.is_dimensionless:
-        return "rad"
-    if dim == U.FREQUENCY:
-        return "rad/s"
-    if dim == U.FREQUENCY / U.TIME:
-        return "rad/s^2"
-    return str(dim)
 
 
 __all__ = ["Generated", "generate", "parameter_values", "initial_state", "display_name", "units_of", "sp"]

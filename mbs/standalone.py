@@ -18,7 +18,6 @@ from mbs.runtime.build import C_DIR, compiler_command
 
 from .pipeline import Generated
 
-_PROTOTYPE = re.compile(r"^((?:int|const char \*)\s*mbs_\w+\(.*\))\s*$")
 FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-Wextra"]
 
 
@@ -30,27 +29,93 @@ def standalone_source(gen: Generated) -> str:
     return gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
 
 
+#: A top-level declaration or definition of an mbs_ function or datum that is not static yet.
+_EXTERN = re.compile(r"^(?!static\b)(?:const\s+)?(?:int|double|void|char)\b[\s*]*mbs_\w+\b")
+_DEFINITION = re.compile(r"^static ((?:const\s+)?(?:int|double|void|char)[\s*]*)(mbs_\w+)\((.*)\)\s*$")
+
+
+def prefix_of(gen: Generated) -> str:
+    """The model's C prefix: 'pendulum' for pendulum_rhs and PENDULUM_NQ (a C identifier)."""
+    stem = re.sub(r"\W", "_", gen.model.name)
+    return stem if re.match(r"[A-Za-z_]", stem) else f"m_{stem}"
+
+
+def _internal(source: str) -> tuple[str, list[tuple[str, str, str]]]:
+    """The source with every mbs_ symbol static (internal to its object file, so two models link into one
+    program), and the functions that were public: [(return type, name, parameters)]."""
+    lines, public = [], []
+    text = source.splitlines()
+    for i, line in enumerate(text):
+        if _EXTERN.match(line):
+            line = "static " + line
+            match = _DEFINITION.match(line)
+            if match and i + 1 < len(text) and text[i + 1].strip() == "{":
+                public.append((match.group(1).strip(), match.group(2), match.group(3)))
+        lines.append(line)
+    return "\n".join(lines) + "\n", public
+
+
+def _call_arguments(parameters: str) -> str:
+    """'double t, const double *x' -> 't, x'; 'void' or '' -> ''."""
+    names = [re.findall(r"\w+", part)[-1] for part in parameters.split(",") if part.strip() not in ("", "void")]
+    return ", ".join(names)
+
+
+def _array(values) -> str:
+    values = [float(v) for v in values] or [0.0]  # C has no empty arrays; the size macro says 0
+    return ", ".join(repr(v) for v in values)
+
+
+def standalone_c(gen: Generated) -> str:
+    """The standalone C file: the generated code with its mbs_ symbols static, public wrappers with the
+    model's prefix (pendulum_rhs calls mbs_rhs), and accessors of the default parameters and initial state."""
+    from . import pipeline
+    body, public = _internal(standalone_source(gen))
+    prefix = prefix_of(gen)
+    values = pipeline.parameter_values(gen.model, pipeline.scene_overrides(gen.scene))
+    p_default = [values[n] for n in gen.p_names]
+    x0 = pipeline.initial_state(gen, values)
+    out = [body, f"/* ---- the public interface of {gen.model.name} (prefix {prefix}_, declared in {prefix}.h) ---- */",
+           f'#include "{prefix}.h"', ""]
+    for kind, name, parameters in public:
+        ret = "" if kind == "void" else "return "
+        out += [f"{kind} {prefix}_{name[4:]}({parameters})".replace("* ", "*"),
+                f"{{\n    {ret}{name}({_call_arguments(parameters)});\n}}", ""]
+    out += [f"const double *{prefix}_default_parameters(void)",
+            f"{{\n    static const double p[] = {{{_array(p_default)}}};  /* {', '.join(gen.p_names)} */\n"
+            "    return p;\n}", "",
+            f"const double *{prefix}_initial_state(void)",
+            f"{{\n    static const double x0[] = {{{_array(x0)}}};\n    return x0;\n}}", ""]
+    return "\n".join(out)
+
+
 def header_text(gen: Generated) -> str:
-    name = gen.model.name
-    guard = re.sub(r"\W", "_", name).upper() + "_MBS_H"
-    lines = [f"/* Interface of the generated equations of motion of \"{name}\" (see {name}.c). */",
+    """Sizes (PENDULUM_NQ ...) and prototypes (pendulum_rhs ...), from the generated source itself."""
+    name, prefix = gen.model.name, prefix_of(gen)
+    macro = prefix.upper()
+    guard = f"{macro}_MBS_H"
+    lines = [f"/* Interface of the generated equations of motion of \"{name}\" (see {prefix}.c). Every function",
+             " * returns 0 or a status (1 singular mass matrix, 2 non-finite value, 3 loops not closed); work is",
+             f" * {macro}_NWORK doubles the caller provides. */",
              f"#ifndef {guard}", f"#define {guard}", ""]
     source = standalone_source(gen).splitlines()
-    lines += [line for line in source if re.match(r"#define MBS_N[A-Z]+ ", line)]
+    for line in source:
+        if re.match(r"#define MBS_N[A-Z]+ ", line):
+            lines.append(line.replace("MBS_", f"{macro}_"))
     lines.append("")
-    for i, line in enumerate(source):
-        match = _PROTOTYPE.match(line)
-        if match and i + 1 < len(source) and source[i + 1].strip() == "{":
-            lines.append(match.group(1) + ";")
-    lines += ["", f"#endif /* {guard} */", ""]
+    for kind, fn, parameters in _internal(standalone_source(gen))[1]:
+        lines.append(f"{kind} {prefix}_{fn[4:]}({parameters});".replace("* ", "*"))
+    lines += ["", f"/* defaults: {macro}_NP parameters ({', '.join(gen.p_names)}), {macro}_NX initial state */",
+              f"const double *{prefix}_default_parameters(void);", f"const double *{prefix}_initial_state(void);",
+              "", f"#endif /* {guard} */", ""]
     return "\n".join(lines)
 
 
 def write_standalone(gen: Generated, directory: Path) -> list[Path]:
     directory.mkdir(parents=True, exist_ok=True)
-    stem = re.sub(r"\W", "_", gen.model.name)
+    stem = prefix_of(gen)
     c_path, h_path, so_path = directory / f"{stem}.c", directory / f"{stem}.h", directory / f"lib{stem}.so"
-    write_text_atomic(c_path, standalone_source(gen))
+    write_text_atomic(c_path, standalone_c(gen))
     write_text_atomic(h_path, header_text(gen))
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / so_path.name
@@ -68,4 +133,4 @@ def write_standalone(gen: Generated, directory: Path) -> list[Path]:
     return [c_path, h_path, so_path]
 
 
-__all__ = ["header_text", "write_standalone", "shutil"]
+__all__ = ["header_text", "standalone_c", "write_standalone", "prefix_of", "shutil"]

@@ -27,6 +27,7 @@ from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
 
 from . import pipeline
+from .quantities import parameter_overrides
 
 
 @dataclass
@@ -74,12 +75,22 @@ class System:
         return self._compiled[key]
 
     def simulate(self, scene: str | None = None, *, t_end: float | None = None, sample: float | None = None,
-                 t_eval=None, params: Mapping[str, float] | None = None, x0=None, integrator: str | None = None,
+                 t_eval=None, params: Mapping[str, float | str] | None = None, x0=None, integrator: str | None = None,
                  rtol: float | None = None, atol: float | None = None,
-                 progress: Callable[[float, float], bool | None] | None = None, **options) -> Results:
-        """Run a scene (or the model with default settings); arguments given here override the scene's."""
+                 progress: Callable[[float, float], bool | None] | None = None, inputs: Mapping | None = None,
+                 **options) -> Results:
+        """Run a scene (or the model with default settings); arguments given here override the scene's.
+        inputs: {input: number, quantity ('2 N*m'), callable u(t) or u(t, x) in SI, or table (times, values)} replace
+        the model's input expressions (mbs.inputs: the model is compiled once more with switchable inputs)."""
+        if inputs:
+            from .inputs import driven_run
+            system, params, drive, integrator = driven_run(self, scene, inputs, params, integrator)
+            return system.simulate(scene, t_end=t_end, sample=sample, t_eval=t_eval, params=params, x0=x0,
+                                   integrator=integrator, rtol=rtol, atol=atol, progress=progress, _drive=drive,
+                                   **options)
+        drive = options.pop("_drive", None)
         data, settings = self.start(scene, params=params, x0=x0, t_end=t_end, sample=sample,
-                                    integrator=integrator, rtol=rtol, atol=atol)
+                                    integrator=integrator, rtol=rtol, atol=atol, drive=drive)
         compiled = data.model
         if t_eval is not None:
             settings.pop("sample", None)
@@ -97,19 +108,22 @@ class System:
                 owners[name] = f"interaction {interaction.name}" + (f": force {forces}" if forces else "")
         return owners
 
-
-    def start(self, scene: str | None = None, *, params: Mapping[str, float] | None = None, x0=None,
-              jacobian: bool | None = None, **overrides) -> tuple[Workspace, dict]:
+    def start(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None, x0=None,
+              jacobian: bool | None = None, drive=None, **overrides) -> tuple[Workspace, dict]:
         """(workspace at the scene's start, run settings): what a run of the scene begins with. overrides:
-        t_end, sample, integrator, rtol, atol as for simulate. jacobian: as for compile."""
+        t_end, sample, integrator, rtol, atol as for simulate. jacobian: as for compile. drive: sets the
+        run-time inputs on the workspace (mbs.inputs)."""
         sc = self.scene(scene)
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
             jacobian = True
         compiled = self.compile(scene, jacobian=jacobian)
         gen = self.generate(scene, jacobian=jacobian)
-        values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc), **(params or {})})
+        values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
+                                                        **parameter_overrides(self.model, params)})
         data = self._workspace(compiled, gen, values)
+        if drive is not None:
+            drive(data)
         if x0 is not None:
             data.x = np.asarray(x0, dtype=float)
         elif sc is not None and sc.start == "equilibrium":
@@ -146,18 +160,18 @@ class System:
         data.x = assembly.x
         return data, assembly
 
-    def _scene_parameters(self, scene: str | None, params: Mapping[str, float] | None):
+    def _scene_parameters(self, scene: str | None, params: Mapping[str, float | str] | None):
         """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
         overrides = pipeline.scene_overrides(self.scene(scene))
-        overrides.update(params or {})
+        overrides.update(parameter_overrides(self.model, params))
         return self.compile(scene), self.generate(scene), pipeline.parameter_values(self.model, overrides)
 
-    def assemble(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
         what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
         return self._start(*self._scene_parameters(scene, params))[1]
 
-    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
+    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""
         compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
@@ -165,13 +179,18 @@ class System:
         outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
         return result, outputs
 
-    def linearize(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
+    def linearize(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                   at="equilibrium", t: float = 0.0):
-        """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes) about the static
+        """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes, and A, B, C, D for
+        the declared inputs and the outputs: .to_scipy(), .to_control()) about the static
         equilibrium at rest (at="equilibrium"; modes are only defined about a state that stays put, so the
         initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
         array [q; v])."""
         from mbs.runtime.linearize import linearize as _linearize
+        from .inputs import is_driven, linearization_system, state_space_of
+        if self.model.inputs and not is_driven(self.model):
+            system, params = linearization_system(self, scene, params, t)  # B and D need switchable inputs
+            return system.linearize(scene, params=params, at=at, t=t)
         compiled, gen, values = self._scene_parameters(scene, params)
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
@@ -188,7 +207,9 @@ class System:
             if x.shape != (compiled.nx,):
                 raise MbsError([Diagnostic("error", f"linearize: the state needs {compiled.nx} values "
                                                     f"({', '.join(compiled.x_names)}), got shape {x.shape}", None)])
-        return _linearize(compiled, data, t, x)
+        from mbs.runtime.mode_energy import part_groups
+        lin = _linearize(compiled, data, t, x, groups=part_groups(self.model))
+        return state_space_of(self, scene, compiled, data, lin)
 
 
 def _numpy_module(gen: pipeline.Generated):

@@ -31,6 +31,7 @@ from types import ModuleType
 
 import numpy as np
 
+from mbs.cachedir import default_cache_dir as _default_cache_dir
 from . import cache as _cache
 from .errors import BuildError, EvaluationError
 
@@ -60,11 +61,8 @@ class BuildResult:
 
 
 def default_cache_dir() -> Path:
-    """``$MBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/baukasten``, else ``~/.cache/baukasten``."""
-    if os.environ.get(CACHE_ENV):
-        return Path(os.environ[CACHE_ENV]).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base).expanduser() / "baukasten"
+    """``$MBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/baukasten``, else ``~/.cache/baukasten`` (mbs.cachedir)."""
+    return _default_cache_dir()
 
 
 def compiler_command() -> list[str]:

@@ -28,11 +28,12 @@ break) have no derivative; there the result is the mean of the two one-sided slo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import UsageError
+from .mode_energy import energy_shares, mode_name
 from .model import CompiledModel
 from .workspace import Workspace, check_workspace
 
@@ -66,6 +67,9 @@ class Mode:
     damping_ratio: float
     oscillatory: bool
     shape: dict
+    kinetic: dict = field(default_factory=dict)    # {group (part, corner): share of the kinetic energy}
+    potential: dict = field(default_factory=dict)  # {group: share of the potential energy}; see mode_energy
+    name: str = ""                                 # 'car bounce', 'fl arm_bearing.phi': from the energy
 
     def dominant(self, n: int = 3, threshold: float = 0.1) -> list[tuple[str, float]]:
         """The n coordinates with the largest amplitudes (at least `threshold` of the largest)."""
@@ -94,6 +98,33 @@ class Linearization:
     undamped_frequencies: np.ndarray
     coordinate_names: tuple
     dof: int
+    state_space: object = None  # runtime.statespace.StateSpace: B, C, D for the inputs and outputs
+
+    @property
+    def B(self) -> np.ndarray:
+        return self._ss().B
+
+    @property
+    def C(self) -> np.ndarray:
+        return self._ss().C
+
+    @property
+    def D(self) -> np.ndarray:
+        return self._ss().D
+
+    def to_scipy(self):
+        """scipy.signal.StateSpace of x' = A x + B u, y = C x + D u."""
+        return self._ss().to_scipy()
+
+    def to_control(self):
+        """control.StateSpace with signal names (python-control, when installed)."""
+        return self._ss().to_control()
+
+    def _ss(self):
+        if self.state_space is None:
+            raise UsageError("this linearisation has no input/output model (made by runtime.linearize alone; "
+                             "System.linearize adds B, C, D)")
+        return self.state_space
 
     @property
     def frequencies(self) -> np.ndarray:
@@ -105,13 +136,21 @@ class Linearization:
 
     def table(self) -> str:
         """The modes as a text table: frequency, damping ratio, eigenvalue, dominant coordinates."""
-        lines = [f"{'mode':>4}  {'f [Hz]':>10}  {'damping':>9}  {'eigenvalue [1/s]':>24}  dominant coordinates"]
+        energies = any(m.kinetic for m in self.modes)
+        last = "name: energy share kinetic/potential by part" if energies else "dominant coordinates"
+        lines = [f"{'mode':>4}  {'f [Hz]':>10}  {'damping [1]':>11}  {'eigenvalue [1/s]':>24}  {last}"]
         for i, m in enumerate(self.modes, 1):
             lam = m.eigenvalue
             ev = f"{lam.real:.5g} {'+' if lam.imag >= 0 else '-'} {abs(lam.imag):.5g}j" if m.oscillatory \
                 else f"{lam.real:.5g}"
-            dom = ", ".join(f"{name} {amp:.2f}" for name, amp in m.dominant())
-            lines.append(f"{i:>4}  {m.frequency:>10.5g}  {m.damping_ratio:>9.4g}  {ev:>24}  {dom}")
+            if m.kinetic:
+                groups = list(dict.fromkeys([*list(m.kinetic)[:2], *list(m.potential)[:1]]))
+                shares = ", ".join(f"{g} {100 * m.kinetic.get(g, 0):.0f}/{100 * m.potential.get(g, 0):.0f} %"
+                                   for g in groups)
+                dom = f"{m.name}: {shares}"
+            else:
+                dom = ", ".join(f"{name} {amp:.2f}" for name, amp in m.dominant())
+            lines.append(f"{i:>4}  {m.frequency:>10.5g}  {m.damping_ratio:>11.4g}  {ev:>24}  {dom}")
         return "\n".join(lines)
 
 
@@ -156,9 +195,11 @@ def _null_space(data: Workspace, t: float, x: np.ndarray, nv: int) -> np.ndarray
     return vt[rank:].T.copy()
 
 
-def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = STEP) -> Linearization:
+def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = STEP,
+              groups: dict | None = None) -> Linearization:
     """The linear model of `model` with the parameters in `data` about (t, x); prescribed motions are taken
-    at time t and held (their rates enter through the rhs at t)."""
+    at time t and held (their rates enter through the rhs at t). groups: {coordinate: part or corner} for
+    the modes' energy shares and names (mode_energy.part_groups; default: by joint)."""
     check_workspace(model, data)
     x = np.array(x, dtype=float)
     if x.shape != (model.nx,):
@@ -203,9 +244,14 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
         if np.max(np.abs(shape), initial=0.0) == 0.0:
             shape = N @ vec[dof:]
         shape = shape / shape[np.argmax(np.abs(shape))]
+        shape_map = {n: complex(a) for n, a in zip(names, shape)}
+        kinetic, potential, name = {}, {}, ""
+        if "mass_matrix" in model.functions and "forces" in model.functions:
+            kinetic, potential = energy_shares(data, t, x, E, shape, names, groups or {}, step)
+            name = "rigid-body motion" if rigid else mode_name(kinetic, potential, shape_map, groups or {})
         modes.append(Mode(complex(lam), 0.0 if rigid else magnitude / (2 * np.pi),
                           0.0 if rigid else -lam.real / magnitude + 0.0, bool(lam.imag > 0 and not rigid),
-                          {n: complex(a) for n, a in zip(names, shape)}))
+                          shape_map, kinetic, potential, name))
     modes.sort(key=lambda m: (m.frequency, -m.damping_ratio))
 
     # stiffness part only: a' = A_ab b (+ A_aa a, zero at rest), b' = A_ba a + A_bb b; drop A_bb (damping)

@@ -7,7 +7,9 @@ initial state, and the loaded back end.  Everything that does change lives in a
 
 from __future__ import annotations
 
+import logging
 import os
+import time
 from dataclasses import dataclass, field
 from types import MappingProxyType, ModuleType
 from typing import Mapping, Sequence
@@ -17,6 +19,8 @@ import numpy as np
 from . import build as _build
 from .backends import Backend, CBackend, NumpyBackend, load_numpy_module
 from .errors import UsageError
+
+_log = logging.getLogger(__name__)
 
 
 def _frozen(values, size: int, what: str) -> np.ndarray:
@@ -109,7 +113,11 @@ def load_c(path: str | os.PathLike | None = None, *, code: str | None = None,
     if (path is None) == (code is None):
         raise UsageError("give either the path of a generated C file or its source as code= (exactly one)")
     options = dict(cache_dir=cache_dir, extra_flags=extra_flags)
+    started = time.perf_counter()
     result = _build.build_file(path, **options) if code is None else _build.build(code, **options)
+    _log.info("C build of %s: cache %s, %.2f s", info.get("name", "model"), "hit" if result.cached else "miss",
+              time.perf_counter() - started)
+    _log.debug("C build product: %s", getattr(result, "path", "?"))
     return CompiledModel.from_backend(CBackend(_build.load(result)), **info)
 
 

@@ -80,6 +80,17 @@ class Results:
         return np.column_stack([self[n] for n in names]) if names else np.empty((len(self), 0))
 
     @property
+    def units(self) -> dict[str, str]:
+        """{column: unit} of the columns with a unit (values are SI; units as the model named them)."""
+        known = {TIME: "s", **self.metadata.get("units", {})}
+        return {n: known[n] for n in self.names if n in known}
+
+    def unit(self, name: str) -> str | None:
+        """The unit of a column ('N*m', 'rad', '1' for a plain number), None when unknown."""
+        self[name]  # an unknown column is a KeyError listing the columns
+        return self.units.get(name)
+
+    @property
     def success(self) -> bool:
         return self.metadata.get("status", "finished") == "finished"
 
@@ -95,6 +106,27 @@ class Results:
 
     def __repr__(self) -> str:
         return f"Results({len(self)} rows, columns={list(self.names)}, status={self.metadata.get('status')!r})"
+
+    # -- hand-off to data-analysis libraries (imported only when asked for) --------------------------
+
+    def to_pandas(self):
+        """pandas.DataFrame indexed by time [s], one column per name; ``df.attrs`` holds the metadata, units
+        under "units"."""
+        import pandas as pd
+        frame = pd.DataFrame(self.data[:, 1:], columns=list(self.names[1:]),
+                             index=pd.Index(self.t, name=TIME))
+        frame.attrs = {**self.metadata, "units": self.units}
+        return frame
+
+    def to_xarray(self):
+        """xarray.Dataset over the coordinate time [s]; each variable's ``attrs["units"]`` is its unit, the
+        run's metadata is in ``ds.attrs``."""
+        import xarray as xr
+        units = self.units
+        variables = {n: (TIME, self[n], {"units": units[n]} if n in units else {}) for n in self.names[1:]}
+        attrs = {k: json.dumps(v, default=_jsonable) if isinstance(v, (dict, list)) else v
+                 for k, v in self.metadata.items() if k != "units"}
+        return xr.Dataset(variables, coords={TIME: (TIME, self.t, {"units": "s"})}, attrs=attrs)
 
     # -- files -------------------------------------------------------------------------------------
 
@@ -146,35 +178,14 @@ class Results:
         from . import hdf5
         return hdf5.read(path)
 
-    def to_pandas(self):
-        """A pandas DataFrame indexed by time (pandas is optional: installed by the user)."""
-        import pandas as pd
-        return pd.DataFrame(self.data[:, 1:] if self.names[:1] == (TIME,) else self.data,
-                            columns=list(self.names[1:] if self.names[:1] == (TIME,) else self.names),
-                            index=pd.Index(self.t, name=TIME) if TIME in self else None)
-
-    def plot(self, names: Iterable[str] | str, path: str | os.PathLike, *, title: str | None = None) -> Path:
-        """Plot the named columns over time into an image file (format from the suffix), atomically.
-
-        Uses matplotlib's object API with the Agg canvas: no global pyplot state, no display needed.
-        """
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-
-        names = [names] if isinstance(names, str) else list(names)
-        units = self.metadata.get("units", {})
-        fig = Figure(figsize=(8, 2.2 + 1.6 * len(names)), layout="constrained")
-        FigureCanvasAgg(fig)
-        axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-        for ax, name in zip(axes, names):
-            ax.plot(self.t, self[name])
-            ax.set_ylabel(f"{name} [{units[name]}]" if name in units else name)
-            ax.grid(True, alpha=0.3)
-        axes[-1].set_xlabel("time [s]")
-        fig.suptitle(title or self.metadata.get("model", ""))
-        if not self.success:
-            axes[0].set_title(self.message, fontsize=8, color="tab:red")
-        fmt = Path(path).suffix.lstrip(".") or "png"
-        with atomic_path(path) as tmp, open(tmp, "wb") as f:
-            fig.savefig(f, format=fmt)
-        return Path(path)
+    def plot(self, names: Iterable[str] | str | None = None, path: str | os.PathLike | None = None, *,
+             title: str | None = None):
+        """The named columns (default: every column but time) over time, grouped by unit into few panels,
+        channels that stay zero named in a note instead of drawn (runtime/plotting.py). Returns the matplotlib
+        Figure; with `path` it is also written there atomically (format from the suffix)."""
+        from . import plotting
+        names = [names] if isinstance(names, str) else list(names if names is not None else self.names[1:])
+        fig = plotting.figure({"": self}, names, title=title or "")
+        if path is not None:
+            plotting.save(fig, path)
+        return fig

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import model_args, param_arg, params_from_args
+from .common import check_scene, model_args, param_arg, params_from_args
 from .model_files import summary
 
 
@@ -69,15 +69,17 @@ class Equilibrium:
     def run(args) -> int:
         import mbs
         system = mbs.load(args.file, args.model)
+        check_scene(system, args.scene)
         params = params_from_args(args, system)
         result, outputs = system.equilibrium(args.scene, params=params)
         compiled = system.compile(args.scene)
         print(f"{system.model.name}: static equilibrium, max |acceleration| {result.residual:.3g} "
               f"({result.steps} relaxation steps, {result.resets} restarts)")
+        units = compiled.units
         for name, value in zip(compiled.q_names, result.x[:compiled.nq]):
-            print(f"  {name:32s} {value: .9g}")
+            print(f"  {name:32s} {value: .9g} {units.get(name, '')}")
         for name, value in outputs.items():
-            print(f"  {name:32s} {value: .9g}  (output)")
+            print(f"  {name:32s} {value: .9g} {units.get(name, '')}  (output)")
         return 0
 
 
@@ -97,6 +99,7 @@ class Linearize:
     def run(args) -> int:
         import mbs
         system = mbs.load(args.file, args.model)
+        check_scene(system, args.scene)
         params = params_from_args(args, system)
         lin = system.linearize(args.scene, params=params, at=args.at)
         head = f"{system.model.name}" + (f" / scene {args.scene}" if args.scene else "")
@@ -105,4 +108,6 @@ class Linearize:
         print(lin.table())
         if lin.dof:
             print("undamped natural frequencies [Hz]: " + ", ".join(f"{f:.5g}" for f in lin.undamped_frequencies))
+        if lin.state_space is not None and lin.state_space.inputs:
+            print(lin.state_space.table())
         return 0

@@ -4,6 +4,33 @@ from __future__ import annotations
 
 import sys
 
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+
+class ArgumentError(MbsError):
+    """A command-line argument that parsed but makes no sense (unknown scene, parameter or integrator, a
+    results file type we do not write): exit status 2, like argparse's own usage errors."""
+
+    def __init__(self, message: str):
+        super().__init__([Diagnostic("error", message, None)])
+
+
+def usage_errors(function):
+    """Run `function`, turning the model errors it raises about the arguments into ArgumentErrors."""
+    def checked(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except MbsError as err:
+            raise ArgumentError("\n".join(d.message for d in err.diagnostics)) from None
+    return checked
+
+
+def is_usage_error(err) -> bool:
+    """Exit status 2: our ArgumentError, or the run-time layer's UsageError (only if that layer was loaded)."""
+    runtime_errors = sys.modules.get("mbs.runtime.errors")
+    return isinstance(err, ArgumentError) or (runtime_errors is not None
+                                              and isinstance(err, runtime_errors.UsageError))
+
 
 def model_args(p):
     p.add_argument("file", metavar="FILE")
@@ -17,9 +44,10 @@ def param_arg(p) -> None:
                                                    "(e.g. --params benchmark), or a path; --param overrides it")
 
 
+@usage_errors
 def params_from_args(args, system) -> dict[str, float]:
     """The --params set and the --param overrides, checked against the model (an unknown name or unit is a
-    located error)."""
+    usage error, exit status 2)."""
     values = {}
     if getattr(args, "params", None):
         from mbs import paramsets
@@ -29,33 +57,29 @@ def params_from_args(args, system) -> dict[str, float]:
     return values
 
 
+@usage_errors
+def check_scene(system, name: str | None) -> None:
+    """An unknown --scene is a usage error (listing the scenes)."""
+    system.scene(name)
+
+
+def check_integrator(name: str | None) -> None:
+    """--integrator against the registered methods (exit status 2, listing them)."""
+    if name is None:
+        return
+    from mbs.runtime.integrators import available
+    if name.lower() not in {n.lower() for n in available()}:
+        raise ArgumentError(f"unknown integrator '{name}' (available: {', '.join(available())})")
+
+
 def parse_param(text: str, model):
     """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
-    import re
-
-    from mbs.language import units as U
-    from mbs.language.diagnostics import Diagnostic, MbsError
-    name, _, value = text.partition("=")
-    name = name.strip()
-    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value)
-    if not _ or match is None:
+    from mbs.quantities import parameter_overrides
+    name, sep, value = text.partition("=")
+    if not sep:
         raise MbsError([Diagnostic("error", f"--param expects name=value[unit], e.g. l=2m; got '{text}'", None)])
-    if name not in model.parameter_map:
-        from mbs.language.scope import did_you_mean
-        raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{name}'"
-                                            f"{did_you_mean(name, model.parameter_map)}", None)])
-    number, unit = float(match.group(1)), match.group(2)
-    if not unit:
-        return name, number
-    try:
-        factor, dim = U.parse_unit(unit)
-    except U.UnitError as exc:
-        raise MbsError([Diagnostic("error", f"--param {name}: {exc.message}", None)]) from None
-    wanted = model.parameter_map[name].dimension
-    if wanted is not None and dim != wanted:
-        raise MbsError([Diagnostic("error", f"--param {name}: expected {U.describe(wanted)}, got {U.describe(dim)}",
-                                   None)])
-    return name, number * factor
+    name = name.strip()
+    return name, parameter_overrides(model, {name: value})[name]
 
 
 class ProgressBar:

@@ -87,7 +87,8 @@ class Export:
     @staticmethod
     def arguments(p):
         p.add_argument("file", metavar="FILE")
-        p.add_argument("--json", action="store_true", required=True, help="JSON output (the only format)")
+        p.add_argument("--json", action="store_true", help="JSON output (the only format and the default; "
+                                                           "accepted for scripts that name it)")
         p.add_argument("--model", help="model name when the file has several")
         p.add_argument("-o", "--output", help="write to this file (atomically) instead of stdout")
 

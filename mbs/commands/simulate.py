@@ -6,7 +6,8 @@ import sys
 from pathlib import Path
 from types import SimpleNamespace
 
-from .common import ProgressBar, model_args, param_arg, params_from_args
+from .common import (ArgumentError, ProgressBar, check_integrator, check_scene, model_args, param_arg,
+                     params_from_args)
 from .results_file import RESULT_FORMATS, write_results
 
 PLOT_FORMATS = (".png", ".pdf", ".svg")
@@ -27,12 +28,15 @@ class Simulate:
         p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG; several scenes: the "
                                       "motion of every scene in one plot, tyre loads in NAME_tyres.png")
         p.add_argument("--integrator", help="dopri5, rodasp, auto (in C), cvode_adams, cvode_bdf, ida (SUNDIALS), "
-                                            "RK45, DOP853, Radau, BDF, LSODA (scipy)")
+                                            "RK45, DOP853, Radau, BDF, LSODA (scipy), or any registered one "
+                                            "(default: the scene's, else dopri5)")
         p.add_argument("--error-estimate", action="store_true",
                        help="run again at a tenth of the tolerances; print and store the estimated global error "
                             "of every output")
-        p.add_argument("--rtol", type=float)
-        p.add_argument("--atol", type=float)
+        p.add_argument("--rtol", type=float, help="relative tolerance of the integrator's local error (default: "
+                                                  "the scene's, else 1e-8)")
+        p.add_argument("--atol", type=float, help="absolute tolerance, in the units of each state (m, rad, m/s, "
+                                                  "rad/s; default: the scene's, else 1e-10)")
         p.add_argument("--max-wall-time", type=float, metavar="SECONDS",
                        help="stop a run after this much wall time, keeping (and writing) the samples so far")
         param_arg(p)
@@ -41,8 +45,11 @@ class Simulate:
     def run(args) -> int:
         import mbs
         _check_suffixes(args)
+        check_integrator(args.integrator)
         system = mbs.load(args.file, args.model)
         scenes = list(dict.fromkeys(args.scene))  # a scene named twice runs once
+        for scene in scenes:
+            check_scene(system, scene)  # every name checked before the first run
         if len(scenes) > 1:
             return _simulate_scenes(system, scenes, args)
         scene = scenes[0] if scenes else None
@@ -61,9 +68,8 @@ class Simulate:
         if args.out:
             write_results(res, args.out, system, scene)
         if args.plot:
-            compiled = system.compile(scene)
-            names = list(compiled.y_names) or list(compiled.q_names)
-            res.plot(names, args.plot, title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
+            res.plot(requested_outputs(system, scene, res), args.plot,
+                     title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
         _summary(system, scene, res, args)
         for warning in res.metadata.get("warnings", ()):
             print(f"{args.file}: warning: {warning}", file=sys.stderr)
@@ -97,17 +103,24 @@ def _estimate_error(system, scene, params, res, args) -> None:
 
 def _check_suffixes(args) -> None:
     """Refuse unknown file types before a long run, not after it."""
-    from mbs.language.diagnostics import Diagnostic, MbsError
     if args.out and Path(args.out).suffix.lower() not in RESULT_FORMATS:
-        raise MbsError([Diagnostic("error", f"--out {args.out}: results are written as .csv, .npz or .h5", None)])
+        raise ArgumentError(f"--out {args.out}: results are written as .csv, .npz or .h5")
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
-        raise MbsError([Diagnostic("error", f"--plot {args.plot}: plots are written as "
-                                            f"{', '.join(PLOT_FORMATS)}", None)])
+        raise ArgumentError(f"--plot {args.plot}: plots are written as {', '.join(PLOT_FORMATS)}")
     from mbs.atomic import writable_problem
     for option, path in (("--out", args.out), ("--plot", args.plot)):
         why = writable_problem(path) if path else None
         if why:
-            raise MbsError([Diagnostic("error", f"{option} {path} cannot be written: {why}", None)])
+            raise ArgumentError(f"{option} {path} cannot be written: {why}")
+def requested_outputs(system, scene, res) -> list[str]:
+    """What the scene (or model) asks to see, in its order, coordinates included (`output hinge.phi` is a
+    state column, not a compiled output); without outputs the coordinates."""
+    sc = system.scene(scene)
+    wanted = [o.name for o in sc.outputs] if sc is not None and sc.outputs else \
+        [o.name for o in system.model.outputs]
+    compiled = system.compile(scene)
+    names = [n for n in dict.fromkeys(wanted + list(compiled.y_names)) if n in res]
+    return names or [n for n in compiled.q_names if n in res]
 
 
 def scene_path(path: str, scene: str, tag: str = "") -> Path:
@@ -118,8 +131,6 @@ def scene_path(path: str, scene: str, tag: str = "") -> Path:
 
 def _simulate_scenes(system, scenes: list[str], args) -> int:
     """Run several scenes of one model (compiled once when their outputs agree) and compare them."""
-    for scene in scenes:
-        system.scene(scene)  # every name checked before the first run
     params = params_from_args(args, system)
     runs = {}
     for scene in scenes:
@@ -158,24 +169,20 @@ def plot_scenes(system, runs: dict, path: str) -> list[Path]:
     """
     first = next(iter(runs.values()))
     names = [n for n in first.names if n != "time" and all(n in r for r in runs.values())]
-    sc = system.scene(next(iter(runs)))
-    wanted = [o.name for o in sc.outputs] if sc is not None and sc.outputs else []
-    wanted = wanted or list(system.compile(next(iter(runs))).y_names)  # a scene's outputs may be coordinates
-    outputs = [n for n in wanted if n in names]
+    outputs = [n for n in requested_outputs(system, next(iter(runs)), first) if n in names]
     loads = [n for n in outputs if _is_load(n)]
     motion = ["heave"] if "heave" in outputs else [n for n in outputs if not _is_load(n)]
     if not motion and not loads:
         compiled = system.compile(next(iter(runs)))
         motion = [n for n in compiled.q_names if n in names]
-    units = _output_units(system, names, first.metadata.get("units", {}))
     labels = {scene: _scene_label(system, scene) for scene in runs}
     written = []
     if motion:
-        written.append(_overlay(runs, motion, units, labels, Path(path), f"{system.model.name}: "
+        written.append(_overlay(runs, motion, labels, Path(path), f"{system.model.name}: "
                                 + ("vertical motion of the car body" if motion == ["heave"] else "outputs")))
     if loads:
         target = Path(path).with_name(f"{Path(path).stem}_tyres{Path(path).suffix}")
-        written.append(_overlay(runs, loads, units, labels, target, f"{system.model.name}: tyre loads"))
+        written.append(_overlay(runs, loads, labels, target, f"{system.model.name}: tyre loads"))
     return written
 
 
@@ -184,60 +191,11 @@ def _scene_label(system, scene: str) -> str:
     return f"{scene}: {sc.description}" if sc.description else scene
 
 
-def _output_units(system, names, known: dict) -> dict[str, str]:
-    """Units of outputs that are a sensor (heave = attitude.cg.z: m) or a coordinate (heave = lift.s).
-
-    Outputs carry no dimension in the data model; an output that is an expression stays without a unit.
-    """
-    from mbs.language import expr as X
-    kinds = {"position": "m", "distance": "m", "velocity": "m/s", "acceleration": "m/s^2", "angles": "rad",
-             "force": "N"}
-    sensors = {s.name: s.kind for i in system.model.interactions for s in i.sensors}
-    values = {o.name: o.value for o in system.model.outputs}
-
-    def sensor_unit(name: str):
-        for key in (name, name.rpartition(".")[0]):
-            if key in sensors:
-                return kinds.get(sensors[key])
-        return None
-
-    units = {}
-    for name in names:
-        value = values.get(name)
-        if isinstance(value, X.Sym) and value.kind == "coord":
-            unit = known.get(value.name)
-        elif isinstance(value, X.Sym) and value.kind == "sensor":
-            unit = sensor_unit(value.name)
-        else:
-            unit = known.get(name) or sensor_unit(name)
-        if unit:
-            units[name] = unit
-    return units
-
-
-def _overlay(runs: dict, names: list[str], units: dict, labels: dict, path: Path, title: str) -> Path:
-    """One panel per output, one line per scene; written atomically (matplotlib's object API, no pyplot)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from mbs.atomic import atomic_path
-    fig = Figure(figsize=(8, 2.2 + 2.0 * len(names)), layout="constrained")
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
-    for ax, name in zip(axes, names):
-        for scene, res in runs.items():
-            unit = units.get(name) or res.metadata.get("units", {}).get(name)
-            ax.plot(res.t, res[name], label=labels[scene])
-            ax.set_ylabel(f"{name} [{unit}]" if unit else name)
-            if not res.success:
-                ax.axvline(res.t[-1], color="tab:red", lw=0.8, ls=":")
-        ax.grid(True, alpha=0.3)
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", fontsize=8, ncols=1)
-    axes[-1].set_xlabel("time [s]")
-    fig.suptitle(title)
-    with atomic_path(path) as tmp, open(tmp, "wb") as f:
-        fig.savefig(f, format=path.suffix.lstrip(".").lower() or "png")
-    return path
+def _overlay(runs: dict, names: list[str], labels: dict, path: Path, title: str) -> Path:
+    """The scenes in one figure, grouped by unit, one line style per scene (runtime/plotting.py)."""
+    from mbs.runtime import plotting
+    fig = plotting.figure({labels[scene]: res for scene, res in runs.items()}, names, title=title)
+    return plotting.save(fig, path)
 
 
 def _summary(system, scene, res, args) -> None:
@@ -249,8 +207,11 @@ def _summary(system, scene, res, args) -> None:
         print(f"{head}: no samples ({res.message or 'finished'})")
         return
     print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
-    for name in [n for n in res.names if n != "time"][:12]:
-        print(f"  {name:32s} final {res[name][-1]: .6g}")
+    units = res.units
+    for name in requested_outputs(system, scene, res) if len(res) else []:
+        column = res[name]
+        unit = f" {units[name]}" if name in units else ""
+        print(f"  {name:32s} final {column[-1]: .6g}{unit}   (min {column.min(): .4g}, max {column.max(): .4g})")
     for what, path in (("results", args.out), ("plot", args.plot)):
         if path:
             print(f"  {what} written to {path}")

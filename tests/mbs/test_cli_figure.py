@@ -56,7 +56,7 @@ def run(*args):
 def test_an_unknown_scene_among_several_is_a_clean_error_before_any_run(tmp_path):
     status, out, err = run("simulate", QUARTER, "--scene", "bump_5", "--scene", "bump_50", "--plot",
                            str(tmp_path / "f.png"))
-    assert status == 1
+    assert status == 2  # a usage error (exit codes of mbs.cli)
     assert "has no scene 'bump_50'" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []
 
@@ -64,5 +64,5 @@ def test_an_unknown_scene_among_several_is_a_clean_error_before_any_run(tmp_path
 def test_a_plot_format_matplotlib_cannot_write_is_refused_up_front(tmp_path):
     status, _, err = run("simulate", QUARTER, "--scene", "bump_5", "--scene", "bump_10", "--plot",
                          str(tmp_path / "f.xyz"))
-    assert status == 1 and "--plot" in err and ".png" in err and "Traceback" not in err
+    assert status == 2 and "--plot" in err and ".png" in err and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []

@@ -75,7 +75,7 @@ def test_cli_simulate_writes_csv_and_plot(tmp_path, capsys):
 def test_cli_param_with_wrong_unit_is_a_clear_error(tmp_path, capsys):
     path = tmp_path / "p.mbs"
     path.write_text(PENDULUM)
-    assert main(["simulate", str(path), "--param", "l=2kg"]) == 1
+    assert main(["simulate", str(path), "--param", "l=2kg"]) == 2  # a usage error
     assert "expected length (m), got mass (kg)" in capsys.readouterr().err
 
 
@@ -84,7 +84,7 @@ def test_cli_compile_writes_a_standalone_library(tmp_path):
     names = sorted(p.name for p in tmp_path.iterdir())
     assert names == ["libpendulum.so", "pendulum.c", "pendulum.h"]
     header = (tmp_path / "pendulum.h").read_text()
-    assert "int mbs_rhs(double t, const double *x, const double *p, double *xdot, double *work);" in header
+    assert "int pendulum_rhs(double t, const double *x, const double *p, double *xdot, double *work);" in header
 
 
 def test_cli_eom_prints_readable_equations(capsys):

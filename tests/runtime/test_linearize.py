@@ -125,7 +125,7 @@ def test_cli_prints_the_mode_table(capsys):
 
 
 def test_cli_bad_state_choice_and_unknown_parameter_are_clean_errors(capsys):
-    assert main(["linearize", "library/examples/pendulum.mbs", "--param", "nope=1"]) == 1
+    assert main(["linearize", "library/examples/pendulum.mbs", "--param", "nope=1"]) == 2  # a usage error
     err = capsys.readouterr().err
     assert "no parameter 'nope'" in err and "Traceback" not in err
 

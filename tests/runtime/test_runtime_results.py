@@ -78,14 +78,16 @@ def test_failed_write_leaves_no_partial_file(res, tmp_path, monkeypatch, suffix)
 
 
 def test_plot_writes_an_image_atomically(res, tmp_path):
-    path = res.plot(["hinge.phi", "energy"], tmp_path / "plot.png")
+    fig = res.plot(["hinge.phi", "energy"], tmp_path / "plot.png")
+    path = tmp_path / "plot.png"
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert len(fig.axes) == 2  # two units (or none): two panels
     assert [p.name for p in tmp_path.iterdir()] == ["plot.png"]
     with pytest.raises(KeyError):
         res.plot(["missing"], tmp_path / "bad.png")
     assert not (tmp_path / "bad.png").exists()
-    svg = res.plot("angle", tmp_path / "plot.svg", title="swing")
-    assert b"<svg" in svg.read_bytes()[:500]
+    res.plot("angle", tmp_path / "plot.svg", title="swing")
+    assert b"<svg" in (tmp_path / "plot.svg").read_bytes()[:500]
 
 
 def test_bad_tables_are_rejected():
