@@ -23,10 +23,12 @@ from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
 from mbs.compiler.symbolic import parameter_symbol
+from mbs.language import binding
 from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.language.quaternions import norm_problem
 
 
 @dataclass(frozen=True)
@@ -81,30 +83,10 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
 
 # ------------------------------------------------------------------------------------------ parameters
 def parameter_values(model: M.Model, overrides: Mapping[str, float | X.E] | None = None) -> dict[str, float]:
-    """Every parameter's value: overrides as given, the rest from their default expressions (which may use
-    overridden parameters: `l2 = 2 * l` follows a new `l`)."""
-    overrides = dict(overrides or {})
-    unknown = [name for name in overrides if name not in model.parameter_map]
-    if unknown:
-        raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{unknown[0]}'", None)])
-    values: dict[str, float] = {}
-
-    def value(name: str, depth: int = 0) -> float:
-        if name in values:
-            return values[name]
-        if depth > len(model.parameters):
-            raise MbsError([Diagnostic("error", f"parameter '{name}' depends on itself", None)])
-        given = overrides.get(name, model.parameter_map[name].default)
-        if isinstance(given, (int, float)):
-            result = float(given)
-        else:
-            env = {s.name: value(s.name, depth + 1) for s in X.symbols(given) if s.kind == "param"}
-            result = X.evaluate(given, env)
-        values[name] = result
-        return result
-
-    for p in model.parameters:
-        value(p.name)
+    """Every parameter's value (overrides as given, the rest from their defaults), checked: a mass or inertia
+    that the overrides make unphysical is an error located at the body and the parameter."""
+    values = binding.parameter_values(model, overrides)
+    binding.check_bound_values(model, values, {name: None for name in overrides or {}}, how="overridden")
     return values
 
 
@@ -162,8 +144,9 @@ def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:
             slots = [s for s in tree.q_slots[i][-4:]]
             q = x[slots]
             norm = math.sqrt(float(q @ q))
-            if norm == 0:
-                raise MbsError([Diagnostic("error", f"the initial quaternion of joint '{body.name}' is zero", None)])
+            problem = norm_problem(norm, body.name)
+            if problem is not None and problem[0] == "error":
+                raise MbsError([Diagnostic("error", problem[1], None)])
             x[slots] = q / norm
     return x
 

@@ -15,6 +15,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from mbs.language import model as M
+from mbs.language.catalog import SCENE_DEFAULTS
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
@@ -78,11 +79,11 @@ class System:
                  progress: Callable[[float, float], bool | None] | None = None, **options) -> Results:
         """Run a scene (or the model with default settings); arguments given here override the scene's."""
         sc = self.scene(scene)
-        compiled = self.compile(scene)
-        gen = self.generate(scene)
         overrides = pipeline.scene_overrides(sc)
         overrides.update(params or {})
-        values = pipeline.parameter_values(self.model, overrides)
+        values = pipeline.parameter_values(self.model, overrides)  # checked before the (slow) first compile
+        compiled = self.compile(scene)
+        gen = self.generate(scene)
         data = self._workspace(compiled, gen, values)
         if x0 is not None:
             data.x = np.asarray(x0, dtype=float)
@@ -118,7 +119,8 @@ class System:
         """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
         overrides = pipeline.scene_overrides(self.scene(scene))
         overrides.update(params or {})
-        return self.compile(scene), self.generate(scene), pipeline.parameter_values(self.model, overrides)
+        values = pipeline.parameter_values(self.model, overrides)  # checked before the (slow) first compile
+        return self.compile(scene), self.generate(scene), values
 
     def assemble(self, scene: str | None = None, *, params: Mapping[str, float] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
@@ -169,7 +171,8 @@ def _numpy_module(gen: pipeline.Generated):
 
 def _settings(scene, t_end, sample, integrator, rtol, atol) -> dict:
     """Scene settings, overridden by explicit arguments; without a scene: 1 s, DOP853-like defaults."""
-    out = {"t_end": 1.0, "sample": None, "integrator": None, "rtol": 1e-8, "atol": 1e-10}
+    out = {"t_end": SCENE_DEFAULTS["t_end"], "sample": None, "integrator": None, "rtol": SCENE_DEFAULTS["rtol"],
+           "atol": SCENE_DEFAULTS["atol"]}
     if scene is not None:
         out.update(t_end=scene.t_end, sample=scene.sample, integrator=scene.integrator, rtol=scene.rtol,
                    atol=scene.atol)
