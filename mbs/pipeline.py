@@ -19,6 +19,7 @@ import sympy as sp
 
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
+from mbs.compiler.dynamics_functions import dynamics_routines
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
@@ -56,12 +57,16 @@ def display_name(symbol_name: str) -> str:
     return symbol_name
 
 
-def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
-    """Validated model -> generated source (symbolic derivation included)."""
+def generate(model: M.Model, scene: M.Scene | None = None, *, dynamics: bool = False) -> Generated:
+    """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
+    functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py)."""
     lowered = lower(model, scene)
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
+    asked = None
+    if dynamics:  # of the spanning tree; with loops, tau = G^T lambda (mbs_constraint_jacobian, multipliers)
+        asked = dynamics_routines(lowered.kinematics)
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
@@ -69,7 +74,8 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
-    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
+    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
+                   dynamics=asked)
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
@@ -97,7 +103,11 @@ def scene_overrides(scene: M.Scene | None) -> dict[str, X.E]:
 # ------------------------------------------------------------------------------------------ initial state
 def initial_state(generated: Generated, params: Mapping[str, float]) -> np.ndarray:
     """x0 = [q0; v0] in state order: joint init values, then the scene's init statements."""
-    model, scene, tree = generated.model, generated.scene, generated.lowered.tree
+    return initial_state_of(generated.model, generated.scene, generated.lowered.tree, params)
+
+
+def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mapping[str, float]) -> np.ndarray:
+    """initial_state for a model, a scene (or None) and the tree of their lowering."""
     env = dict(params)
     coords = {c.name: c for c in model.coordinates}
     inits: dict[tuple[str, bool], float] = {}

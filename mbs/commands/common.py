@@ -22,31 +22,43 @@ def params_from_args(args, system) -> dict[str, float]:
 
 def parse_param(text: str, model):
     """--param name=value with an optional unit (l=2m, v=36km/h), checked against the parameter's dimension."""
-    import re
-
     from mbs.language import units as U
     from mbs.language.diagnostics import Diagnostic, MbsError
-    name, _, value = text.partition("=")
-    name = name.strip()
-    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value)
-    if not _ or match is None:
-        raise MbsError([Diagnostic("error", f"--param expects name=value[unit], e.g. l=2m; got '{text}'", None)])
+    name, number, unit = split_assignment(text, "--param", "l=2m")
     if name not in model.parameter_map:
         from mbs.language.scope import did_you_mean
         raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{name}'"
                                             f"{did_you_mean(name, model.parameter_map)}", None)])
-    number, unit = float(match.group(1)), match.group(2)
-    if not unit:
+    if unit is None:
         return name, number
-    try:
-        factor, dim = U.parse_unit(unit)
-    except U.UnitError as exc:
-        raise MbsError([Diagnostic("error", f"--param {name}: {exc.message}", None)]) from None
+    factor, dim = unit
     wanted = model.parameter_map[name].dimension
     if wanted is not None and dim != wanted:
         raise MbsError([Diagnostic("error", f"--param {name}: expected {U.describe(wanted)}, got {U.describe(dim)}",
                                    None)])
     return name, number * factor
+
+
+def split_assignment(text: str, option: str, example: str):
+    """(name, number, (unit factor, dimension) or None) of an option's NAME=VALUE[unit] text; a located error
+    when it is not one or the unit is unknown."""
+    import re
+
+    from mbs.language import units as U
+    from mbs.language.diagnostics import Diagnostic, MbsError
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value)
+    if not sep or match is None:
+        raise MbsError([Diagnostic("error", f"{option} expects name=value[unit], e.g. {example}; got '{text}'",
+                                   None)])
+    number, unit = float(match.group(1)), match.group(2)
+    if not unit:
+        return name, number, None
+    try:
+        return name, number, U.parse_unit(unit)
+    except U.UnitError as exc:
+        raise MbsError([Diagnostic("error", f"{option} {name}: {exc.message}", None)]) from None
 
 
 class ProgressBar:
