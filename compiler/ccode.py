@@ -98,16 +98,18 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None, run_time_inputs=()):
+                 constraints=None, run_time_inputs=(), dynamics=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.run_time_inputs = tuple(run_time_inputs)
+        # the dynamics functions asked for (compiler/dynamics_functions.py): (routines, acceleration inputs)
+        self.dynamics_routines, dynamics_inputs = dynamics if dynamics is not None else ([], ())
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints, self.run_time_inputs)
-        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
+        self.naming = Naming(equations, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
         self.names = self.naming.names
 
     # ---- the file ---------------------------------------------------------------------------------------------
@@ -129,7 +131,7 @@ class CEmitter:
 
     def _routines(self) -> list:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
-        routines = equation_routines(self.eqs, self.outputs)
+        routines = equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines
         return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
@@ -157,6 +159,8 @@ class CEmitter:
                  f"#define MBS_NWORK {self._work()}   /* doubles of work memory the caller provides */"]
         if self.outputs:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
+        if self.dynamics_routines:
+            lines.append("#define MBS_NXA (MBS_NX+MBS_NV)   /* input [q; v; a] of mbs_inverse_dynamics */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]
@@ -322,7 +326,7 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None, run_time_inputs=()) -> str:
+               constraints=None, run_time_inputs=(), dynamics=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -330,7 +334,8 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     tables: the lookup tables the expressions call as mbs_table_k (`Lowered.tables` or its `.tables` list).
     origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment.
     run_time_inputs: (symbol, array, index) of the accelerations and multipliers the outputs read
-    (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first."""
+    (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first.
+    dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs).source()
+                    run_time_inputs=run_time_inputs, dynamics=dynamics).source()

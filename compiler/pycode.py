@@ -122,22 +122,24 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=()):
+                 run_time_inputs=(), dynamics=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.run_time_inputs = tuple(run_time_inputs)
+        self.dynamics_routines, dynamics_inputs = dynamics if dynamics is not None else ([], ())
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
-        self.naming = Naming(equations, self.parameters, self.run_time_inputs)
+        self.naming = Naming(equations, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
 
     def source(self) -> str:
         printer = PyPrinter(self.naming.names, len(self.tables))
         functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
                                                  inline_max_chars=self.inline_max_chars))
-                     for name, out, doc, shape, results, positive in equation_routines(self.eqs, self.outputs)]
+                     for name, out, doc, shape, results, positive in
+                     equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)]
         used = printer.used | {"sqrt"}  # mbs_positive_definite
         if self.tables:
             used.add("mbs_lookup")
@@ -173,6 +175,8 @@ class PyEmitter:
                  f"MBS_NWORK = {tree.nv * tree.nv}  # doubles of work memory (the C file's size; unused here)"]
         if self.outputs:
             lines.append(f"MBS_NY = {len(self.outputs)}  # outputs")
+        if self.dynamics_routines:
+            lines.append("MBS_NXA = MBS_NX + MBS_NV  # input [q; v; a] of mbs_inverse_dynamics")
         lines += [f"MBS_STATE_NAMES = {tuple(names)!r}",
                   f"MBS_PARAMETER_NAMES = {tuple(s.name for s in self.parameters)!r}"]
         if self.outputs:
@@ -237,11 +241,12 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=()) -> str:
+                   run_time_inputs=(), dynamics=None) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
-                     inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs).source()
+                     inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
+                     dynamics=dynamics).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

@@ -3,7 +3,8 @@
 `mbs check` checks masses and inertias with the parameters' defaults. A scene, `--param` or a Python call may
 bind other values (a negative mass, an inertia that violates the triangle inequality); without a check here
 the run fails much later as "singular mass matrix". So every binding checks the bodies again, and a problem
-is reported at the body and at the parameter that made it so.
+is reported at the body and at the parameter that made it so. A mass bound to zero is accepted: parameter
+studies take parts to their massless limit (the mass matrix of the whole may stay regular).
 """
 
 from __future__ import annotations
@@ -55,8 +56,8 @@ def bound_body_problems(model: M.Model, values: Mapping[str, float], overridden:
     for part in model.parts:
         if part.body is None:
             continue
-        problems = body_problems(part, values)
-        if not problems or body_problems(part, defaults) == problems:
+        problems = body_problems(part, values, massless_ok=True)
+        if not problems or body_problems(part, defaults, massless_ok=True) == problems:
             continue  # none, or reported by `mbs check` already
         for quantity, message in problems:
             culprits = [name for name in _parameters_of(part.body, quantity, model) if name in overridden]

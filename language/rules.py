@@ -40,15 +40,18 @@ def check_body(part: M.Part, values, diags: Diagnostics) -> None:
         diags.error(message, part.body.span)
 
 
-def body_problems(part: M.Part, values) -> list[tuple[str, str]]:
+def body_problems(part: M.Part, values, massless_ok: bool = False) -> list[tuple[str, str]]:
     """(quantity: "mass" or "inertia", message) for each reason why the mass geometry of a part is not a
     physical body's with these parameter values (empty: it is).
     A point mass (zero inertia) and a thin rod (one zero moment) are positive semi-definite and allowed;
-    values that cannot be evaluated are left alone."""
+    values that cannot be evaluated are left alone. `massless_ok`: a mass of zero is accepted (a parameter study
+    taking a part's mass to its massless limit, as long as the mass matrix stays regular); negative never is."""
     body = part.body
     problems = []
     mass = _num(body.mass, values)
-    if mass is not None and not mass > 0:
+    if mass is not None and massless_ok and not mass >= 0:
+        problems.append(("mass", f"the mass of '{part.name}' must not be negative, but it is {mass:g} kg"))
+    elif mass is not None and not massless_ok and not mass > 0:
         problems.append(("mass", f"the mass of '{part.name}' must be positive, but it is {mass:g} kg "
                         "(a massless part is declared with 'part', not 'rigid')"))
     inertia = [[_num(c, values) for c in row] for row in body.inertia]

@@ -28,6 +28,7 @@ from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
 
 from . import pipeline
+from .gimbal import warn_gimbal
 
 
 @dataclass
@@ -49,17 +50,18 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None) -> pipeline.Generated:
-        key = ("generated", scene)
+    def generate(self, scene: str | None = None, *, dynamics: bool = False) -> pipeline.Generated:
+        key = ("generated", scene, dynamics)
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene))
+            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), dynamics=dynamics)
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None) -> CompiledModel:
-        """The compiled model of a scene (its outputs) or of the model's own outputs."""
-        key = ("compiled", scene)
+    def compile(self, scene: str | None = None, *, dynamics: bool = False) -> CompiledModel:
+        """The compiled model of a scene (its outputs) or of the model's own outputs; with `dynamics` also the
+        dynamics functions (mbs.dynamics)."""
+        key = ("compiled", scene, dynamics)
         if key not in self._compiled:
-            gen = self.generate(scene)
+            gen = self.generate(scene, dynamics=dynamics)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
@@ -92,8 +94,10 @@ class System:
         settings = _settings(sc, t_end, sample, integrator, rtol, atol)
         if t_eval is not None:
             settings.pop("sample", None)
-        return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
-                         **settings, **options)
+        results = _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
+                            **settings, **options)
+        warn_gimbal(self.model, results)
+        return results
 
 
     @staticmethod

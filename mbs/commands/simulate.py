@@ -32,6 +32,15 @@ class Simulate:
 
     @staticmethod
     def run(args) -> int:
+        import warnings
+
+        from mbs.gimbal import GimbalWarning
+        with warnings.catch_warnings():  # printed once, located, by _summary
+            warnings.simplefilter("ignore", GimbalWarning)
+            return Simulate._run(args)
+
+    @staticmethod
+    def _run(args) -> int:
         import mbs
         _check_suffixes(args)
         system = mbs.load(args.file, args.model)
@@ -203,6 +212,8 @@ def _overlay(runs: dict, names: list[str], units: dict, labels: dict, path: Path
 
 
 def _summary(system, scene, res, args) -> None:
+    for text in res.metadata.get("warnings", ()):
+        print(f"{system.model.name}: warning: {text}", file=sys.stderr)
     t = res.t
     head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
     print(f"{head}: {len(t)} samples, t = {t[0]:g} .. {t[-1]:g} s ({res.message or 'finished'})")
