@@ -102,7 +102,8 @@ class CEmitter:
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.run_time_inputs = tuple(run_time_inputs)
         # the dynamics functions asked for (compiler/dynamics_functions.py): (routines, acceleration inputs)
-        self.dynamics_routines, dynamics_inputs = dynamics if dynamics is not None else ([], ())
+        self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
+        self.frame_names = tuple(frames[0]) if frames else ()
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
@@ -125,6 +126,8 @@ class CEmitter:
                       _names_function("mbs_parameter_name", [s.name for s in self.parameters])]
         if self.outputs:
             functions.append(_names_function("mbs_output_name", [name for name, _ in self.outputs]))
+        if self.frame_names:
+            functions.append(_names_function("mbs_frame_name", list(self.frame_names)))
         if self.constraints is not None:
             functions.append(loop_functions(self.constraints))
         return "\n".join([self._header(), *self._helpers(printer.used), *functions])
@@ -161,6 +164,8 @@ class CEmitter:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
         if self.dynamics_routines:
             lines.append("#define MBS_NXA (MBS_NX+MBS_NV)   /* input [q; v; a] of mbs_inverse_dynamics */")
+        if self.frame_names:
+            lines.append(f"#define MBS_NF {len(self.frame_names)}   /* named frames (mbs_frame_name) */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]

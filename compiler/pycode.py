@@ -125,7 +125,8 @@ class PyEmitter:
                  run_time_inputs=(), dynamics=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.run_time_inputs = tuple(run_time_inputs)
-        self.dynamics_routines, dynamics_inputs = dynamics if dynamics is not None else ([], ())
+        self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
+        self.frame_names = tuple(frames[0]) if frames else ()
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
@@ -177,6 +178,9 @@ class PyEmitter:
             lines.append(f"MBS_NY = {len(self.outputs)}  # outputs")
         if self.dynamics_routines:
             lines.append("MBS_NXA = MBS_NX + MBS_NV  # input [q; v; a] of mbs_inverse_dynamics")
+        if self.frame_names:
+            lines += [f"MBS_NF = {len(self.frame_names)}  # named frames",
+                      f"MBS_FRAME_NAMES = {self.frame_names!r}"]
         lines += [f"MBS_STATE_NAMES = {tuple(names)!r}",
                   f"MBS_PARAMETER_NAMES = {tuple(s.name for s in self.parameters)!r}"]
         if self.outputs:

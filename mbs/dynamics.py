@@ -7,6 +7,8 @@
     b = dyn.bias_forces(q, v)              # k - q_gravity (Pinocchio's nonLinearEffects)
     g = dyn.gravity_forces(q)              # -q_gravity (computeGeneralizedGravity)
     M = dyn.mass_matrix(q)
+    dyn = dynamics_functions(system, frames=["fore.tip"])
+    J = dyn.frame_jacobians(q)[0]          # 6 x nv: (velocity of the tip; angular velocity) = J v, world axes
 
 They are generated only when asked for (this call compiles the model once more, with them; the C file then also
 exports mbs_inverse_dynamics, mbs_bias_forces and mbs_gravity_forces, see compiler/dynamics_functions.py), in C
@@ -32,8 +34,9 @@ from .system import System
 class DynamicsFunctions:
     """The compiled dynamics functions of one model and a workspace of their own (parameters set once)."""
 
-    def __init__(self, compiled: CompiledModel, params: Mapping[str, float]):
+    def __init__(self, compiled: CompiledModel, params: Mapping[str, float], frames: tuple[str, ...] = ()):
         self.model = compiled
+        self.frames = tuple(frames)
         self.data = Workspace(compiled)
         self.data.p = [params[n] for n in compiled.p_names]
         self._x = np.zeros(compiled.nx)
@@ -58,6 +61,20 @@ class DynamicsFunctions:
     def mass_matrix(self, q, t: float = 0.0) -> np.ndarray:
         return self._f["mass_matrix"](t, self._state(q, 0.0))
 
+    def frame_positions(self, q, t: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """(positions (NF x 3) [m], rotations (NF x 3 x 3) frame -> world) of the frames named at compile time."""
+        pose = self.data.function("frame_positions")(t, self._state(q, 0.0))
+        return pose[:, :3], pose[:, 3:].reshape(-1, 3, 3)
+
+    def frame_velocities(self, q, v, t: float = 0.0) -> np.ndarray:
+        """(NF x 6): velocity of each frame's origin [m/s], then its angular velocity [rad/s], world axes."""
+        return self.data.function("frame_velocities")(t, self._state(q, v))
+
+    def frame_jacobians(self, q, t: float = 0.0) -> np.ndarray:
+        """(NF x 6 x NV): J with frame_velocities = J v (plus the terms of prescribed motion), rows as there."""
+        J = self.data.function("frame_jacobians")(t, self._state(q, 0.0))
+        return J.reshape(len(self.frames), 6, self.model.nv)
+
     def constraint_jacobian(self, q, t: float = 0.0) -> np.ndarray:
         """G(q) (NC x NV) of the loop-closure rows of a model with closed loops: G v = 0 on the motion."""
         return self.data.function("constraint_jacobian")(t, self._state(q, 0.0))
@@ -73,13 +90,14 @@ class DynamicsFunctions:
         return self._x
 
 
-def dynamics_functions(system: System, scene: str | None = None, *,
+def dynamics_functions(system: System, scene: str | None = None, *, frames=(),
                        params: Mapping[str, float] | None = None) -> DynamicsFunctions:
-    """Compile (cached) the model with its dynamics functions; parameters from the scene and `params`."""
-    compiled = system.compile(scene, dynamics=True)
+    """Compile (cached) the model with its dynamics functions and the kinematics of `frames` ("part.frame",
+    "part" for its origin); parameters from the scene and `params`."""
+    compiled = system.compile(scene, dynamics=True, frames=tuple(frames))
     overrides = pipeline.scene_overrides(system.scene(scene))
     overrides.update(params or {})
-    return DynamicsFunctions(compiled, pipeline.parameter_values(system.model, overrides))
+    return DynamicsFunctions(compiled, pipeline.parameter_values(system.model, overrides), tuple(frames))
 
 
 __all__ = ["DynamicsFunctions", "dynamics_functions"]

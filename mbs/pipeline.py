@@ -19,7 +19,7 @@ import sympy as sp
 
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
-from mbs.compiler.dynamics_functions import dynamics_routines
+from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
@@ -57,16 +57,21 @@ def display_name(symbol_name: str) -> str:
     return symbol_name
 
 
-def generate(model: M.Model, scene: M.Scene | None = None, *, dynamics: bool = False) -> Generated:
+def generate(model: M.Model, scene: M.Scene | None = None, *, dynamics: bool = False,
+             frames: tuple[str, ...] = ()) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
-    functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py)."""
+    functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
+    them the positions, velocities and Jacobians of these frames ("part.frame")."""
     lowered = lower(model, scene)
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
     asked = None
     if dynamics:  # of the spanning tree; with loops, tau = G^T lambda (mbs_constraint_jacobian, multipliers)
-        asked = dynamics_routines(lowered.kinematics)
+        routines, inputs = dynamics_routines(lowered.kinematics)
+        if frames:
+            routines += frame_routines(lowered.kinematics, named_frames(lowered, frames))
+        asked = (routines, inputs, tuple(frames))
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]

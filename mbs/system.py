@@ -50,18 +50,21 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None, *, dynamics: bool = False) -> pipeline.Generated:
-        key = ("generated", scene, dynamics)
+    def generate(self, scene: str | None = None, *, dynamics: bool = False,
+                 frames: tuple[str, ...] = ()) -> pipeline.Generated:
+        key = ("generated", scene, dynamics, tuple(frames))
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), dynamics=dynamics)
+            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), dynamics=dynamics,
+                                                    frames=tuple(frames))
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None, *, dynamics: bool = False) -> CompiledModel:
+    def compile(self, scene: str | None = None, *, dynamics: bool = False,
+                frames: tuple[str, ...] = ()) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; with `dynamics` also the
-        dynamics functions (mbs.dynamics)."""
-        key = ("compiled", scene, dynamics)
+        dynamics functions, and the kinematics of the named `frames` (mbs.dynamics)."""
+        key = ("compiled", scene, dynamics, tuple(frames))
         if key not in self._compiled:
-            gen = self.generate(scene, dynamics=dynamics)
+            gen = self.generate(scene, dynamics=dynamics, frames=frames)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],

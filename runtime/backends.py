@@ -46,6 +46,9 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "inverse_dynamics": ("NV",),
     "bias_forces": ("NV",),
     "gravity_forces": ("NV",),
+    "frame_positions": ("NF", "POSE"),
+    "frame_velocities": ("NF", "TWIST"),
+    "frame_jacobians": ("NF6", "NV"),
 }
 #: Functions whose input is longer than x = [q; v] (as the C table's nin column): [q; v; a].
 FUNCTION_INPUTS: dict[str, str] = {"inverse_dynamics": "NXA"}
@@ -98,6 +101,8 @@ class NumpyBackend:
         self.sizes["NY"] = int(getattr(module, "MBS_NY", 0))
         if hasattr(module, "MBS_NXA"):
             self.sizes["NXA"] = int(module.MBS_NXA)
+        if hasattr(module, "MBS_NF"):  # named frames: pose (position, rotation) and twist (velocity, angular)
+            self.sizes.update(NF=int(module.MBS_NF), NF6=6 * int(module.MBS_NF), POSE=12, TWIST=6)
         self.functions = {}
         for name, dims in FUNCTION_SHAPES.items():
             fn = getattr(module, "mbs_" + name, None)

@@ -62,6 +62,11 @@ static const mbs_entry MBS_TABLE[] = {
     {"bias_forces", mbs_bias_forces, MBS_NV, 0, 0},
     {"gravity_forces", mbs_gravity_forces, MBS_NV, 0, 0},
 #endif
+#ifdef MBS_NF
+    {"frame_positions", mbs_frame_positions, MBS_NF, 12, 0},
+    {"frame_velocities", mbs_frame_velocities, MBS_NF, 6, 0},
+    {"frame_jacobians", mbs_frame_jacobians, 6 * MBS_NF, MBS_NV, 0},
+#endif
 #ifdef MBS_NC
     {"constraints", mbs_constraints, MBS_NC, 0},
     {"constraint_velocity", mbs_constraint_velocity, MBS_NC, 0},

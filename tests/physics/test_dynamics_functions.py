@@ -59,6 +59,45 @@ def test_dynamics_functions_match_pinocchio(seed, n_bodies):
         np.testing.assert_allclose(dyn.mass_matrix(q), P.T @ M_pin @ P, rtol=0, atol=TOL * max(1, M_pin.max()))
 
 
+@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)])
+def test_frame_positions_velocities_and_jacobians_match_pinocchio(seed):
+    """Frames at the centres of mass of the moving parts: pin.getFrameJacobian (LOCAL_WORLD_ALIGNED: velocity of
+    the frame origin and angular velocity, world axes), data.oMf and getFrameVelocity."""
+    pin = pytest.importorskip("pinocchio")
+    import pinkit
+    rng = np.random.default_rng(2000 + seed)
+    text, links, gravity = randmodel.random_model(rng, 3, kinds=tuple(k for k in KINDS if k != "fixed"))
+    names = [f"p{i}.com" for i in range(len(links))]
+    dyn = dynamics_functions(mbs.loads(text), frames=names)
+    tree = pinkit.PinTree(links, gravity)
+    model = tree.model
+    ids = []
+    for i, link in enumerate(links):
+        placement = pin.SE3(np.array(link.Rb, float), np.array(link.rb, float)).inverse() * \
+            pin.SE3(np.eye(3), np.asarray(link.com, float))
+        ids.append(model.addFrame(pin.Frame(names[i], tree.joint_id[i], 0, placement, pin.FrameType.OP_FRAME)))
+    data = model.createData()
+    world = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+    compiled = dyn.model
+    for _ in range(3):
+        values = randmodel.random_values(rng, links)
+        q = np.array([values[n] for n in compiled.q_names])
+        v = np.array([values[n] for n in compiled.v_names])
+        q_pin, v_pin, P, _, _ = tree._state(values, compiled.v_names)
+        pin.forwardKinematics(model, data, q_pin, v_pin)
+        pin.updateFramePlacements(model, data)
+        pin.computeJointJacobians(model, data, q_pin)
+        positions, rotations = dyn.frame_positions(q)
+        velocities, jacobians = dyn.frame_velocities(q, v), dyn.frame_jacobians(q)
+        for k, fid in enumerate(ids):
+            np.testing.assert_allclose(positions[k], data.oMf[fid].translation, rtol=0, atol=TOL)
+            np.testing.assert_allclose(rotations[k], data.oMf[fid].rotation, rtol=0, atol=TOL)
+            twist = pin.getFrameVelocity(model, data, fid, world)
+            np.testing.assert_allclose(velocities[k], np.r_[twist.linear, twist.angular], rtol=0, atol=TOL)
+            J = np.array(pin.getFrameJacobian(model, data, fid, world))
+            np.testing.assert_allclose(jacobians[k], J @ P, rtol=0, atol=TOL)
+
+
 @pytest.mark.parametrize("backend", ["c", "numpy"])
 def test_inverse_dynamics_undoes_forward_dynamics_with_force_elements(backend):
     """The two-mass quarter car has springs and dampers: tau(q, v, vdot(q, v)) = 0 only if tau counts them."""
@@ -96,3 +135,20 @@ def test_inverse_dynamics_of_the_iltis_quarter_car_is_the_loop_closure_force():
         np.testing.assert_allclose(tau, closure, rtol=0, atol=1e-8 * scale)
         checked += 1
     assert checked >= 3
+
+
+def test_the_standalone_header_exports_the_dynamics_functions_only_when_asked(tmp_path):
+    from mbs.cli import main
+    arm = str(ROOT / "tests" / "compiler" / "models" / "spatial_arm.mbs")
+    assert main(["compile", arm, "-o", str(tmp_path / "plain")]) == 0
+    assert "mbs_inverse_dynamics" not in (tmp_path / "plain" / "spatial_arm.h").read_text()
+    assert main(["compile", arm, "--dynamics", "-o", str(tmp_path / "dyn")]) == 0
+    header = (tmp_path / "dyn" / "spatial_arm.h").read_text()
+    for name in ("mbs_inverse_dynamics", "mbs_bias_forces", "mbs_gravity_forces", "mbs_mass_matrix"):
+        assert f"int {name}(double t, const double *x, const double *p," in header
+    assert "#define MBS_NXA (MBS_NX+MBS_NV)" in header
+    assert main(["compile", arm, "--frame", "fore.tip", "-o", str(tmp_path / "frames")]) == 0
+    header = (tmp_path / "frames" / "spatial_arm.h").read_text()
+    assert "#define MBS_NF 1" in header and "const char *mbs_frame_name(int i);" in header
+    assert "int mbs_frame_jacobians(double t, const double *x, const double *p, double *mbs_jac, double *work);" \
+        in header
