@@ -99,19 +99,22 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None, run_time_inputs=(), jacobian: bool = False):
+                 constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = None
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
         self.run_time_inputs = tuple(run_time_inputs)
+        # the dynamics functions asked for (compiler/dynamics_functions.py): (routines, acceleration inputs)
+        self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
+        self.frame_names = tuple(frames[0]) if frames else ()
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints, self.run_time_inputs)
-        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs)
+        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
         self.names = self.naming.names
 
     # ---- the file ---------------------------------------------------------------------------------------------
@@ -127,13 +130,15 @@ class CEmitter:
                       _names_function("mbs_parameter_name", [s.name for s in self.parameters])]
         if self.outputs:
             functions.append(_names_function("mbs_output_name", [name for name, _ in self.outputs]))
+        if self.frame_names:
+            functions.append(_names_function("mbs_frame_name", list(self.frame_names)))
         if self.constraints is not None:
             functions.append(loop_functions(self.constraints))
         return "\n".join([self._header(), *self._helpers(printer.used), *functions])
 
     def _routines(self) -> list:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
-        routines = equation_routines(self.eqs, self.outputs)
+        routines = equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines + ([self.jacobian] if self.jacobian else [])
         return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
@@ -163,6 +168,10 @@ class CEmitter:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
         if self.jacobian:
             lines.append("#define MBS_JACOBIAN 1   /* mbs_jacobian exists */")
+        if self.dynamics_routines:
+            lines.append("#define MBS_NXA (MBS_NX+MBS_NV)   /* input [q; v; a] of mbs_inverse_dynamics */")
+        if self.frame_names:
+            lines.append(f"#define MBS_NF {len(self.frame_names)}   /* named frames (mbs_frame_name) */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]
@@ -329,7 +338,7 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None, run_time_inputs=(), jacobian: bool = False) -> str:
+               constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -338,7 +347,8 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     origin: where the model came from (e.g. "pendulum.mbs, scene swing"), for the header comment.
     run_time_inputs: (symbol, array, index) of the accelerations and multipliers the outputs read
     (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first.
-    jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators."""
+    jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators.
+    dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs, jacobian=jacobian).source()
+                    run_time_inputs=run_time_inputs, jacobian=jacobian, dynamics=dynamics).source()

@@ -123,18 +123,20 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=(), jacobian: bool = False):
+                 run_time_inputs=(), jacobian: bool = False, dynamics=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = None
         if jacobian:
             self.eqs, self.jacobian = jacobian_or_none(equations)
         self.run_time_inputs = tuple(run_time_inputs)
+        self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
+        self.frame_names = tuple(frames[0]) if frames else ()
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
-        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs)
+        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
 
     def source(self) -> str:
         printer = PyPrinter(self.naming.names, len(self.tables))
@@ -152,7 +154,8 @@ class PyEmitter:
         return "\n\n\n".join(parts) + "\n"
 
     def _routines(self) -> list:
-        return equation_routines(self.eqs, self.outputs) + ([self.jacobian] if self.jacobian else [])
+        return (equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)
+                + ([self.jacobian] if self.jacobian else []))
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -180,6 +183,11 @@ class PyEmitter:
                  f"MBS_NWORK = {tree.nv * tree.nv}  # doubles of work memory (the C file's size; unused here)"]
         if self.outputs:
             lines.append(f"MBS_NY = {len(self.outputs)}  # outputs")
+        if self.dynamics_routines:
+            lines.append("MBS_NXA = MBS_NX + MBS_NV  # input [q; v; a] of mbs_inverse_dynamics")
+        if self.frame_names:
+            lines += [f"MBS_NF = {len(self.frame_names)}  # named frames",
+                      f"MBS_FRAME_NAMES = {self.frame_names!r}"]
         lines += [f"MBS_STATE_NAMES = {tuple(names)!r}",
                   f"MBS_PARAMETER_NAMES = {tuple(s.name for s in self.parameters)!r}"]
         if self.outputs:
@@ -244,12 +252,12 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=(), jacobian: bool = False) -> str:
+                   run_time_inputs=(), jacobian: bool = False, dynamics=None) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                      inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
-                     jacobian=jacobian).source()
+                     jacobian=jacobian, dynamics=dynamics).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

@@ -16,6 +16,7 @@ import sympy as sp
 
 from mbs.language import expr as X
 
+from .exact import exact_number
 from .tree import t as T  # the one time symbol of the equations
 
 def safe_atan2(y, x):
@@ -74,12 +75,7 @@ class ToSympy:
 
     def _convert(self, e: X.E) -> sp.Expr:
         if isinstance(e, X.Const):
-            v = e.value
-            if v.is_integer() and abs(v) < 2**53:
-                return sp.Integer(int(v))
-            text = repr(v)  # the shortest decimal that reads back as the same double
-            digits = len(text.split("e")[0].replace("-", "").replace(".", "").lstrip("0"))
-            return sp.Float(text, max(15, digits))
+            return exact_number(e.value)  # exact where the model wrote it exactly: exact zeros cancel
         if isinstance(e, X.Sym):
             if e.kind == "param":
                 return parameter_symbol(e.name)

@@ -167,12 +167,14 @@ class Func:
 
 @dataclass(frozen=True)
 class Setting:
-    """``name = value [in frame]``: body properties, model settings (gravity), scene settings."""
+    """``name = value [in frame] [about frame]``: body properties, model settings (gravity), scene settings.
+    ``in``: the components are in that frame's axes; ``about``: an inertia is taken about that frame's origin."""
 
     name: Ident
     value: Expr
     frame: Ref | None
     span: Span
+    about: Ref | None = None
 
 
 @dataclass(frozen=True)

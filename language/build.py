@@ -352,7 +352,8 @@ class _AstBuilder:
         return ast.Func(rest[0], params, _node(body), description, self._span(c[0], c[-1]))
 
     def setting(self, c):
-        return ast.Setting(c[0], _node(c[2]), c[4] if len(c) > 3 else None, self._span(c[0], c[-1]))
+        after = {c[i].value: c[i + 1] for i in range(3, len(c) - 1, 2)}  # 'in' frame, 'about' frame
+        return ast.Setting(c[0], _node(c[2]), after.get("in"), self._span(c[0], c[-1]), after.get("about"))
 
     def frame_at(self, c):
         return _Part("at", _node(c[1]), _head(c[0]), _end(c[1]))

@@ -157,4 +157,8 @@ SCENE_SETTINGS = {
     "atol": U.DIMENSIONLESS, "start": "word",
 }
 INTEGRATORS = ("dopri5", "rodasp", "RK45", "DOP853", "Radau", "BDF", "LSODA")  # dopri5, rodasp: in C
-SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "dopri5", "rtol": 1e-8, "atol": 1e-10, "start": "initial"}
+#: the one default tolerance of every integration: scenes, mbs.System and mbs.runtime.simulate called directly
+#: (tight, because multibody results are read as differences of nearby runs and as conservation checks)
+DEFAULT_RTOL, DEFAULT_ATOL = 1e-8, 1e-10
+SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "dopri5", "rtol": DEFAULT_RTOL, "atol": DEFAULT_ATOL,
+                  "start": "initial"}

@@ -105,6 +105,7 @@ class _Printer:
             self.emit(node, depth, f"func {node.name.text}({params}) = {expr(node.body)}{_desc(node.description)}")
         elif isinstance(node, ast.Setting):
             where = f" in {node.frame.dotted}" if node.frame else ""
+            where += f" about {node.about.dotted}" if node.about else ""
             self.emit(node, depth, f"{node.name.text} = {expr(node.value)}{where}")
         elif isinstance(node, ast.Frame):
             self.emit(node, depth, _frame(node))

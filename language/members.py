@@ -9,6 +9,7 @@ from . import expr as X
 from . import model as M
 from . import units as U
 from .expressions import ExprResolver, Invalid
+from .quaternions import QUATERNION_COMPONENTS, QUATERNION_SPEED_OF
 from .scope import InteractEntry, Scope, did_you_mean
 
 if TYPE_CHECKING:
@@ -114,6 +115,14 @@ def _coordinates(elab, scope: Scope, entry: InteractEntry, st: ast.Joint, kind: 
         target = s.target.dotted
         if isinstance(s, ast.Init):
             is_speed = s.derivative or (target in speeds and target not in local_names)
+            if s.derivative and target in QUATERNION_COMPONENTS and target in local_names:
+                elab.diags.error(f"der({target}) is not a speed of a quaternion joint: the derivative of a quaternion "
+                                 "component is not an angular velocity; set the angular velocity in frame b: "
+                                 "wx, wy, wz", scope.at(s.target.span))
+                continue
+            if s.derivative and target in QUATERNION_SPEED_OF.values() and "qw" in local_names:
+                elab.diags.error(f"'{target}' is a speed already: init {target} = ...", scope.at(s.target.span))
+                continue
             valid = speeds if is_speed else local_names
             if target not in valid:
                 elab.diags.error(f"a {kind} joint has no {'speed' if is_speed else 'coordinate'} '{target}'"

@@ -74,6 +74,7 @@ class Body:
     com: Vec3
     inertia: Mat3
     span: Span = field(compare=False)
+    about: str = field(default="", compare=False)  # the frame the user gave the inertia about ('': the CoM)
 
 
 @dataclass(frozen=True)

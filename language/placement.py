@@ -185,11 +185,47 @@ class PlacementMixin:
             if "com" in settings:
                 com, dim = r.vector(settings["com"].value, "the centre of mass")
                 r.expect(dim, U.LENGTH, settings["com"].value.span, "the centre of mass")
+            for s in settings.values():
+                if s.about is not None and s.name.text != "inertia":
+                    raise r.error("only an inertia is given 'about' a frame", s.about.span)
             inertia = self.inertia(scope, r, settings["inertia"])
+            if settings["inertia"].about is not None:
+                inertia = self.inertia_about_com(scope, r, st, settings["inertia"], inertia, mass, com)
         except Invalid:
             return None
+        about = settings["inertia"].about
         return M.Body(mass, G.mirror_vec(scope.signs, com), G.mirror_mat(scope.signs, inertia),
-                      scope.at(st.body.span))
+                      scope.at(st.body.span), about.dotted if about is not None else "")
+
+    def inertia_about_com(self, scope: Scope, r: ExprResolver, st: ast.Part, s: ast.Setting, inertia: M.Mat3,
+                          mass: X.E, com: M.Vec3) -> M.Mat3:
+        """An inertia given about a frame's origin F, shifted to the centre of mass C (parallel-axis theorem):
+        I_C = I_F - m (|d|^2 E - d d^T) with d = r_F - r_C in part axes. Whether the result is a body's inertia
+        (positive semi-definite, triangle inequalities) is checked with the others (rules.check_body)."""
+        name = s.about.dotted
+        if name == M.ORIGIN:
+            position = G.ZERO_VEC
+        elif name == "com":
+            return inertia
+        else:
+            frame = next((f for f in st.frames if f.name.text == name), None)
+            if frame is None:
+                names = [M.ORIGIN, "com", *(f.name.text for f in st.frames)]
+                raise r.error(f"no frame '{name}' on part '{st.name.text}'{did_you_mean(name, names)} "
+                              "(an inertia is given about a frame of its own part)", s.about.span)
+            position, _ = self.frame_pose(scope, frame)
+            position = G.mirror_vec(scope.signs, position)  # frame_pose mirrored it; inertia is mirrored later
+        d = tuple(G.sub(position[i], com[i]) for i in range(3))
+        d2 = X.add(X.add(X.mul(d[0], d[0]), X.mul(d[1], d[1])), X.mul(d[2], d[2]))
+        shifted = []
+        for i in range(3):
+            row = []
+            for j in range(3):
+                steiner = X.mul(d[i], d[j])
+                steiner = G.sub(d2, steiner) if i == j else X.neg(steiner)
+                row.append(G.sub(inertia[i][j], X.mul(mass, steiner)))
+            shifted.append(tuple(row))
+        return tuple(shifted)  # type: ignore[return-value]
 
     def inertia(self, scope: Scope, r: ExprResolver, s: ast.Setting) -> M.Mat3:
         node = s.value

@@ -13,6 +13,7 @@ import numpy as np
 from . import expr as X
 from . import model as M
 from .diagnostics import Diagnostics
+from .quaternions import check_start_quaternions
 
 INERTIA_REL_TOL = 1e-9  # relative slack for the triangle inequalities and symmetry (round-off in data)
 
@@ -23,6 +24,7 @@ def check_model(model: M.Model, diags: Diagnostics, component: bool = False, ass
     for part in model.parts:
         if part.body is not None:
             check_body(part, values, diags)
+    check_start_quaternions(diags, model)
     check_topology(model, diags, require_connected=not component, assumed_links=assumed_links)
 
 
@@ -34,32 +36,46 @@ def _num(e: X.E, values) -> float | None:
 
 
 def check_body(part: M.Part, values, diags: Diagnostics) -> None:
+    for _, message in body_problems(part, values):
+        diags.error(message, part.body.span)
+
+
+def body_problems(part: M.Part, values, massless_ok: bool = False) -> list[tuple[str, str]]:
+    """(quantity: "mass" or "inertia", message) for each reason why the mass geometry of a part is not a
+    physical body's with these parameter values (empty: it is).
+    A point mass (zero inertia) and a thin rod (one zero moment) are positive semi-definite and allowed;
+    values that cannot be evaluated are left alone. `massless_ok`: a mass of zero is accepted (a parameter study
+    taking a part's mass to its massless limit, as long as the mass matrix stays regular); negative never is."""
     body = part.body
+    problems = []
     mass = _num(body.mass, values)
-    if mass is not None and not mass > 0:
-        diags.error(f"the mass of '{part.name}' must be positive, but it is {mass:g} kg "
-                    "(a massless part is declared with 'part', not 'rigid')", body.span)
+    if mass is not None and massless_ok and not mass >= 0:
+        problems.append(("mass", f"the mass of '{part.name}' must not be negative, but it is {mass:g} kg"))
+    elif mass is not None and not massless_ok and not mass > 0:
+        problems.append(("mass", f"the mass of '{part.name}' must be positive, but it is {mass:g} kg "
+                        "(a massless part is declared with 'part', not 'rigid')"))
     inertia = [[_num(c, values) for c in row] for row in body.inertia]
     if any(v is None for row in inertia for v in row):
-        return
+        return problems
     tensor = np.array(inertia, dtype=float)
     scale = max(1e-300, np.abs(tensor).max())
+    what = f"the inertia tensor of '{part.name}'"
+    if body.about:
+        what += f" about its centre of mass (shifted from frame '{body.about}')"
     if not np.all(np.isfinite(tensor)):
-        diags.error(f"the inertia of '{part.name}' is not finite", body.span)
-        return
+        return problems + [("inertia", f"the inertia of '{part.name}' is not finite")]
     if np.abs(tensor - tensor.T).max() > INERTIA_REL_TOL * scale:
-        diags.error(f"the inertia tensor of '{part.name}' must be symmetric", body.span)
-        return
+        return problems + [("inertia", f"the inertia tensor of '{part.name}' must be symmetric")]
     principal = np.linalg.eigvalsh(tensor)
     # Zero moments are allowed: point masses and thin rods are standard idealisations (as in Pinocchio).
     if principal.min() < -INERTIA_REL_TOL * scale:
-        diags.error(f"the inertia tensor of '{part.name}' must be positive semi-definite (principal moments "
-                    f"{', '.join('%.6g' % v for v in principal)} kg*m^2)", body.span)
-        return
+        return problems + [("inertia", f"{what} must be positive semi-definite (principal moments "
+                                       f"{', '.join('%.6g' % v for v in principal)} kg*m^2)")]
     a, b, c = principal
     if a + b < c * (1 - INERTIA_REL_TOL) or a + c < b * (1 - INERTIA_REL_TOL) or b + c < a * (1 - INERTIA_REL_TOL):
-        diags.error(f"the principal moments of '{part.name}' ({a:.6g}, {b:.6g}, {c:.6g} kg*m^2) violate the "
-                    "triangle inequality: no physical body has them", body.span)
+        problems.append(("inertia", f"the principal moments of '{part.name}' ({a:.6g}, {b:.6g}, {c:.6g} kg*m^2) "
+                                    "violate the triangle inequality: no physical body has them"))
+    return problems
 
 
 def joint_graph(model: M.Model) -> dict[str, list[tuple[str, M.Interaction]]]:
@@ -170,4 +186,4 @@ def degrees_of_freedom_estimate(model: M.Model) -> int:
     return count
 
 
-__all__ = ["check_model", "check_topology", "find_loops", "joint_graph", "degrees_of_freedom_estimate", "math"]
+__all__ = ["check_model", "body_problems", "check_topology", "find_loops", "joint_graph", "degrees_of_freedom_estimate", "math"]

@@ -8,11 +8,13 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from . import ast, catalog
+from . import ast, binding, catalog
 from . import expr as X
 from . import model as M
 from . import units as U
+from .diagnostics import MbsError
 from .expressions import ExprResolver, Invalid
+from .quaternions import QUATERNION_SPEED_OF, check_start_quaternions
 from .scope import InputEntry, Scope, did_you_mean
 
 if TYPE_CHECKING:
@@ -26,12 +28,9 @@ def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) 
     settings = dict(catalog.SCENE_DEFAULTS)
     sample = None
     params, inputs, inits, outputs = [], [], [], []
+    init_spans, param_spans = {}, {}
     coords = {c.name: c for c in model.coordinates}
-    speeds = {}
-    for inter in model.interactions:
-        if inter.joint is not None:
-            for c in inter.joint.coordinates:
-                speeds[c.name] = c
+    speeds = speed_table(model)
     param_names = model.parameter_map
     ok = True
     for s in st.statements:
@@ -78,6 +77,7 @@ def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) 
                 value, dim = r.scalar(s.value)
                 r.expect(dim, param_names[s.name.text].dimension, s.value.span, f"parameter '{s.name.text}'")
                 params.append((s.name.text, value))
+                param_spans[s.name.text] = s.span
             elif isinstance(s, ast.Input):
                 known = {i.name: i for i in model.inputs}
                 if s.name.text not in known:
@@ -94,19 +94,16 @@ def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) 
                 r.expect(dim, known[s.name.text].dimension, s.value.span, f"input '{s.name.text}'")
                 inputs.append((s.name.text, value))
             elif isinstance(s, ast.Init):
-                name = s.target.dotted
-                is_speed = s.derivative
-                table = speeds if is_speed else coords
-                if name not in table:
-                    diags.error(f"the model has no joint coordinate '{name}'{did_you_mean(name, table)}", s.target.span)
+                target = _init_target(diags, s, coords, speeds)
+                if target is None:
                     ok = False
                     continue
-                coord = table[name]
+                name, is_speed, dim = target
                 r = ExprResolver(elab, root, allow_state=False, what="an initial value")
-                value, dim = r.scalar(s.value)
-                r.expect(dim, coord.dimension / U.TIME if is_speed else coord.dimension, s.value.span,
-                         f"the initial value of '{name}'")
+                value, got = r.scalar(s.value)
+                r.expect(got, dim, s.value.span, f"the initial value of '{_written(s)}'")
                 inits.append((name, is_speed, value))
+                init_spans[(name, is_speed)] = s.span
             elif isinstance(s, ast.Output):
                 built = elab.output(root, s)
                 if built is None:
@@ -119,9 +116,65 @@ def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) 
             ok = False
     if not ok:
         return None
+    check_start_quaternions(diags, model, inits, init_spans)
+    if params:
+        _check_bound_bodies(diags, model, params, param_spans)
     return M.Scene(st.name.text, model.name, tuple(params), tuple(inputs), tuple(inits), tuple(outputs),
                    settings["t_end"], sample, settings["integrator"], settings["rtol"], settings["atol"],
                    settings["start"], st.description, st.span)
+
+
+def speed_table(model: M.Model) -> dict[str, tuple[str, U.Dimension]]:
+    """Every speed by the name a scene writes it, -> (coordinate it belongs to, dimension): `der(j.phi)` for
+    ordinary coordinates, `j.wx` (angular velocity in frame b) for quaternion joints."""
+    table = {}
+    for c in model.coordinates:
+        if c.local == "qw":
+            continue
+        if c.local in QUATERNION_SPEED_OF:
+            head = c.name[: -len(c.local)]
+            table[head + QUATERNION_SPEED_OF[c.local]] = (c.name, U.ANGULAR_VELOCITY)
+        else:
+            table[f"der({c.name})"] = (c.name, c.dimension / U.TIME)
+    return table
+
+
+def _init_target(diags, s: ast.Init, coords, speeds):
+    """(coordinate name, is_speed, dimension) an init statement sets, or None after reporting why not."""
+    name = s.target.dotted
+    written = _written(s)
+    if written in speeds:
+        coordinate, dim = speeds[written]
+        return coordinate, True, dim
+    if not s.derivative and name in coords:
+        return name, False, coords[name].dimension
+    local = name.rsplit(".", 1)[-1]
+    if s.derivative and name in coords and local in ("qw", *QUATERNION_SPEED_OF):
+        head = name[: -len(local)]
+        diags.error(f"der({name}) is not a speed of a quaternion joint: the derivative of a quaternion component "
+                    f"is not an angular velocity; set the angular velocity in frame b: "
+                    f"{head}wx, {head}wy, {head}wz", s.target.span)
+        return None
+    if s.derivative and name in speeds:
+        diags.error(f"'{name}' is a speed already: init {name} = ...", s.target.span)
+        return None
+    what = "speed" if s.derivative else "joint coordinate or speed"
+    candidates = list(speeds) if s.derivative else [*coords, *speeds]
+    diags.error(f"the model has no {what} '{written}'{did_you_mean(written, candidates)}", s.target.span)
+    return None
+
+
+def _check_bound_bodies(diags, model: M.Model, params, spans) -> None:
+    """Masses and inertias with the scene's parameter values (mbs check checked them with the defaults)."""
+    try:
+        values = binding.parameter_values(model, dict(params))
+    except (MbsError, X.EvaluationError):
+        return  # a parameter that cannot be evaluated is reported where it is used
+    diags.extend(binding.bound_body_problems(model, values, spans, how="set by this scene"))
+
+
+def _written(s: ast.Init) -> str:
+    return f"der({s.target.dotted})" if s.derivative else s.target.dotted
 
 
 def _word(node) -> str | None:
@@ -139,4 +192,4 @@ def scene_model_name(st: ast.Scene) -> tuple[str | None, object]:
     return None, st.name
 
 
-__all__ = ["build_scene", "scene_model_name", "InputEntry"]
+__all__ = ["build_scene", "scene_model_name", "speed_table", "InputEntry"]

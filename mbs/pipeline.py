@@ -21,15 +21,18 @@ import sympy as sp
 
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
+from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.jacobian import JACOBIAN_INTEGRATORS
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
 from mbs.compiler.symbolic import parameter_symbol
+from mbs.language import binding
 from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.language.quaternions import norm_problem
 
 _log = logging.getLogger(__name__)
 
@@ -83,8 +86,11 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
     return bool(name) and str(name).lower() in JACOBIAN_INTEGRATORS
 
 
-def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None) -> Generated:
-    """Validated model -> generated source (symbolic derivation included).
+def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
+             frames: tuple[str, ...] = ()) -> Generated:
+    """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
+    functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
+    them the positions, velocities and Jacobians of these frames ("part.frame").
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
@@ -99,6 +105,12 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
     clock("derived the equations of motion")
+    asked = None
+    if dynamics:  # of the spanning tree; with loops, tau = G^T lambda (mbs_constraint_jacobian, multipliers)
+        routines, inputs = dynamics_routines(lowered.kinematics)
+        if frames:
+            routines += frame_routines(lowered.kinematics, named_frames(lowered, frames))
+        asked = (routines, inputs, tuple(frames))
     parameters = [parameter_symbol(p.name) for p in model.parameters]
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
@@ -106,7 +118,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
-    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
+    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
+                   dynamics=asked)
     if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
         options["jacobian"] = True
     tree = lowered.tree
@@ -136,30 +149,10 @@ class _Phases:
 
 # ------------------------------------------------------------------------------------------ parameters
 def parameter_values(model: M.Model, overrides: Mapping[str, float | X.E] | None = None) -> dict[str, float]:
-    """Every parameter's value: overrides as given, the rest from their default expressions (which may use
-    overridden parameters: `l2 = 2 * l` follows a new `l`)."""
-    overrides = dict(overrides or {})
-    unknown = [name for name in overrides if name not in model.parameter_map]
-    if unknown:
-        raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{unknown[0]}'", None)])
-    values: dict[str, float] = {}
-
-    def value(name: str, depth: int = 0) -> float:
-        if name in values:
-            return values[name]
-        if depth > len(model.parameters):
-            raise MbsError([Diagnostic("error", f"parameter '{name}' depends on itself", None)])
-        given = overrides.get(name, model.parameter_map[name].default)
-        if isinstance(given, (int, float)):
-            result = float(given)
-        else:
-            env = {s.name: value(s.name, depth + 1) for s in X.symbols(given) if s.kind == "param"}
-            result = X.evaluate(given, env)
-        values[name] = result
-        return result
-
-    for p in model.parameters:
-        value(p.name)
+    """Every parameter's value (overrides as given, the rest from their defaults), checked: a mass or inertia
+    that the overrides make unphysical is an error located at the body and the parameter."""
+    values = binding.parameter_values(model, overrides)
+    binding.check_bound_values(model, values, {name: None for name in overrides or {}}, how="overridden")
     return values
 
 
@@ -170,7 +163,11 @@ def scene_overrides(scene: M.Scene | None) -> dict[str, X.E]:
 # ------------------------------------------------------------------------------------------ initial state
 def initial_state(generated: Generated, params: Mapping[str, float]) -> np.ndarray:
     """x0 = [q0; v0] in state order: joint init values, then the scene's init statements."""
-    model, scene, tree = generated.model, generated.scene, generated.lowered.tree
+    return initial_state_of(generated.model, generated.scene, generated.lowered.tree, params)
+
+
+def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mapping[str, float]) -> np.ndarray:
+    """initial_state for a model, a scene (or None) and the tree of their lowering."""
     env = dict(params)
     coords = {c.name: c for c in model.coordinates}
     inits: dict[tuple[str, bool], float] = {}
@@ -217,8 +214,9 @@ def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:
             slots = [s for s in tree.q_slots[i][-4:]]
             q = x[slots]
             norm = math.sqrt(float(q @ q))
-            if norm == 0:
-                raise MbsError([Diagnostic("error", f"the initial quaternion of joint '{body.name}' is zero", None)])
+            problem = norm_problem(norm, body.name)
+            if problem is not None and problem[0] == "error":
+                raise MbsError([Diagnostic("error", problem[1], None)])
             x[slots] = q / norm
     return x
 

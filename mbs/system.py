@@ -15,6 +15,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from mbs.language import model as M
+from mbs.language.catalog import SCENE_DEFAULTS
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
@@ -28,6 +29,7 @@ from mbs.runtime.workspace import Workspace
 
 from . import pipeline
 from .quantities import parameter_overrides
+from .gimbal import warn_gimbal
 
 
 @dataclass
@@ -49,18 +51,22 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None, *, jacobian: bool | None = None) -> pipeline.Generated:
-        """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it)."""
-        key = ("generated", scene) if jacobian is None else ("generated", scene, jacobian)
+    def generate(self, scene: str | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
+                 frames: tuple[str, ...] = ()) -> pipeline.Generated:
+        """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
+        dynamics: also the dynamics functions, and the kinematics of the named frames (mbs.dynamics)."""
+        key = ("generated", scene, jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian)
+            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian,
+                                                    dynamics=dynamics, frames=tuple(frames))
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None, *, jacobian: bool | None = None) -> CompiledModel:
-        """The compiled model of a scene (its outputs) or of the model's own outputs."""
-        key = ("compiled", scene) if jacobian is None else ("compiled", scene, jacobian)
+    def compile(self, scene: str | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
+                frames: tuple[str, ...] = ()) -> CompiledModel:
+        """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate."""
+        key = ("compiled", scene, jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
-            gen = self.generate(scene, jacobian=jacobian)
+            gen = self.generate(scene, jacobian=jacobian, dynamics=dynamics, frames=frames)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
@@ -95,8 +101,10 @@ class System:
         if t_eval is not None:
             settings.pop("sample", None)
         options.setdefault("owners", self.coordinate_owners(compiled))
-        return _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
-                         **settings, **options)
+        results = _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
+                            **settings, **options)
+        warn_gimbal(self.model, results)
+        return results
 
     def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
         """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
@@ -117,10 +125,11 @@ class System:
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
             jacobian = True
-        compiled = self.compile(scene, jacobian=jacobian)
-        gen = self.generate(scene, jacobian=jacobian)
+        # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
+        compiled = self.compile(scene, jacobian=jacobian)
+        gen = self.generate(scene, jacobian=jacobian)
         data = self._workspace(compiled, gen, values)
         if drive is not None:
             drive(data)
@@ -164,7 +173,8 @@ class System:
         """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
         overrides = pipeline.scene_overrides(self.scene(scene))
         overrides.update(parameter_overrides(self.model, params))
-        return self.compile(scene), self.generate(scene), pipeline.parameter_values(self.model, overrides)
+        values = pipeline.parameter_values(self.model, overrides)  # checked before the (slow) first compile
+        return self.compile(scene), self.generate(scene), values
 
     def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
@@ -222,7 +232,8 @@ def _numpy_module(gen: pipeline.Generated):
 
 def _settings(scene, t_end, sample, integrator, rtol, atol) -> dict:
     """Scene settings, overridden by explicit arguments; without a scene: 1 s, DOP853-like defaults."""
-    out = {"t_end": 1.0, "sample": None, "integrator": None, "rtol": 1e-8, "atol": 1e-10}
+    out = {"t_end": SCENE_DEFAULTS["t_end"], "sample": None, "integrator": None, "rtol": SCENE_DEFAULTS["rtol"],
+           "atol": SCENE_DEFAULTS["atol"]}
     if scene is not None:
         out.update(t_end=scene.t_end, sample=scene.sample, integrator=scene.integrator, rtol=scene.rtol,
                    atol=scene.atol)

@@ -44,7 +44,16 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "multipliers": ("NC",),
     "loop_report": ("NREPORT",),
     "loop_rhs": ("NX",),  # x' without projection (what the C integrators call between projected steps)
+    # dynamics functions, generated only when asked for (compiler/dynamics_functions.py)
+    "inverse_dynamics": ("NV",),
+    "bias_forces": ("NV",),
+    "gravity_forces": ("NV",),
+    "frame_positions": ("NF", "POSE"),
+    "frame_velocities": ("NF", "TWIST"),
+    "frame_jacobians": ("NF6", "NV"),
 }
+#: Functions whose input is longer than x = [q; v] (as the C table's nin column): [q; v; a].
+FUNCTION_INPUTS: dict[str, str] = {"inverse_dynamics": "NXA"}
 
 ModelFunction = Callable[[float, np.ndarray], np.ndarray]
 
@@ -93,16 +102,22 @@ class NumpyBackend:
             raise UsageError(f"{module.__name__} is not a generated model module: {exc}") from None
         self.sizes["NY"] = int(getattr(module, "MBS_NY", 0))
         self.sizes["NX1"] = self.sizes["NX"] + 1
+        if hasattr(module, "MBS_NXA"):
+            self.sizes["NXA"] = int(module.MBS_NXA)
+        if hasattr(module, "MBS_NF"):  # named frames: pose (position, rotation) and twist (velocity, angular)
+            self.sizes.update(NF=int(module.MBS_NF), NF6=6 * int(module.MBS_NF), POSE=12, TWIST=6)
         self.functions = {}
         for name, dims in FUNCTION_SHAPES.items():
             fn = getattr(module, "mbs_" + name, None)
-            if fn is not None and all(d in self.sizes for d in dims) and (name != "outputs" or self.sizes["NY"]):
+            if fn is not None and all(d in self.sizes for d in dims) and (name != "outputs" or self.sizes["NY"]) \
+                    and self.sizes.get(FUNCTION_INPUTS.get(name, "NX"), 0):
                 self.functions[name] = tuple(self.sizes[d] for d in dims)
 
     def function(self, name: str, p: np.ndarray, work: np.ndarray) -> ModelFunction:
         if name not in self.functions:
             raise KeyError(f"the model has no function '{name}'")
-        fn, shape, nx = getattr(self.module, "mbs_" + name), self.functions[name], self.sizes["NX"]
+        fn, shape = getattr(self.module, "mbs_" + name), self.functions[name]
+        nx = self.sizes[FUNCTION_INPUTS.get(name, "NX")]
 
         def call(t, x):
             x = np.asarray(x, dtype=float)

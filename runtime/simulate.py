@@ -15,6 +15,8 @@ from typing import Callable
 
 import numpy as np
 
+from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
+
 from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
 from .diagnose import explain_failure
@@ -67,7 +69,7 @@ def output_times(t0: float, t_end: float, t_eval=None, sample: float | None = No
 
 
 def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None, sample: float | None = None,
-             integrator=None, rtol: float = 1e-6, atol=1e-9, first_step: float | None = None,
+             integrator=None, rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL, first_step: float | None = None,
              max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
              outputs: bool = True, progress: Progress | None = None, max_wall_time: float | None = None,
              stall_time: float | None = STALL_TIME, owners=None) -> Results:

@@ -82,6 +82,28 @@ def parse_param(text: str, model):
     return name, parameter_overrides(model, {name: value})[name]
 
 
+def split_assignment(text: str, option: str, example: str):
+    """(name, number, (unit factor, dimension) or None) of an option's NAME=VALUE[unit] text; a located error
+    when it is not one or the unit is unknown."""
+    import re
+
+    from mbs.language import units as U
+    from mbs.language.diagnostics import Diagnostic, MbsError
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    match = re.fullmatch(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(\S*)\s*", value)
+    if not sep or match is None:
+        raise MbsError([Diagnostic("error", f"{option} expects name=value[unit], e.g. {example}; got '{text}'",
+                                   None)])
+    number, unit = float(match.group(1)), match.group(2)
+    if not unit:
+        return name, number, None
+    try:
+        return name, number, U.parse_unit(unit)
+    except U.UnitError as exc:
+        raise MbsError([Diagnostic("error", f"{option} {name}: {exc.message}", None)]) from None
+
+
 class ProgressBar:
     """A progress line on stderr for runs that take longer than a second (and only on a terminal)."""
 

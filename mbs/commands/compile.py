@@ -15,13 +15,17 @@ class Compile:
         model_args(p)
         p.add_argument("--scene", help="scene whose outputs to generate")
         p.add_argument("-o", "--output", default=".", metavar="DIR", help="output folder (default: .)")
+        p.add_argument("--dynamics", action="store_true",
+                       help="also mbs_inverse_dynamics, mbs_bias_forces, mbs_gravity_forces (docs/equations.md)")
+        p.add_argument("--frame", action="append", default=[], metavar="PART.FRAME",
+                       help="with --dynamics: position, velocity and Jacobian of this frame (repeatable)")
 
     @staticmethod
     def run(args) -> int:
         import mbs
         from mbs.standalone import write_standalone
         system = mbs.load(args.file, args.model)
-        gen = system.generate(args.scene)
+        gen = system.generate(args.scene, dynamics=args.dynamics or bool(args.frame), frames=tuple(args.frame))
         paths = write_standalone(gen, Path(args.output))
         for path in paths:
             print(path)

@@ -1,52 +1,66 @@
-"""eom: the equations of motion written out."""
+"""eom: the equations of motion written out, in named terms as NEWEUL printed them, or their value at a state."""
 
 from __future__ import annotations
 
-from .common import model_args
+import sys
+
+from .common import model_args, param_arg, params_from_args, split_assignment
 
 
 class Eom:
-    help = "print the equations of motion M(y,t) y'' + k(y,y',t) = q(y,y',t) of a small model"
+    help = "print the equations of motion M(y,t) v' + k(y,v,t) = q(y,v,t) in named terms, or their value at a state"
 
-    MAX_VELOCITIES = 6  # beyond this the written-out expressions are too long to read
+    FULL_MAX_VELOCITIES = 6  # written out without names, longer models are unreadable
 
     @staticmethod
     def arguments(p):
         model_args(p)
         p.add_argument("--latex", action="store_true", help="LaTeX instead of plain text")
-        p.add_argument("--no-simplify", action="store_true", help="skip sympy's simplification (faster)")
+        p.add_argument("--no-simplify", action="store_true", help="skip the simplification of the named terms")
+        p.add_argument("--full", action="store_true",
+                       help=f"M, k, q written out without named terms (at most {Eom.FULL_MAX_VELOCITIES} speeds)")
+        p.add_argument("--at", nargs="+", metavar="NAME=VALUE",
+                       help="print the numbers M, k, q at this state (unit optional: joint1.phi=30deg "
+                            "der(joint1.phi)=1); unnamed coordinates and speeds take their initial values")
+        param_arg(p)
 
     @staticmethod
     def run(args) -> int:
+        import numpy as np
         import sympy as sp
 
         import mbs
-        from mbs.compiler.equations import display_equations
-        from mbs.compiler.lower import lower
+        from mbs.eom import equations_of_motion
         from mbs.language.diagnostics import Diagnostic, MbsError
         system = mbs.load(args.file, args.model)
-        lowered = lower(system.model)
-        tree = lowered.tree
-        if tree.nv > Eom.MAX_VELOCITIES:
-            raise MbsError([Diagnostic("error", f"model '{system.model.name}' has {tree.nv} velocities; mbs eom "
-                                                f"writes equations out for at most {Eom.MAX_VELOCITIES}", None)])
-        M, k, q = display_equations(lowered.kinematics, simplify=not args.no_simplify)
-        from mbs.pipeline import display_name
-        shown = {s: sp.Symbol(display_name(s.name)) for s in tree.q_symbols + tree.v_symbols}
-        M, k, q = (m.xreplace(shown) for m in (M, k, q))
-        y = sp.Matrix([shown[s] for s in tree.q_symbols])
-        v = sp.Matrix([shown[s] for s in tree.v_symbols])
-        if args.latex:
-            print(f"% {system.model.name}: M(y, t) \\dot v + k(y, v, t) = q(y, v, t)")
-            print(f"y = {sp.latex(y)}, \\quad v = {sp.latex(v)}")
-            print(f"M = {sp.latex(M)}")
-            print(f"k = {sp.latex(k)}")
-            print(f"q = {sp.latex(q)}")
-        else:
-            print(f"{system.model.name}: M(y, t) v' + k(y, v, t) = q(y, v, t)")
-            print(f"y = {list(y)}\nv = {list(v)}\n")
+        params = params_from_args(args, system)
+
+        def progress(message: str) -> None:
+            print(f"mbs eom: {message}", file=sys.stderr, flush=True)
+        eq = equations_of_motion(system, simplify=not args.no_simplify, progress=progress)
+        if args.at is not None:
+            state = dict(_parse_state(text) for text in args.at)
+            M, k, q = eq.at(state, params)
+            with np.printoptions(precision=10, linewidth=160, suppress=False):
+                print(f"{system.model.name} at " + ", ".join(f"{n} = {v:g}" for n, v in state.items()))
+                print(f"y = [{', '.join(map(str, eq.y))}]\nv = [{', '.join(map(str, eq.v))}]")
+                print(f"M =\n{M}\nk =\n{k.ravel()}\nq =\n{q.ravel()}")
+            return 0
+        if args.full:
+            if len(eq.v) > Eom.FULL_MAX_VELOCITIES:
+                raise MbsError([Diagnostic("error", f"model '{system.model.name}' has {len(eq.v)} speeds; --full "
+                                                    f"writes out at most {Eom.FULL_MAX_VELOCITIES} (the named "
+                                                    "form has no limit)", None)])
+            M, k, q = eq.written_out()
+            show = sp.latex if args.latex else sp.sstr
             for label, mat in (("M", M), ("k", k), ("q", q)):
-                print(f"{label} =")
-                print(sp.pretty(mat, use_unicode=False, wrap_line=False))
-                print()
+                print(f"{label} = {show(mat)}")
+            return 0
+        print(eq.latex() if args.latex else eq.text())
         return 0
+
+
+def _parse_state(text: str) -> tuple[str, float]:
+    """NAME=VALUE[unit] of a coordinate or speed (the name is checked by EquationsOfMotion.at)."""
+    name, number, unit = split_assignment(text, "--at", "joint1.phi=30deg")
+    return name, number if unit is None else number * unit[0]

@@ -43,6 +43,15 @@ class Simulate:
 
     @staticmethod
     def run(args) -> int:
+        import warnings
+
+        from mbs.gimbal import GimbalWarning
+        with warnings.catch_warnings():  # printed once, located, by _summary
+            warnings.simplefilter("ignore", GimbalWarning)
+            return Simulate._run(args)
+
+    @staticmethod
+    def _run(args) -> int:
         import mbs
         _check_suffixes(args)
         check_integrator(args.integrator)
@@ -201,6 +210,8 @@ def _overlay(runs: dict, names: list[str], labels: dict, path: Path, title: str)
 def _summary(system, scene, res, args) -> None:
     for note in res.metadata.get("notes", []):
         print(note, file=sys.stderr)
+    for text in res.metadata.get("warnings", ()):
+        print(f"{system.model.name}: warning: {text}", file=sys.stderr)
     t = res.t
     head = f"{system.model.name}" + (f" / scene {scene}" if scene else "")
     if not len(t):

@@ -46,6 +46,7 @@ typedef struct {
     const char *name;
     mbs_fn fn;
     int rows, cols;  /* output shape; cols == 0 for a vector */
+    int nin;         /* length of the input x; 0: MBS_NX (mbs_inverse_dynamics reads [q; v; a]) */
 } mbs_entry;
 
 static const mbs_entry MBS_TABLE[] = {
@@ -58,6 +59,16 @@ static const mbs_entry MBS_TABLE[] = {
 #endif
 #ifdef MBS_JACOBIAN
     {"jacobian", mbs_jacobian, MBS_NX, MBS_NX + 1},
+#endif
+#ifdef MBS_NXA
+    {"inverse_dynamics", mbs_inverse_dynamics, MBS_NV, 0, MBS_NXA},
+    {"bias_forces", mbs_bias_forces, MBS_NV, 0, 0},
+    {"gravity_forces", mbs_gravity_forces, MBS_NV, 0, 0},
+#endif
+#ifdef MBS_NF
+    {"frame_positions", mbs_frame_positions, MBS_NF, 12, 0},
+    {"frame_velocities", mbs_frame_velocities, MBS_NF, 6, 0},
+    {"frame_jacobians", mbs_frame_jacobians, 6 * MBS_NF, MBS_NV, 0},
 #endif
 #ifdef MBS_NC
     {"constraints", mbs_constraints, MBS_NC, 0},
@@ -161,7 +172,7 @@ static PyObject *function_vectorcall(PyObject *self_, PyObject *const *args, siz
     }
     t = PyFloat_AsDouble(args[0]);
     if (t == -1.0 && PyErr_Occurred()) return NULL;
-    x = as_vector(args[1], MBS_NX, "x", &tmp);
+    x = as_vector(args[1], e->nin ? e->nin : MBS_NX, "x", &tmp);
     if (!x) return NULL;
     out = PyArray_SimpleNew(e->cols ? 2 : 1, dims, NPY_DOUBLE);
     if (!out) { Py_XDECREF(tmp); return NULL; }
@@ -228,7 +239,7 @@ static PyObject *function_time(FunctionObject *self, PyObject *args)
     size_t size = (size_t)self->entry->rows * (size_t)(self->entry->cols ? self->entry->cols : 1);
     if (!PyArg_ParseTuple(args, "Ol|d:time", &x_obj, &n, &t)) return NULL;
     if (n < 1) { PyErr_SetString(PyExc_ValueError, "n must be positive"); return NULL; }
-    x = as_vector(x_obj, MBS_NX, "x", &tmp);
+    x = as_vector(x_obj, self->entry->nin ? self->entry->nin : MBS_NX, "x", &tmp);
     if (!x) return NULL;
     out = PyMem_Malloc((size + 1) * sizeof(double));
     if (!out) { Py_XDECREF(tmp); return PyErr_NoMemory(); }

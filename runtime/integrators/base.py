@@ -23,6 +23,8 @@ from typing import Callable, ClassVar
 
 import numpy as np
 
+from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
+
 from ..errors import EvaluationError, UsageError, status_text
 
 RUNNING, FINISHED, FAILED = "running", "finished", "failed"
@@ -54,7 +56,7 @@ class OdeSolver:
     description: ClassVar[str] = ""
 
     def __init__(self, fun: Callable[[float, np.ndarray], np.ndarray], t0: float, y0, t_bound: float, *,
-                 rtol: float = 1e-6, atol=1e-9, first_step: float | None = None, max_step: float = np.inf,
+                 rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL, first_step: float | None = None, max_step: float = np.inf,
                  min_step: float = 0.0, max_steps: int = 1_000_000,
                  jac: Callable[[float, np.ndarray], np.ndarray] | None = None):
         y0 = np.array(y0, dtype=float)

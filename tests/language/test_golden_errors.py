@@ -33,5 +33,6 @@ def test_every_rule_has_a_golden_case():
     rules = {"syntax_several", "unknown_unit", "unit_mismatch_slot", "unit_mismatch_add", "duplicate_names",
              "unknown_references", "same_part", "mass_properties", "axes", "unreachable", "joint_members",
              "prescribed_state", "parameter_cycle", "component_errors", "acceleration_in_force", "scene_errors",
-             "functions", "rotations", "rigid_without_body", "binary_file", "not_utf8", "truncated"}
+             "functions", "rotations", "rigid_without_body", "binary_file", "not_utf8", "truncated", "quaternion_speeds", "inertia_about",
+             "bound_parameters"}
     assert rules <= set(CASES)

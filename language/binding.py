@@ -1,0 +1,99 @@
+"""Binding parameter values: every parameter's number, and whether the bodies are still physical with them.
+
+`mbs check` checks masses and inertias with the parameters' defaults. A scene, `--param` or a Python call may
+bind other values (a negative mass, an inertia that violates the triangle inequality); without a check here
+the run fails much later as "singular mass matrix". So every binding checks the bodies again, and a problem
+is reported at the body and at the parameter that made it so. A mass bound to zero is accepted: parameter
+studies take parts to their massless limit (the mass matrix of the whole may stay regular).
+"""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+from . import expr as X
+from . import model as M
+from .diagnostics import Diagnostic, MbsError, Span
+from .rules import body_problems
+
+
+def parameter_values(model: M.Model, overrides: Mapping[str, float | X.E] | None = None) -> dict[str, float]:
+    """Every parameter's value: overrides as given, the rest from their default expressions (which may use
+    overridden parameters: `l2 = 2 * l` follows a new `l`)."""
+    overrides = dict(overrides or {})
+    unknown = [name for name in overrides if name not in model.parameter_map]
+    if unknown:
+        raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{unknown[0]}'", None)])
+    values: dict[str, float] = {}
+
+    def value(name: str, depth: int = 0) -> float:
+        if name in values:
+            return values[name]
+        if depth > len(model.parameters):
+            raise MbsError([Diagnostic("error", f"parameter '{name}' depends on itself", None)])
+        given = overrides.get(name, model.parameter_map[name].default)
+        if isinstance(given, (int, float)):
+            result = float(given)
+        else:
+            env = {s.name: value(s.name, depth + 1) for s in X.symbols(given) if s.kind == "param"}
+            result = X.evaluate(given, env)
+        values[name] = result
+        return result
+
+    for p in model.parameters:
+        value(p.name)
+    return values
+
+
+def bound_body_problems(model: M.Model, values: Mapping[str, float], overridden: Mapping[str, Span | None],
+                        how: str = "bound") -> list[Diagnostic]:
+    """Errors for the bodies that the bound values make unphysical, each at the body, with a note at every
+    overridden parameter it depends on (at the place that set it when known, else at its declaration).
+
+    overridden: name -> where its value was set (a scene's param statement) or None (--param, Python)."""
+    out = []
+    defaults = {p.name: p.value for p in model.parameters}
+    for part in model.parts:
+        if part.body is None:
+            continue
+        problems = body_problems(part, values, massless_ok=True)
+        if not problems or body_problems(part, defaults, massless_ok=True) == problems:
+            continue  # none, or reported by `mbs check` already
+        for quantity, message in problems:
+            culprits = [name for name in _parameters_of(part.body, quantity, model) if name in overridden]
+            if not culprits:
+                continue
+            notes = tuple((f"parameter '{name}' is {_shown(values[name], model.parameter_map[name])} here ({how})",
+                           overridden[name] or model.parameter_map[name].span) for name in culprits)
+            out.append(Diagnostic("error", message, part.body.span, notes))
+    return out
+
+
+def check_bound_values(model: M.Model, values: Mapping[str, float], overridden: Mapping[str, Span | None],
+                       how: str = "bound") -> None:
+    problems = bound_body_problems(model, values, overridden, how)
+    if problems:
+        raise MbsError(problems)
+
+
+def _parameters_of(body: M.Body, quantity: str, model: M.Model) -> list[str]:
+    """The parameters the body's mass or inertia depends on, directly or through other parameters' defaults
+    (an inertia given 'about' a frame depends on the mass and the centre of mass too)."""
+    found: list[str] = []
+    todo = [body.mass] if quantity == "mass" else [c for row in body.inertia for c in row]
+    while todo:
+        for sym in X.symbols(todo.pop()):
+            if sym.kind == "param" and sym.name not in found:
+                found.append(sym.name)
+                todo.append(model.parameter_map[sym.name].default)
+    return sorted(found)
+
+
+def _shown(value: float, parameter: M.Parameter) -> str:
+    dim = parameter.dimension
+    if dim is None or dim.is_dimensionless:
+        return f"{value:g}"
+    return f"{value:g} {dim}"
+
+
+__all__ = ["parameter_values", "bound_body_problems", "check_bound_values"]
