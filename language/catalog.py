@@ -135,5 +135,6 @@ SCENE_SETTINGS = {
     "model": "word", "t_end": U.TIME, "sample": U.TIME, "integrator": "word", "rtol": U.DIMENSIONLESS,
     "atol": U.DIMENSIONLESS, "start": "word",
 }
-INTEGRATORS = ("dopri5", "rodasp", "RK45", "DOP853", "Radau", "BDF", "LSODA")  # dopri5, rodasp: in C
+INTEGRATORS = ("dopri5", "rodasp", "auto", "cvode_adams", "cvode_bdf", "ida", "RK45", "DOP853", "Radau", "BDF",
+               "LSODA")  # dopri5, rodasp, auto: in C; cvode_*, ida: SUNDIALS; the rest: scipy
 SCENE_DEFAULTS = {"t_end": 1.0, "integrator": "dopri5", "rtol": 1e-8, "atol": 1e-10, "start": "initial"}
