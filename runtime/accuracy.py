@@ -70,7 +70,8 @@ class Table:
     reference_states: np.ndarray = field(repr=False)
 
     def judged(self, row: Row) -> bool:
-        """Whether the row's error lies clearly above the reference's own (so it is a measurement)."""
+        """Whether the row's error lies clearly above the reference's own (so it is a measurement). A failed
+        run's errors cover only the samples before the failure."""
         return row.error > 10 * self.reference_error
 
     def text(self) -> str:
@@ -79,7 +80,7 @@ class Table:
                 f"{'rhs':>8} {'jac':>6} {'steps':>7} {'rejected':>8}  status")
         lines = [head]
         for r in self.rows:
-            mark = "" if self.judged(r) else " (at the reference's accuracy)"
+            mark = "" if self.judged(r) or r.status != "finished" else " (at the reference's accuracy)"
             lines.append(f"{r.integrator:<10} {r.rtol:>8.0e} {r.error:>9.2e} {r.error_end:>9.2e} "
                          f"{r.error_outputs:>9.2e} {r.wall_time:>9.3g} {r.nfev:>8} {r.njev:>6} {r.nsteps:>7} "
                          f"{r.nreject:>8}  {r.status}{mark}")
