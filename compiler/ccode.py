@@ -292,8 +292,7 @@ class CEmitter:
 
 
 #: The length of each contract function's output, as the file's size macros.
-_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY",
-                "J": "MBS_NX*(MBS_NX+1)"}
+_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY"}
 
 
 def _comment(text: str) -> str:

@@ -1,7 +1,7 @@
 """The Jacobian of the right-hand side, generated: the routine `mbs_jacobian` for the stiff integrators.
 
-    int mbs_jacobian(double t, const double *x, const double *p, double *J, double *work);
-    J: MBS_NX rows of MBS_NX + 1 columns, row-major: J[i][j] = d xdot_i / d x_j, the last column d xdot_i / d t.
+    int mbs_jacobian(double t, const double *x, const double *p, double *out, double *work);
+    out = J: MBS_NX rows of MBS_NX + 1 columns, row-major: J[i][j] = d xdot_i / d x_j, the last column d xdot_i / d t.
 
 The implicit integrators (rodasp, Radau, BDF, CVODE) need d f / d x at every step or so; by finite
 differences that is nx + 1 evaluations of the right-hand side and only half the digits. Here the derivatives
@@ -46,6 +46,6 @@ def jacobian_routine(equations: Equations) -> tuple[Equations, tuple]:
     results = [(i * (nx + 1) + k, d) for i, row in enumerate(rows) for k, d in enumerate(row)]
     kinematics = copy.copy(equations.kinematics)
     kinematics.tape = fork
-    routine = ("mbs_jacobian", "J", "J = [d xdot/d x | d xdot/d t] (nx rows, nx + 1 columns, row-major) by forward "
+    routine = ("mbs_jacobian", "out", "J = [d xdot/d x | d xdot/d t] (nx rows, nx + 1 columns, row-major) by forward "
                "differentiation of the tape", (nx, nx + 1), results, False)
     return dataclasses.replace(equations, kinematics=kinematics), routine

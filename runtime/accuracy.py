@@ -13,7 +13,8 @@ Error measure. Like the integrators' own error norm (weighted RMS over the compo
 does not change along the ladder so that errors of different tolerances compare: component i of a sample
 counts as |y_i - ref_i| / (a + |ref_i|), a = ATOL_RATIO (the atol/rtol ratio of every run of the ladder). The
 table gives the largest such norm over the samples (`error`), the norm at the end (`error_end`), and the same
-for the outputs (`error_outputs`). Wall time is the median over `repeats` runs (the machine may be shared).
+for the outputs (`error_outputs`). Wall time is the integration's (the outputs are evaluated afterwards for
+every method alike), the median over `repeats` runs (the machine may be shared).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .errors import EvaluationError
 from .integrators import get_integrator
 from .model import CompiledModel
 from .simulate import simulate
@@ -68,7 +70,8 @@ class Table:
     reference_states: np.ndarray = field(repr=False)
 
     def judged(self, row: Row) -> bool:
-        """Whether the row's error lies clearly above the reference's own (so it is a measurement)."""
+        """Whether the row's error lies clearly above the reference's own (so it is a measurement). A failed
+        run's errors cover only the samples before the failure."""
         return row.error > 10 * self.reference_error
 
     def text(self) -> str:
@@ -77,7 +80,7 @@ class Table:
                 f"{'rhs':>8} {'jac':>6} {'steps':>7} {'rejected':>8}  status")
         lines = [head]
         for r in self.rows:
-            mark = "" if self.judged(r) else " (at the reference's accuracy)"
+            mark = "" if self.judged(r) or r.status != "finished" else " (at the reference's accuracy)"
             lines.append(f"{r.integrator:<10} {r.rtol:>8.0e} {r.error:>9.2e} {r.error_end:>9.2e} "
                          f"{r.error_outputs:>9.2e} {r.wall_time:>9.3g} {r.nfev:>8} {r.njev:>6} {r.nsteps:>7} "
                          f"{r.nreject:>8}  {r.status}{mark}")
@@ -122,9 +125,9 @@ def work_precision(model: CompiledModel, data: Workspace, t_end: float, *, t_eva
     data is not changed. Integrators the back end cannot run are skipped."""
     times = np.linspace(data.t, t_end, 201) if t_eval is None else np.asarray(t_eval, dtype=float)
     tight = max(min(tolerances) * REFERENCE_FACTOR, REFERENCE_FLOOR)
-    ref, ref_y = _run(model, data, t_end, times, "dopri5" if "dopri5" in model.backend.native_methods else "RK45",
-                      tight, max_steps)
-    check, _ = _run(model, data, t_end, times, "DOP853", tight, max_steps)
+    ref, ref_y, _ = _run(model, data, t_end, times,
+                         "dopri5" if "dopri5" in model.backend.native_methods else "RK45", tight, max_steps)
+    check, _, _ = _run(model, data, t_end, times, "DOP853", tight, max_steps)
     if ref.metadata["status"] != "finished" or check.metadata["status"] != "finished":
         failed = ref if ref.metadata["status"] != "finished" else check
         raise RuntimeError(f"the reference run failed ({failed.metadata['integrator']}): {failed.message}")
@@ -138,9 +141,8 @@ def work_precision(model: CompiledModel, data: Workspace, t_end: float, *, t_eva
         for rtol in tolerances:
             walls, res = [], None
             for _ in range(max(1, repeats)):
-                started = time.perf_counter()
-                res, ys = _run(model, data, t_end, times, name, rtol, max_steps)
-                walls.append(time.perf_counter() - started)
+                res, ys, wall = _run(model, data, t_end, times, name, rtol, max_steps)
+                walls.append(wall)
             states = _states(model, res)
             n = states.shape[0]
             error = _error(states, states_ref[:n]) if n else float("nan")
@@ -154,13 +156,22 @@ def work_precision(model: CompiledModel, data: Workspace, t_end: float, *, t_eva
 
 
 def _run(model, data, t_end, times, integrator, rtol, max_steps):
-    """One run from data's start on a private workspace: (results, outputs or None)."""
+    """One run from data's start on a private workspace: (results, outputs or None, wall time [s]). The wall
+    time is the integration's; the outputs are evaluated afterwards, outside it, the same way for every method."""
     run = Workspace(model)
     run.p, run.t, run.x = data.p, data.t, data.x.copy()
+    started = time.perf_counter()
     res = simulate(model, run, t_end, t_eval=times, integrator=integrator, rtol=rtol, atol=ATOL_RATIO * rtol,
-                   max_steps=max_steps)
-    ys = np.column_stack([res[n] for n in model.y_names]) if model.ny and len(res[model.x_names[0]]) else None
-    return res, ys
+                   max_steps=max_steps, outputs=False)
+    wall = time.perf_counter() - started
+    ys = None
+    if model.ny and "outputs" in model.functions and len(res.t):
+        f = run.function("outputs")
+        try:
+            ys = np.array([f(t, x) for t, x in zip(res.t, _states(model, res))])
+        except EvaluationError:
+            ys = None
+    return res, ys, wall
 
 
 def _states(model, res) -> np.ndarray:
