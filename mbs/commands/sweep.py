@@ -43,7 +43,7 @@ class Sweep:
     @staticmethod
     def run(args) -> int:
         import mbs
-        from mbs.studies import local_cluster, sweep
+        from mbs.studies import sweep
 
         from .simulate import PLOT_FORMATS
         _check_outputs(args, PLOT_FORMATS)
@@ -52,17 +52,14 @@ class Sweep:
         system.scene(scene)
         swept, fixed = sweep_values(args.param, system.model)
         kind, n = _design(args.design)
-        client = local_cluster(args.workers) if args.workers and not args.scheduler else None
         bar = CountBar()
         try:
             table = sweep(system, scene, swept, design=kind, n=n, seed=args.seed, metrics=args.metric or None,
-                          fixed=fixed, scheduler=args.scheduler, client=client, progress=bar, t_end=args.t_end,
-                          sample=args.sample, integrator=args.integrator, rtol=args.rtol, atol=args.atol)
+                          fixed=fixed, scheduler=args.scheduler, workers=args.workers, progress=bar,
+                          t_end=args.t_end, sample=args.sample, integrator=args.integrator, rtol=args.rtol,
+                          atol=args.atol)
         finally:
             bar.close()
-            if client is not None:
-                client.close()
-                client.cluster.close()
         for path in args.out:
             (table.to_csv if Path(path).suffix.lower() == ".csv" else table.to_hdf5)(path)
             print(f"table written to {path}")

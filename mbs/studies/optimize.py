@@ -25,7 +25,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .metrics import parse
 from .package import ModelPackage
-from .sweep import local_cluster, run_on_dask
+from .sweep import dask_client, run_on_dask
 from .variant import Outcome, Variant
 
 _CONSTRAINT = re.compile(r"^(.*?)(<=|>=)\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*$")
@@ -123,11 +123,7 @@ def optimize(system, scene: str | None, objective: str, bounds: Mapping[str, tup
     compiled = system.compile(scene)
     columns = ("time",) + compiled.x_names + compiled.y_names
     metrics = [parse(objective, columns).text] + [parse(c.metric, columns).text for c in limits]
-    own = client is None
-    if own:
-        from distributed import Client
-        client = Client(scheduler) if scheduler else local_cluster()
-    try:
+    with dask_client(scheduler, client) as client:
         names = list(bounds)
         ev = _Evaluator(system, scene, names, metrics, fixed, client)
         history: list[dict] = []
@@ -158,12 +154,6 @@ def optimize(system, scene: str | None, objective: str, bounds: Mapping[str, tup
                                         maxiter=maxiter, popsize=popsize, seed=seed, tol=tol, polish=False,
                                         vectorized=True, updating="deferred", callback=callback, init="sobol")
         best = ev.batch(np.asarray(result.x, dtype=float).reshape(-1, 1))[0]
-    finally:
-        if own:
-            cluster = getattr(client, "cluster", None)
-            client.close()
-            if cluster is not None:
-                cluster.close()
     values = {c.metric: best.metrics[c.metric] for c in limits}
     feasible = best.status == "finished" and all(c.violation(values[c.metric]) == 0 for c in limits)
     optimum = Optimum(dict(best.values), metrics[0], best.metrics[metrics[0]], values, feasible, len(ev.rows), history,

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import os
+from contextlib import contextmanager
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -33,12 +34,13 @@ Progress = Callable[[int, int], None]
 
 def sweep(system, scene: str | None, params: Mapping[str, Sequence[float]], *, design: str = "grid",
           n: int | None = None, seed: int = 0, metrics: Sequence[str] | None = None, fixed: Mapping | None = None,
-          scheduler: str | None = None, client=None, progress: Progress | None = None, t_end: float | None = None,
-          sample: float | None = None, integrator: str | None = None, rtol: float | None = None,
-          atol: float | None = None) -> StudyTable:
+          scheduler: str | None = None, client=None, workers: int | None = None, progress: Progress | None = None,
+          t_end: float | None = None, sample: float | None = None, integrator: str | None = None,
+          rtol: float | None = None, atol: float | None = None) -> StudyTable:
     """Run every variant of the design (values of `params`, SI units) and measure it; `fixed` parameters are set
-    in every run. Metrics default to the peak and final value of each of the scene's outputs. Returns the
-    table in variant order; failed variants are rows with NaN metrics and their message."""
+    in every run. Metrics default to the peak and final value of each of the scene's outputs. The runs go to
+    `client`, else to the cluster at `scheduler`, else to a local cluster of `workers` processes (default: one
+    per core). Returns the table in variant order; failed variants are rows with NaN metrics and their message."""
     from mbs.system import _settings
     sc = system.scene(scene)
     compiled = system.compile(scene)
@@ -62,7 +64,8 @@ def sweep(system, scene: str | None, params: Mapping[str, Sequence[float]], *, d
                                 start))
     package = ModelPackage.of(system, scene)
     rows = early + run_on_dask(package, variants, tuple(m.text for m in parsed), scheduler=scheduler,
-                               client=client, progress=progress, done=len(early), total=len(points))
+                               client=client, workers=workers, progress=progress, done=len(early),
+                               total=len(points))
     rows.sort(key=lambda row: row.index)
     units = pipeline.units_of(gen)
     metadata = {"model": system.model.name, "scene": scene, "design": design if design == "grid" else
@@ -93,19 +96,34 @@ def local_cluster(workers: int | None = None):
     return Client(cluster)
 
 
+@contextmanager
+def dask_client(scheduler: str | None = None, client=None, workers: int | None = None):
+    """The given Client; else one on the scheduler at `scheduler`; else one on a new local cluster. What this
+    opened it closes on exit (a cluster the caller named keeps running)."""
+    if client is not None:
+        yield client
+        return
+    from distributed import Client
+    client = Client(scheduler) if scheduler else local_cluster(workers)
+    try:
+        yield client
+    finally:
+        cluster = None if scheduler else client.cluster
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
 def run_on_dask(package, variants: Sequence[Variant], metrics: tuple[str, ...], *,
-                scheduler: str | None = None, client=None, progress: Progress | None = None, done: int = 0,
-                total: int | None = None) -> list[Outcome]:
+                scheduler: str | None = None, client=None, workers: int | None = None,
+                progress: Progress | None = None, done: int = 0, total: int | None = None) -> list[Outcome]:
     """Outcomes of the variants, run as Dask tasks (a lost worker fails its variants, not the study). `package` is
     a ModelPackage, or the future of one already scattered to the cluster (a caller running many batches)."""
-    from distributed import Client, as_completed
+    from distributed import as_completed
     total = len(variants) + done if total is None else total
     if not variants:
         return []
-    own = client is None
-    if own:
-        client = Client(scheduler) if scheduler else local_cluster()
-    try:
+    with dask_client(scheduler, client, workers) as client:
         shipped = client.scatter(package, broadcast=True, hash=False) if isinstance(package, ModelPackage) else package
         futures = {client.submit(run_variant, shipped, v, metrics, pure=False): v for v in variants}
         outcomes = []
@@ -120,9 +138,3 @@ def run_on_dask(package, variants: Sequence[Variant], metrics: tuple[str, ...], 
             if progress is not None:
                 progress(done, total)
         return outcomes
-    finally:
-        if own:
-            cluster = getattr(client, "cluster", None)
-            client.close()
-            if cluster is not None:
-                cluster.close()

@@ -43,7 +43,7 @@ def test_pendulum_bob_follows_the_hinge_angle():
 
 
 def test_quarter_car_road_moves_under_the_tyre_and_has_the_bump():
-    system, res, anim = make("library/iltis/quarter_car.mbs", "bump_5")
+    system, res, anim = make("library/iltis/quarter_car.mbs", "bump_5", t_end=1.0)
     (road,) = anim.roads
     assert road["moving"] and road["z"].shape == (len(anim.t), road["x"].size)
     assert np.max(road["z"]) == pytest.approx(0.2, abs=1e-3)  # the benchmark's cosine bump, 0.1 m * (1 - cos)
@@ -71,6 +71,7 @@ def chromium(*args, url):
     return subprocess.run(command, capture_output=True, text=True, timeout=120)
 
 
+@pytest.mark.slow  # three browser starts, 15 s
 @pytest.mark.skipif(CHROMIUM is None, reason="no Chromium installed (Debian: apt-get install chromium): the page "
                                              "is not rendered")
 def test_page_renders_in_headless_chromium_and_moves(tmp_path):

@@ -97,3 +97,16 @@ def test_iltis_quarter_car_over_strut_damping_and_speed(dask_client):
     load = table["peak(tyre.radial.load)"].reshape(3, 2)
     assert np.all(load[:, 1] > load[:, 0])  # a faster bump, a harder hit, at every damping
     assert len(set(np.round(load[:, 1], 3))) == 3  # the damping scale reaches the strut
+
+
+def test_numpy_back_end_package_runs_on_the_workers(dask_client):
+    """Without a C compiler the package carries the generated NumPy module: the same periods as the C model."""
+    lengths = [0.5, 2.0]
+    rows = {}
+    for backend in ("numpy", "c"):
+        system = mbs.load("library/examples/pendulum.mbs", backend=backend)
+        table = sweep(system, "swing", {"l": lengths}, metrics=["period(hinge.phi)"], t_end=3.0, integrator="DOP853",
+                      client=dask_client)
+        assert not table.failed, table.failed[0].message
+        rows[backend] = table["period(hinge.phi)"]
+    np.testing.assert_allclose(rows["numpy"], rows["c"], rtol=1e-6)
