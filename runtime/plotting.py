@@ -67,14 +67,15 @@ def figure(runs: Mapping[str, object], names: Sequence[str], *, title: str = "")
         for k, (label, res) in enumerate(runs.items()):
             for j, name in enumerate(members):
                 line_label = name if len(runs) == 1 else (f"{name}, {label}" if len(members) > 1 else label)
-                ax.plot(res.t, res[name], STYLES[k % len(STYLES)], color=f"C{j}", lw=1.3, label=line_label)
+                color = f"C{k}" if len(members) == 1 else f"C{j}"  # one channel: a colour per run
+                ax.plot(res.t, res[name], STYLES[k % len(STYLES)], color=color, lw=1.3, label=line_label)
             if not res.success and len(res):
                 ax.axvline(res.t[-1], color="tab:red", lw=0.8, ls=":")
-        quantity = QUANTITY.get(unit or "", "") if len(members) > 1 or unit in QUANTITY else ""
-        if len(members) == 1 and len(runs) == 1:
+        if len(members) == 1:
             ax.set_ylabel(f"{members[0]} [{unit}]" if unit else members[0])
         else:
-            ax.set_ylabel(f"{quantity or 'value'} [{unit}]" if unit else members[0])
+            ax.set_ylabel(f"{QUANTITY.get(unit, 'value')} [{unit}]")
+        if len(members) > 1 or len(runs) > 1:
             ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time [s]")
