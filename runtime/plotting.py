@@ -20,13 +20,14 @@ LINES_PER_PANEL = 6
 #: Readable quantity for an axis, by unit (the unit itself is shown too).
 QUANTITY = {"m": "length", "rad": "angle", "m/s": "velocity", "rad/s": "angular velocity", "m/s^2": "acceleration",
             "rad/s^2": "angular acceleration", "N": "force", "N*m": "torque", "W": "power", "Pa": "pressure",
-            "kg": "mass", "s": "time", "1": "ratio"}
+            "kg": "mass", "s": "time"}
 STYLES = ("-", "--", ":", "-.")
 
 
 def panels(names: Sequence[str], units: Mapping[str, str]) -> list[tuple[str | None, list[str]]]:
     """[(unit, names)]: the channels grouped by unit in order of first appearance, groups of more than
-    LINES_PER_PANEL split; a channel without a unit is a group of its own."""
+    LINES_PER_PANEL split between owners (the components of one joint or sensor stay together); a channel
+    without a unit is a group of its own."""
     groups: dict[object, list[str]] = {}
     for name in names:
         key = units.get(name) or ("", name)
@@ -34,8 +35,17 @@ def panels(names: Sequence[str], units: Mapping[str, str]) -> list[tuple[str | N
     out = []
     for key, members in groups.items():
         unit = key if isinstance(key, str) else None
-        for i in range(0, len(members), LINES_PER_PANEL):
-            out.append((unit, members[i:i + LINES_PER_PANEL]))
+        owners: dict[str, list[str]] = {}  # a joint's or sensor's components stay in one panel: ab.qw .. ab.qz
+        for name in members:
+            owners.setdefault(name.rsplit(".", 1)[0], []).append(name)
+        panel: list[str] = []
+        for together in owners.values():
+            if panel and len(panel) + len(together) > LINES_PER_PANEL:
+                out.append((unit, panel))
+                panel = []
+            panel += together
+        if panel:
+            out.append((unit, panel))
     return out
 
 
