@@ -12,6 +12,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import gc
+import os
 from pathlib import Path
 
 from lark import Lark, Token
@@ -28,8 +29,14 @@ MAX_SYNTAX_ERRORS = 20  # beyond this, recovery mostly reports consequences of e
 
 @functools.lru_cache(maxsize=1)
 def _lark() -> Lark:
-    lark = Lark(GRAMMAR_FILE.read_text(), parser="lalr", lexer=MbsLexer, start=["start", "expr_only"],
-                maybe_placeholders=False, cache=_table_cache())
+    grammar = GRAMMAR_FILE.read_text()
+    final = _table_cache(grammar)
+    fresh = final is not None and not final.exists()
+    cache = False if final is None else str(final.with_name(f".{final.name}.{os.getpid()}.tmp") if fresh else final)
+    lark = Lark(grammar, parser="lalr", lexer=MbsLexer, start=["start", "expr_only"],
+                maybe_placeholders=False, cache=cache)
+    if fresh and os.path.exists(cache):
+        os.replace(cache, final)  # lark writes in place; readers in other processes see the whole file or none
     # lark names rules by Tokens, whose Python-level __eq__ then runs in the goto lookup after every
     # reduction (~8 % of parsing); plain strings are equal and hash the same.
     for rule in lark.rules:
@@ -37,16 +44,22 @@ def _lark() -> Lark:
     return lark
 
 
-def _table_cache() -> str | bool:
-    """The file lark keeps its LALR tables in (building them is most of a small model's check time); lark
-    stores the grammar's hash inside and rebuilds on a mismatch. False (no cache) when it cannot be made."""
+def _table_cache(grammar: str) -> Path | None:
+    """The file lark keeps its LALR tables in (building them is most of a small model's check time), named by
+    the hash of the grammar and lark's version, so a changed grammar gets a new file; None when the cache folder
+    cannot be made."""
+    import hashlib
+
+    import lark as lark_module
+
     from mbs.cachedir import default_cache_dir
+    key = hashlib.sha256(f"{grammar}\0{lark_module.__version__}".encode()).hexdigest()[:24]
     try:
-        folder = default_cache_dir()
+        folder = default_cache_dir() / "parser"
         folder.mkdir(parents=True, exist_ok=True)
     except OSError:
-        return False
-    return str(folder / "grammar.lark-tables")
+        return None
+    return folder / f"grammar-{key}.lark-tables"
 
 
 # ------------------------------------------------------------------------------------------ lark -> AST

@@ -25,7 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", dest="log_verbose", action="count", default=0,
                         help="say what happens (compile phases, build cache hit or miss, times); -vv for details")
     parser.add_argument("-q", "--quiet", dest="log_quiet", action="store_true",
-                        help="errors only (no warnings)")
+                        help="errors only (no warnings, no notes of compile phases slower than a second)")
     parser.add_argument("--debug", action="store_true", help="show Python tracebacks of internal errors")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, command in COMMANDS.items():
@@ -64,8 +64,8 @@ def main(argv: list[str] | None = None) -> int:
 def _configure_logging(verbose: int, quiet: bool) -> None:
     """The library logs through `logging` (logger 'mbs.*'); the command shows it on stderr."""
     import logging
-    level = logging.ERROR if quiet else (logging.WARNING, logging.INFO)[min(verbose, 1)] if verbose < 2 \
-        else logging.DEBUG
+    note = 25  # mbs.pipeline.NOTE: compile phases slower than a second (not importing the pipeline here)
+    level = logging.ERROR if quiet else (note, logging.INFO)[min(verbose, 1)] if verbose < 2 else logging.DEBUG
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("mbs: %(message)s"))
     logger = logging.getLogger("mbs")

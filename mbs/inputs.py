@@ -57,7 +57,9 @@ def _unit(dim):
 
 
 def input_values(model: M.Model, scene: M.Scene | None, params: Mapping[str, float], t: float) -> dict[str, float]:
-    """Every input's value at time t as the model (or scene) defines it: the operating point of a linearisation."""
+    """Every input's value at time t as the model (or scene) defines it: the operating point of a linearisation.
+    An input that reads the state (a road under a moving tyre) has no such value and is left out: it stays the
+    model's expression, and the state space has no column for it."""
     exprs = {i.name: i.value for i in model.inputs}
     if scene is not None:
         exprs.update(dict(scene.inputs))
@@ -69,14 +71,16 @@ def input_values(model: M.Model, scene: M.Scene | None, params: Mapping[str, flo
                 raise MbsError([Diagnostic("error", f"input '{name}' depends on itself", None)])
             env = dict(params, t=t)
             env.update({s.name: value(s.name, depth + 1) for s in X.symbols(exprs[name]) if s.kind == "input"})
-            try:
-                values[name] = X.evaluate(exprs[name], env)
-            except X.EvaluationError as exc:
-                raise MbsError([Diagnostic("error", f"input '{name}' at t = {t:g} s cannot be evaluated: {exc} "
-                                                    "(inputs of states cannot be linearised about)", None)]) from None
+            values[name] = X.evaluate(exprs[name], env)
         return values[name]
 
-    return {name: value(name) for name in exprs}
+    out = {}
+    for name in exprs:
+        try:
+            out[name] = value(name)
+        except (X.EvaluationError, KeyError):
+            continue
+    return out
 
 
 # ------------------------------------------------------------------------------------------ driving a run

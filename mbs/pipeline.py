@@ -133,8 +133,15 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
                      tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
 
 
+#: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by
+#: the command line unless -q, so a compile of half a minute says what it is doing even without a terminal.
+NOTE = 25
+SLOW_PHASE = 1.0
+logging.addLevelName(NOTE, "NOTE")
+
+
 class _Phases:
-    """Logs each compile phase with its time (`mbs -v`): a long compile says what it is doing."""
+    """Logs each compile phase with its time (all of them with `mbs -v`, the slow ones always)."""
 
     def __init__(self, what: str):
         self.what = what
@@ -143,7 +150,8 @@ class _Phases:
 
     def __call__(self, phase: str) -> None:
         now = time.perf_counter()
-        _log.info("%s: %s in %.2f s", self.what, phase, now - self.last)
+        took = now - self.last
+        _log.log(NOTE if took > SLOW_PHASE else logging.INFO, "%s: %s in %.2f s", self.what, phase, took)
         self.last = now
 
 

@@ -115,8 +115,9 @@ def load_c(path: str | os.PathLike | None = None, *, code: str | None = None,
     options = dict(cache_dir=cache_dir, extra_flags=extra_flags)
     started = time.perf_counter()
     result = _build.build_file(path, **options) if code is None else _build.build(code, **options)
-    _log.info("C build of %s: cache %s, %.2f s", info.get("name", "model"), "hit" if result.cached else "miss",
-              time.perf_counter() - started)
+    took = time.perf_counter() - started
+    _log.log(25 if took > 1.0 else logging.INFO, "C build of %s: cache %s, %.2f s", info.get("name", "model"),
+             "hit" if result.cached else "miss", took)  # 25: mbs.pipeline.NOTE, a slow step shown by default
     _log.debug("C build product: %s", getattr(result, "path", "?"))
     return CompiledModel.from_backend(CBackend(_build.load(result)), **info)
 

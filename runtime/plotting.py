@@ -20,13 +20,14 @@ LINES_PER_PANEL = 6
 #: Readable quantity for an axis, by unit (the unit itself is shown too).
 QUANTITY = {"m": "length", "rad": "angle", "m/s": "velocity", "rad/s": "angular velocity", "m/s^2": "acceleration",
             "rad/s^2": "angular acceleration", "N": "force", "N*m": "torque", "W": "power", "Pa": "pressure",
-            "kg": "mass", "s": "time", "1": "ratio"}
+            "kg": "mass", "s": "time"}
 STYLES = ("-", "--", ":", "-.")
 
 
 def panels(names: Sequence[str], units: Mapping[str, str]) -> list[tuple[str | None, list[str]]]:
     """[(unit, names)]: the channels grouped by unit in order of first appearance, groups of more than
-    LINES_PER_PANEL split; a channel without a unit is a group of its own."""
+    LINES_PER_PANEL split between owners (the components of one joint or sensor stay together); a channel
+    without a unit is a group of its own."""
     groups: dict[object, list[str]] = {}
     for name in names:
         key = units.get(name) or ("", name)
@@ -34,8 +35,17 @@ def panels(names: Sequence[str], units: Mapping[str, str]) -> list[tuple[str | N
     out = []
     for key, members in groups.items():
         unit = key if isinstance(key, str) else None
-        for i in range(0, len(members), LINES_PER_PANEL):
-            out.append((unit, members[i:i + LINES_PER_PANEL]))
+        owners: dict[str, list[str]] = {}  # a joint's or sensor's components stay in one panel: ab.qw .. ab.qz
+        for name in members:
+            owners.setdefault(name.rsplit(".", 1)[0], []).append(name)
+        panel: list[str] = []
+        for together in owners.values():
+            if panel and len(panel) + len(together) > LINES_PER_PANEL:
+                out.append((unit, panel))
+                panel = []
+            panel += together
+        if panel:
+            out.append((unit, panel))
     return out
 
 
@@ -67,14 +77,15 @@ def figure(runs: Mapping[str, object], names: Sequence[str], *, title: str = "")
         for k, (label, res) in enumerate(runs.items()):
             for j, name in enumerate(members):
                 line_label = name if len(runs) == 1 else (f"{name}, {label}" if len(members) > 1 else label)
-                ax.plot(res.t, res[name], STYLES[k % len(STYLES)], color=f"C{j}", lw=1.3, label=line_label)
+                color = f"C{k}" if len(members) == 1 else f"C{j}"  # one channel: a colour per run
+                ax.plot(res.t, res[name], STYLES[k % len(STYLES)], color=color, lw=1.3, label=line_label)
             if not res.success and len(res):
                 ax.axvline(res.t[-1], color="tab:red", lw=0.8, ls=":")
-        quantity = QUANTITY.get(unit or "", "") if len(members) > 1 or unit in QUANTITY else ""
-        if len(members) == 1 and len(runs) == 1:
+        if len(members) == 1:
             ax.set_ylabel(f"{members[0]} [{unit}]" if unit else members[0])
         else:
-            ax.set_ylabel(f"{quantity or 'value'} [{unit}]" if unit else members[0])
+            ax.set_ylabel(f"{QUANTITY.get(unit, 'value')} [{unit}]")
+        if len(members) > 1 or len(runs) > 1:
             ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.0, 0.5), frameon=False)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("time [s]")

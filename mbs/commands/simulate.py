@@ -221,7 +221,7 @@ def _summary(system, scene, res, args) -> None:
     units = res.units
     for name in requested_outputs(system, scene, res) if len(res) else []:
         column = res[name]
-        unit = f" {units[name]}" if name in units else ""
+        unit = f" {units[name]}" if units.get(name, "1") != "1" else ""  # a plain number: no unit shown
         print(f"  {name:32s} final {column[-1]: .6g}{unit}   (min {column.min(): .4g}, max {column.max(): .4g})")
     for what, path in (("results", args.out), ("plot", args.plot)):
         if path:

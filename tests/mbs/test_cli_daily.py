@@ -76,3 +76,15 @@ def test_help_and_check_do_not_load_sympy_or_scipy():
             "print(sorted(m for m in ('sympy', 'scipy', 'matplotlib', 'mbs.compiler') if m in sys.modules))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.strip().splitlines()[-1] == "[]"
+
+
+def test_slow_compile_phases_are_noted_without_verbose(capsys, monkeypatch):
+    """A compile phase over SLOW_PHASE seconds is shown by default (a long compile in a CI log is not silent);
+    here every phase counts as slow."""
+    from mbs import pipeline
+    monkeypatch.setattr(pipeline, "SLOW_PHASE", -1.0)
+    assert main(["simulate", PENDULUM, "--t-end", "0.1"]) == 0
+    err = capsys.readouterr().err
+    assert "derived the equations of motion in" in err and "compiling pendulum" not in err  # start line: -v
+    assert main(["-q", "simulate", PENDULUM, "--t-end", "0.1"]) == 0
+    assert capsys.readouterr().err == ""

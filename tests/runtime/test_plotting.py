@@ -18,6 +18,9 @@ def test_channels_are_grouped_by_unit_and_split_when_crowded():
     units = {f"x{i}": "m" for i in range(8)} | {"f": "N"}
     layout = plotting.panels([*units, "free"], units)
     assert [(u, len(n)) for u, n in layout] == [("m", 6), ("m", 2), ("N", 1), (None, 1)]
+    quaternions = {f"{j}.q{c}": "1" for j in ("top", "ab") for c in "wxyz"}
+    assert [names for _, names in plotting.panels(list(quaternions), quaternions)] == [
+        ["top.qw", "top.qx", "top.qy", "top.qz"], ["ab.qw", "ab.qx", "ab.qy", "ab.qz"]]
 
 
 def test_figure_has_one_panel_per_unit_and_notes_zero_channels(tmp_path):
