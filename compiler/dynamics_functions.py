@@ -48,7 +48,8 @@ def dynamics_routines(kin: Kinematics) -> tuple[list, tuple]:
          "accelerations a under every load of the model", (nv,), list(enumerate(tau)), False),
         ("mbs_bias_forces", "mbs_bias", "b = k - q_gravity: Coriolis, centrifugal, gyroscopic forces and weights",
          (nv,), list(enumerate(bias)), False),
-        ("mbs_gravity_forces", "mbs_gravity", "g = -q_gravity: the generalized weights", (nv,), list(enumerate(gravity)),
+        ("mbs_gravity_forces", "mbs_gravity", "g = -q_gravity: the generalized weights", (nv,),
+         list(enumerate(gravity)),
          False),
     ]
     inputs = tuple((s, "x", nx + k) for k, s in enumerate(acc))
@@ -131,4 +132,5 @@ def tape_jacobian(tape, outputs, variables, name: str) -> list[list]:
     return [differentiate(sp.sympify(e), f"{name}{k}") for k, e in enumerate(outputs)]
 
 
-__all__ = ["DYNAMICS_FUNCTIONS", "acceleration_symbols", "dynamics_routines", "frame_routines", "tape_jacobian", "named_frames"]
+__all__ = ["DYNAMICS_FUNCTIONS", "acceleration_symbols", "dynamics_routines", "frame_routines", "tape_jacobian",
+           "named_frames"]

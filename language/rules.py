@@ -186,4 +186,5 @@ def degrees_of_freedom_estimate(model: M.Model) -> int:
     return count
 
 
-__all__ = ["check_model", "body_problems", "check_topology", "find_loops", "joint_graph", "degrees_of_freedom_estimate", "math"]
+__all__ = ["check_model", "body_problems", "check_topology", "find_loops", "joint_graph",
+           "degrees_of_freedom_estimate", "math"]

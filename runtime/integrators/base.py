@@ -56,8 +56,8 @@ class OdeSolver:
     description: ClassVar[str] = ""
 
     def __init__(self, fun: Callable[[float, np.ndarray], np.ndarray], t0: float, y0, t_bound: float, *,
-                 rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL, first_step: float | None = None, max_step: float = np.inf,
-                 min_step: float = 0.0, max_steps: int = 1_000_000,
+                 rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL, first_step: float | None = None,
+                 max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
                  jac: Callable[[float, np.ndarray], np.ndarray] | None = None):
         y0 = np.array(y0, dtype=float)
         if y0.ndim != 1:
