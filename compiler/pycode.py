@@ -122,14 +122,17 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
+                 events=(), actions=(),
                  run_time_inputs=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.run_time_inputs = tuple(run_time_inputs)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
+        self.events = tuple((str(name), sp.sympify(e)) for name, e in events)
+        self.actions = tuple((str(name), sp.sympify(e)) for name, e in actions)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
+        check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, run_time_inputs=self.run_time_inputs)
         self.naming = Naming(equations, self.parameters, self.run_time_inputs)
 
     def source(self) -> str:
@@ -137,7 +140,7 @@ class PyEmitter:
         functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
                                                  inline_max_chars=self.inline_max_chars))
-                     for name, out, doc, shape, results, positive in equation_routines(self.eqs, self.outputs)]
+                     for name, out, doc, shape, results, positive in equation_routines(self.eqs, self.outputs, self.events, self.actions)]
         used = printer.used | {"sqrt"}  # mbs_positive_definite
         if self.tables:
             used.add("mbs_lookup")
@@ -173,6 +176,10 @@ class PyEmitter:
                  f"MBS_NWORK = {tree.nv * tree.nv}  # doubles of work memory (the C file's size; unused here)"]
         if self.outputs:
             lines.append(f"MBS_NY = {len(self.outputs)}  # outputs")
+        if self.events:
+            lines.append(f"MBS_NEV = {len(self.events)}  # event indicators (mbs_events)")
+        if self.actions:
+            lines.append(f"MBS_NACT = {len(self.actions)}  # values of event actions (mbs_event_actions)")
         lines += [f"MBS_STATE_NAMES = {tuple(names)!r}",
                   f"MBS_PARAMETER_NAMES = {tuple(s.name for s in self.parameters)!r}"]
         if self.outputs:
@@ -237,10 +244,11 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=()) -> str:
+                   run_time_inputs=(), events=(), actions=()) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
+                     events=events, actions=actions,
                      inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs).source()
 
 

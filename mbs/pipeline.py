@@ -19,6 +19,7 @@ import sympy as sp
 
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
+from mbs.compiler.events import FROZEN, event_code
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
@@ -44,6 +45,7 @@ class Generated:
     p_names: tuple[str, ...]
     y_names: tuple[str, ...]
     constraints: Constraints | None = None   # loop-closure constraints of the cut joints (None: a tree)
+    events: tuple = ()   # per indicator of mbs_events: name, direction, terminal, assignments, switch (events.py)
 
 
 def display_name(symbol_name: str) -> str:
@@ -60,15 +62,21 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
-    parameters = [parameter_symbol(p.name) for p in model.parameters]
+    switch_flags = [s.symbol for s in lowered.switches]
+    # switch flags and the frozen flag are run-time values after the parameters (compiler/events.py)
+    parameters = [parameter_symbol(p.name) for p in model.parameters] + switch_flags + ([FROZEN] if switch_flags else [])
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
-    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
     tree = lowered.tree
+    state_names = tuple(display_name(s.name) for s in tree.q_symbols + tree.v_symbols)
+    p_names = tuple(s.name for s in parameters)
+    indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names, tree.nq, p_names)
+    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
+                   events=indicators, actions=action_values)
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     return Generated(model, scene, lowered, equations,
@@ -76,7 +84,7 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
                      numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
+                     p_names, tuple(name for name, _ in outputs), constraints, event_table)
 
 
 # ------------------------------------------------------------------------------------------ parameters

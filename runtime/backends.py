@@ -33,6 +33,9 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "forces": ("NV",),
     "qdot": ("NQ",),
     "outputs": ("NY",),
+    # models with events (compiler/events.py): indicators and the values their actions assign
+    "events": ("NEV",),
+    "event_actions": ("NACT",),
     # models with closed loops (NC constraint rows; runtime/c/loops.c)
     "constraints": ("NC",),
     "constraint_velocity": ("NC",),
@@ -90,6 +93,7 @@ class NumpyBackend:
         except AttributeError as exc:
             raise UsageError(f"{module.__name__} is not a generated model module: {exc}") from None
         self.sizes["NY"] = int(getattr(module, "MBS_NY", 0))
+        self.sizes.update(NEV=int(getattr(module, "MBS_NEV", 0)), NACT=int(getattr(module, "MBS_NACT", 0)))
         self.functions = {}
         for name, dims in FUNCTION_SHAPES.items():
             fn = getattr(module, "mbs_" + name, None)

@@ -23,6 +23,9 @@ from mbs.atomic import atomic_path
 from .errors import SimulationError, UsageError
 
 TIME = "time"
+EVENT_COLUMNS = ("time", "event", "direction", "changes")
+#: A plot marks at most this many events (a chattering contact would paint the plot grey).
+MAX_EVENT_MARKS = 500
 
 
 def _jsonable(value):
@@ -40,7 +43,7 @@ class Results:
     holds model, integrator, tolerances, status ("finished", "failed", "stopped") and message.
     """
 
-    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None):
+    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None):
         self.names = tuple(str(n) for n in names)
         data = np.array(data, dtype=float, ndmin=2)
         if data.size == 0:
@@ -55,6 +58,8 @@ class Results:
         data.flags.writeable = False
         self.data = data
         self.metadata = dict(metadata or {})
+        #: the event log: one dict per event with time [s], event (name), direction, changes (what it set)
+        self.events: list[dict] = list(events or [])
         self._index = {n: i for i, n in enumerate(self.names)}
 
     # -- access ----------------------------------------------------------------------------------
@@ -107,6 +112,16 @@ class Results:
             np.savetxt(f, self.data, delimiter=",", fmt="%.17g")
         return Path(path)
 
+    def to_events_csv(self, path: str | os.PathLike) -> Path:
+        """Write the event log as CSV (columns time, event, direction, changes) atomically; returns the path."""
+        import csv
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as f:
+            writer = csv.writer(f, lineterminator="\n")
+            writer.writerow(EVENT_COLUMNS)
+            for row in self.events:
+                writer.writerow([repr(float(row["time"])), row["event"], row["direction"], row["changes"]])
+        return Path(path)
+
     @classmethod
     def from_csv(cls, path: str | os.PathLike) -> "Results":
         metadata, header, rows = {}, None, []
@@ -151,6 +166,8 @@ class Results:
         axes = fig.subplots(len(names), 1, sharex=True, squeeze=False)[:, 0]
         for ax, name in zip(axes, names):
             ax.plot(self.t, self[name])
+            for row in self.events[:MAX_EVENT_MARKS]:  # events as thin vertical lines
+                ax.axvline(row["time"], color="tab:gray", linewidth=0.5, alpha=0.5)
             ax.set_ylabel(f"{name} [{units[name]}]" if name in units else name)
             ax.grid(True, alpha=0.3)
         axes[-1].set_xlabel("time [s]")

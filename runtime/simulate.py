@@ -17,6 +17,7 @@ import numpy as np
 
 from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
+from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED, get_integrator
 from .model import CompiledModel
 from .results import TIME, Results
@@ -76,8 +77,11 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     times = output_times(t0, t_end, t_eval, sample)
     cls = get_integrator(integrator or default_integrator(model))
     started = time.perf_counter()
-    solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
-                 max_step=max_step, min_step=min_step, max_steps=max_steps)
+    options = dict(rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, min_step=min_step,
+                   max_steps=max_steps)
+    if model.events:
+        return _simulate_events(model, data, cls, times, t_end, options, outputs, progress, started)
+    solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, **options)
     states = np.empty((times.size, model.nx))
     status, filled = _run(solver, times, states, progress, t_end)
     message = solver.message if status == FAILED else ""
@@ -111,6 +115,51 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
     return Results(names, np.hstack(columns), metadata)
+
+
+def _simulate_events(model, data, cls, times, t_end, options, outputs, progress, started) -> Results:
+    """simulate() for a model with events (runtime/event_loop.py): rows at both sides of every event, outputs
+    evaluated with the modes and parameters in force, the event log in ``res.events``."""
+    t0 = float(data.t)
+
+    def make_solver(t, y, events):
+        return cls(data.function("rhs"), t, y, t_end, events=events, **options)
+
+    segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, progress)
+    ts, xs, which = segments.arrays(model.nx)
+    if "project" in model.functions and len(ts):
+        projected = project_samples(data, ts, xs)
+        if projected < len(ts):
+            ts, xs, which = ts[:projected], xs[:projected], which[:projected]
+            status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
+    columns, names = [ts[:, None], xs], [TIME, *model.x_names]
+    if outputs and model.ny and "outputs" in model.functions:
+        ys = np.empty((len(ts), model.ny))
+        saved = data.p.copy()
+        try:
+            for k, p in enumerate(segments.p):
+                rows = np.flatnonzero(which == k)
+                data.p = p
+                part, error = _outputs(data, ts[rows], xs[rows], model.ny)
+                ys[rows[:len(part)]] = part
+                if error is not None:
+                    keep = int(rows[len(part)])
+                    ts, xs, ys, columns = ts[:keep], xs[:keep], ys[:keep], [ts[:keep, None], xs[:keep]]
+                    status = FAILED
+                    message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
+                               f"{status_text(error.status)}")
+                    break
+        finally:
+            data.p = saved
+        columns.append(ys)
+        names += list(model.y_names)
+    data.stats = stats
+    metadata = {
+        "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
+        "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
+        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+    }
+    return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):

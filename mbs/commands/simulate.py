@@ -50,6 +50,8 @@ class Simulate:
             progress.close()
         if args.out:
             (res.to_npz if args.out.endswith(".npz") else res.to_csv)(args.out)
+            if system.compile(scene).events:  # the event log beside the samples: run.csv -> run.events.csv
+                res.to_events_csv(events_path(args.out))
         if args.plot:
             compiled = system.compile(scene)
             names = list(compiled.y_names) or list(compiled.q_names)
@@ -71,6 +73,12 @@ def _check_suffixes(args) -> None:
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
         raise MbsError([Diagnostic("error", f"--plot {args.plot}: plots are written as "
                                             f"{', '.join(PLOT_FORMATS)}", None)])
+
+
+def events_path(path: str) -> Path:
+    """run.csv -> run.events.csv: the event log next to the samples."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}.events.csv")
 
 
 def scene_path(path: str, scene: str, tag: str = "") -> Path:
