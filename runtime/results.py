@@ -5,7 +5,7 @@ sees the old file or the complete new one, never a partial one.
 
 CSV layout: metadata lines ``# key: <JSON value>``, one header line of column names, then rows with
 17 significant digits (exact round trip of float64).  NPZ layout: arrays ``data`` (n, ncols), ``names``
-(ncols,) and ``metadata`` (a JSON string); readable with ``allow_pickle=False``.
+(ncols,), ``metadata`` and ``events`` (JSON strings; the event log); readable with ``allow_pickle=False``.
 """
 
 from __future__ import annotations
@@ -143,13 +143,15 @@ class Results:
         """Write NPZ atomically (written through a file object, so no '.npz' is appended); returns the path."""
         with atomic_path(path) as tmp, open(tmp, "wb") as f:
             np.savez(f, data=self.data, names=np.array(self.names, dtype=str),
-                     metadata=np.array(json.dumps(self.metadata, default=_jsonable)))
+                     metadata=np.array(json.dumps(self.metadata, default=_jsonable)),
+                     events=np.array(json.dumps(self.events, default=_jsonable)))
         return Path(path)
 
     @classmethod
     def from_npz(cls, path: str | os.PathLike) -> "Results":
         with np.load(path, allow_pickle=False) as z:
-            return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])))
+            events = json.loads(str(z["events"])) if "events" in z.files else None
+            return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])), events=events)
 
     def plot(self, names: Iterable[str] | str, path: str | os.PathLike, *, title: str | None = None) -> Path:
         """Plot the named columns over time into an image file (format from the suffix), atomically.

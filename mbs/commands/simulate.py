@@ -105,6 +105,8 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
         if args.out:
             out = scene_path(args.out, scene)
             (res.to_npz if out.suffix == ".npz" else res.to_csv)(out)
+            if system.compile(scene).events:
+                res.to_events_csv(events_path(str(out)))
         _summary(system, scene, res, SimpleNamespace(out=out, plot=None))
     if args.plot:
         for path in plot_scenes(system, runs, args.plot):

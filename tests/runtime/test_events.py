@@ -146,3 +146,10 @@ def test_an_event_changes_a_parameter_and_actions_read_the_values_before_it():
 def test_switch_events_name_the_element_they_come_from(arm):
     res = arm.simulate(t_end=0.6, sample=0.01)
     assert res.events[0]["event"] == "switch.1 (> in shoulder.motor)"
+
+
+def test_the_event_log_survives_npz(ball, tmp_path):
+    from mbs.runtime.results import Results
+    res = ball.simulate("drop", t_end=1.5)
+    back = Results.from_npz(res.to_npz(tmp_path / "run.npz"))
+    assert back.events == res.events and len(back.events) == 2
