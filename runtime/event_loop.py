@@ -25,22 +25,23 @@ class Segments:
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
-    which: list = field(default_factory=list)
+    counts: list = field(default_factory=list)  # (rows, index of the p copy) per added block
     p: list = field(default_factory=list)
 
-    def add(self, times: np.ndarray, states: np.ndarray, p: np.ndarray) -> None:
+    def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
         if len(times) == 0:
             return
         if not self.p or not (self.p[-1] == p).all():
             self.p.append(p.copy())
         self.times.append(np.asarray(times, dtype=float).reshape(-1))
         self.states.append(np.asarray(states, dtype=float).reshape(len(self.times[-1]), -1))
-        self.which.append(np.full(len(self.times[-1]), len(self.p) - 1))
+        self.counts.append((len(self.times[-1]), len(self.p) - 1))
 
     def arrays(self, nx: int):
         if not self.times:
             return np.empty(0), np.empty((0, nx)), np.empty(0, dtype=int)
-        return np.concatenate(self.times), np.vstack(self.states), np.concatenate(self.which)
+        rows, which = zip(*self.counts)
+        return np.concatenate(self.times), np.vstack(self.states), np.repeat(which, rows)
 
 
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks: int = 100):
