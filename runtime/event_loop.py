@@ -45,8 +45,8 @@ class Segments:
 
 
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks: int = 100):
-    """Integrate over ``times`` from (data.t, data.x) with events; ``make_solver(t0, y0, events)`` starts an
-    integrator (with its own first step: after a jump the old step size is no guide).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
+    """Integrate over ``times`` from (data.t, data.x) with events; ``make_solver(t0, y0, events, first_step)``
+    starts an integrator (first_step None: its own choice).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
     and data.x are left at the last state reached."""
     g = data.function("events")
     directions = np.array([e.direction for e in model.events], dtype=np.intc)
@@ -57,13 +57,13 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
     chunk = max(1, math.ceil(times.size / chunks)) if progress is not None else times.size
-    solver, stats = None, {}
+    solver, stats, hint = None, {}, None
     try:
         while True:
             g_start = departing(data, g, t, x)
             if settle_switches(model, data, g_start):  # a branch at its kink takes the side the motion leaves to
                 g_start = departing(data, g, t, x)
-            solver = make_solver(t, x, (g, directions, g_start))
+            solver = make_solver(t, x, (g, directions, g_start), hint)
             start = i
             while i < times.size and solver.status not in (FAILED, EVENT):
                 stop = min(times.size, i + chunk) if progress is not None else times.size
@@ -92,6 +92,10 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             x, new = apply_events(model, data, fired, solver.g_old, g_event, t_event, y_event, names)
             if "project" in model.functions:  # closed loops: new speeds consistent with the constraints
                 x = data.project(t_event, x)
+            # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
+            # integrator had; after a jump (an impact) it chooses its own first step
+            jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
+            hint = None if jumped else solver.step_hint
             records += new
             fired_times += [t_event] * len(new)
             t = t_event

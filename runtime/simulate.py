@@ -122,8 +122,10 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, progress,
     evaluated with the modes and parameters in force, the event log in ``res.events``."""
     t0 = float(data.t)
 
-    def make_solver(t, y, events):
-        return cls(data.function("rhs"), t, y, t_end, events=events, **options)
+    def make_solver(t, y, events, step=None):
+        settings = options if step is None or options["first_step"] is not None else \
+            {**options, "first_step": min(step, t_end - t) if t_end > t else None}
+        return cls(data.function("rhs"), t, y, t_end, events=events, **settings)
 
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, progress)
     ts, xs, which = segments.arrays(model.nx)

@@ -161,6 +161,11 @@ class OdeSolver:
         return i
 
     @property
+    def step_hint(self) -> float | None:
+        """The step size the method would try next, or None (then a restart chooses its own first step)."""
+        return None
+
+    @property
     def stats(self) -> dict[str, int]:
         return {"nfev": self.nfev, "njev": self.njev, "nlu": self.nlu, "nsteps": self.nsteps,
                 "nreject": self.nreject}

@@ -84,6 +84,10 @@ class NativeSolver(OdeSolver):
             return f"the iteration matrix is singular at every step size tried{model}"
         return f"unknown integrator status {c.status}"
 
+    @property
+    def step_hint(self):
+        return self._c.h if self._c.h > 0 else None
+
     def _find_event(self):
         """C has looked for events after its step already (c/ode.c)."""
 
