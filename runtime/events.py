@@ -21,7 +21,7 @@ ZENO_WINDOW = 1e-9
 #: Illinois iterations give way to bisection when the bracket is this narrow: the last steps go to round-off.
 BISECT_BELOW = 1e-12
 #: The look ahead that tells which side an indicator at zero is leaving to [s, relative to max(1, |t|)].
-DEPARTURE_STEP = 1e-9
+DEPARTURE_STEP = 1e-12
 
 DIRECTION_NAMES = {1: "rising", -1: "falling", 0: "either"}
 

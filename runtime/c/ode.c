@@ -14,7 +14,7 @@
 #define MBS_ODE_MODEL_FAILURE_SHRINK 0.25
 /* The look ahead after a restart that tells which side an indicator at zero leaves to (DEPARTURE_STEP of
  * runtime/events.py), relative to max(1, |t|). */
-#define MBS_ODE_DEPARTURE_STEP 1e-9
+#define MBS_ODE_DEPARTURE_STEP 1e-12
 
 static void mbs_ode_free(mbs_ode *o)
 {
@@ -181,7 +181,7 @@ static double mbs_ode_g_at(mbs_ode *o, int k, double t)
 static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
 {
     int retained = 0;
-    /* ga may be the value an indicator at zero leaves with (1e-9 s on, runtime/event_loop.py): start there */
+    /* ga may be the value an indicator at zero leaves with (1e-12 s on, runtime/event_loop.py): start there */
     double probe = a + MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(a));
     if (probe < b) {
         double gp = mbs_ode_g_at(o, k, probe);

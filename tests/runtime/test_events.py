@@ -153,3 +153,12 @@ def test_the_event_log_survives_npz(ball, tmp_path):
     res = ball.simulate("drop", t_end=1.5)
     back = Results.from_npz(res.to_npz(tmp_path / "run.npz"))
     assert back.events == res.events and len(back.events) == 2
+
+
+def test_events_of_component_instances_are_named_per_instance_and_fire_together():
+    res = mbs.load(Path(__file__).parent / "models" / "two_droppers.mbs", "two").simulate(t_end=1.5, sample=0.01)
+    first = res.events[:2]
+    assert [e["event"] for e in first] == ["a.impact", "b.impact"] and first[0]["time"] == first[1]["time"]
+    assert first[0]["time"] == pytest.approx(T1, abs=1e-12)
+    assert res.metadata["status"] == "zeno" and "'b.impact'" in res.message
+    assert res.t[-1] == pytest.approx(3 * T1, abs=1e-8)  # b's accumulation point, t1 (1 + e) / (1 - e), e = 0.5
