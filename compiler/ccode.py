@@ -99,7 +99,7 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None):
+                 constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = None
         if jacobian and not (constraints is not None and constraints.nc):
@@ -111,9 +111,11 @@ class CEmitter:
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
+        self.events = tuple((str(name), sp.sympify(e)) for name, e in events)
+        self.actions = tuple((str(name), sp.sympify(e)) for name, e in actions)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables, self.constraints, self.run_time_inputs)
+        check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, self.constraints, self.run_time_inputs)
         self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
         self.names = self.naming.names
 
@@ -138,7 +140,7 @@ class CEmitter:
 
     def _routines(self) -> list:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
-        routines = equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)
+        routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines + ([self.jacobian] if self.jacobian else [])
         return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
@@ -172,6 +174,10 @@ class CEmitter:
             lines.append("#define MBS_NXA (MBS_NX+MBS_NV)   /* input [q; v; a] of mbs_inverse_dynamics */")
         if self.frame_names:
             lines.append(f"#define MBS_NF {len(self.frame_names)}   /* named frames (mbs_frame_name) */")
+        if self.events:
+            lines.append(f"#define MBS_NEV {len(self.events)}   /* event indicators (mbs_events) */")
+        if self.actions:
+            lines.append(f"#define MBS_NACT {len(self.actions)}   /* values of event actions (mbs_event_actions) */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]
@@ -292,7 +298,8 @@ class CEmitter:
 
 
 #: The length of each contract function's output, as the file's size macros.
-_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY"}
+_SIZE_MACROS = {"xdot": "MBS_NX", "M": "MBS_NV*MBS_NV", "f": "MBS_NV", "qdot": "MBS_NQ", "y": "MBS_NY",
+                "g": "MBS_NEV", "a": "MBS_NACT"}
 
 
 def _comment(text: str) -> str:
@@ -337,7 +344,7 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None) -> str:
+               constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -347,7 +354,9 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     run_time_inputs: (symbol, array, index) of the accelerations and multipliers the outputs read
     (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first.
     jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators.
-    dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for."""
+    dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for.
+    events, actions: (name, expression) pairs of mbs_events (MBS_NEV) and mbs_event_actions (MBS_NACT)."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
+                    events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, dynamics=dynamics).source()

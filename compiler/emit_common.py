@@ -391,7 +391,7 @@ def read_counts(tape, entries, outputs) -> dict:
     return counts
 
 
-def equation_routines(equations, outputs) -> list:
+def equation_routines(equations, outputs, events=(), actions=()) -> list:
     """(name, out, doc, shape, results, check_positive) of every function of the contract, in file order."""
     eqs, nq, nv = equations, equations.tree.nq, equations.tree.nv
     mass = [(i * nv + j, eqs.mass_matrix[i][j] if j >= i else j * nv + i) for i in range(nv) for j in range(nv)]
@@ -409,6 +409,12 @@ def equation_routines(equations, outputs) -> list:
     if outputs:
         routines.append(("mbs_outputs", "y", "outputs y: " + ", ".join(n for n, _ in outputs), (len(outputs),),
                          [(k, e) for k, (_, e) in enumerate(outputs)], False))
+    if events:  # compiler/events.py: zero crossings the integrator locates, and the values actions assign
+        routines.append(("mbs_events", "g", "event indicators g (zero crossings): " + ", ".join(n for n, _ in events),
+                         (len(events),), [(k, e) for k, (_, e) in enumerate(events)], False))
+    if actions:
+        routines.append(("mbs_event_actions", "a", "values event actions assign: " + ", ".join(n for n, _ in actions),
+                         (len(actions),), [(k, e) for k, (_, e) in enumerate(actions)], False))
     return routines
 
 

@@ -17,6 +17,7 @@ from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .constraints import CutJoint
+from .events import LoweredEvent, SwitchRegistry, lower_events
 from .kinematics import Kinematics
 from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
@@ -39,6 +40,8 @@ class Lowered:
     cuts: tuple[CutJoint, ...] = ()            # the loop-closing joints, in `topology.cuts` order
     run_time_inputs: tuple = ()                # (symbol, array, index): accelerations and multipliers the
                                                # outputs read (reaction and acceleration sensors)
+    events: tuple[LoweredEvent, ...] = ()      # the model's events (compiler/events.py)
+    switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
 
     @property
     def tree(self) -> Tree:
@@ -67,7 +70,10 @@ class _Lowering:
                     tuple(self.geometry(g) for g in model.gravity))
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
-        self.state = ToSympy(self._state_symbol, self.tables)
+        # comparisons and kinks of min/max/abs/sign in the motion become switches in a model with events or modes,
+        # or with the setting `switches = true` (model.switches)
+        self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
+        self.state = ToSympy(self._state_symbol, self.tables, self.switches)
         self._sensor_cache: dict[str, sp.Expr] = {}
         self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
 
@@ -240,6 +246,8 @@ class _Lowering:
                 self._attach(inter, force)
 
     def _attach(self, inter: M.Interaction, force: M.Force) -> None:
+        if self.switches is not None:
+            self.switches.context = force.name
         kind = force.kind
         if kind == "joint":
             self._joint_force(inter, force)
@@ -281,7 +289,8 @@ class _Lowering:
 
         def law(length, rate):
             locals_ = {"l": length, "v": rate}
-            conv = ToSympy(lambda s: locals_[s.name] if s.kind == "local" else self._state_symbol(s), self.tables)
+            conv = ToSympy(lambda s: locals_[s.name] if s.kind == "local" else self._state_symbol(s), self.tables,
+                           self.switches)
             if kind == "line":
                 return conv(force.arg("f"))
             value = sp.Integer(0)
@@ -353,9 +362,15 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     """The tree, loads and outputs of a model; raises MbsError (located) for what the compiler cannot do."""
     lowering = _Lowering(model, scene)
     lowering.attach_forces()
+    if lowering.switches is not None:
+        lowering.switches.context = "outputs"
     outputs = lowering.outputs()
+    if lowering.switches is not None:
+        lowering.switches.context = "events"
+    events = lower_events(model.events, lowering.state)
+    switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
-                   lowering.acceleration_terms.inputs())
+                   lowering.acceleration_terms.inputs(), events, switches)
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

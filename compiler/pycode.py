@@ -123,7 +123,7 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=(), jacobian: bool = False, dynamics=None):
+                 run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = None
         if jacobian:
@@ -133,9 +133,11 @@ class PyEmitter:
         self.frame_names = tuple(frames[0]) if frames else ()
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
+        self.events = tuple((str(name), sp.sympify(e)) for name, e in events)
+        self.actions = tuple((str(name), sp.sympify(e)) for name, e in actions)
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
-        check_inputs(equations, self.parameters, self.outputs, self.tables, run_time_inputs=self.run_time_inputs)
+        check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, run_time_inputs=self.run_time_inputs)
         self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
 
     def source(self) -> str:
@@ -154,7 +156,7 @@ class PyEmitter:
         return "\n\n\n".join(parts) + "\n"
 
     def _routines(self) -> list:
-        return (equation_routines(self.eqs, self.outputs) + list(self.dynamics_routines)
+        return (equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
                 + ([self.jacobian] if self.jacobian else []))
 
     def write(self, path: str | Path) -> Path:
@@ -188,6 +190,10 @@ class PyEmitter:
         if self.frame_names:
             lines += [f"MBS_NF = {len(self.frame_names)}  # named frames",
                       f"MBS_FRAME_NAMES = {self.frame_names!r}"]
+        if self.events:
+            lines.append(f"MBS_NEV = {len(self.events)}  # event indicators (mbs_events)")
+        if self.actions:
+            lines.append(f"MBS_NACT = {len(self.actions)}  # values of event actions (mbs_event_actions)")
         lines += [f"MBS_STATE_NAMES = {tuple(names)!r}",
                   f"MBS_PARAMETER_NAMES = {tuple(s.name for s in self.parameters)!r}"]
         if self.outputs:
@@ -252,7 +258,7 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=(), jacobian: bool = False, dynamics=None) -> str:
+                   run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,

@@ -61,9 +61,10 @@ class ToSympy:
     expression; parameters and time are handled here.
     """
 
-    def __init__(self, resolve: Callable[[X.Sym], sp.Expr], tables: TableRegistry | None = None):
+    def __init__(self, resolve: Callable[[X.Sym], sp.Expr], tables: TableRegistry | None = None, switches=None):
         self.resolve = resolve
         self.tables = tables if tables is not None else TableRegistry()
+        self.switches = switches  # compiler.events.SwitchRegistry: comparisons and kinks become switches
         self._memo: dict[X.E, sp.Expr] = {}
 
     def __call__(self, e: X.E) -> sp.Expr:
@@ -99,6 +100,8 @@ class ToSympy:
         if op == "neg":
             return -args[0]
         if op in _RELATIONS:
+            if self.switches is not None and op not in ("==", "!="):
+                return self.switches.relation(op, args[0], args[1])
             return _RELATIONS[op](args[0], args[1])
         if op == "and":
             return sp.And(_as_bool(args[0]), _as_bool(args[1]))
@@ -112,6 +115,10 @@ class ToSympy:
             x, x0, x1 = args
             s = (x - x0) / (x1 - x0)
             return sp.Piecewise((0, x <= x0), (1, x >= x1), (s * s * (3 - 2 * s), True))
+        if self.switches is not None and op in ("min", "max", "abs", "sign"):
+            switched = self.switches.function(op, args)
+            if switched is not None:
+                return switched
         return _FUNCTIONS[op](*args)
 
 

@@ -128,10 +128,13 @@ class Import:
 
 @dataclass(frozen=True)
 class Param:
+    """``param name = value`` or ``mode name = value`` (kind "mode": a discrete value events may switch)."""
+
     name: Ident
     value: Expr
     description: str | None
     span: Span
+    kind: str = "param"
 
 
 @dataclass(frozen=True)
@@ -298,7 +301,42 @@ class For:
     span: Span
 
 
-ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use, For]
+@dataclass(frozen=True)
+class Reinit:
+    """``reinit der(j.x) = value`` inside an event (``derivative`` False: a position, which is refused)."""
+
+    target: Ref
+    derivative: bool
+    value: Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class Set:
+    """``set name = value`` inside an event: a mode or a parameter takes a new value."""
+
+    target: Ref
+    value: Expr
+    span: Span
+
+
+@dataclass(frozen=True)
+class Terminate:
+    span: Span
+
+
+@dataclass(frozen=True)
+class Event:
+    """``event name when condition { actions }``: a zero crossing and what happens at it."""
+
+    name: Ident
+    condition: Expr
+    description: str | None
+    actions: tuple[Reinit | Set | Terminate, ...]
+    span: Span
+
+
+ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use, For, Event]
 
 
 @dataclass(frozen=True)

@@ -337,6 +337,24 @@ class _AstBuilder:
     def param_decl(self, c):
         return ast.Param(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]))
 
+    def mode_decl(self, c):
+        return ast.Param(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]), kind="mode")
+
+    def event_decl(self, c):
+        description = c[4].value if len(c) > 4 and type(c[4]) is _Part else None
+        actions = tuple(c[-2]) if type(c[-1]) is Token and c[-1].value == "}" and type(c[-2]) is not Token else ()
+        return ast.Event(c[1], _node(c[3]), description, actions, self._span(c[0], c[-1]))
+
+    def reinit_stmt(self, c):
+        ref, derivative = c[1].value
+        return ast.Reinit(ref, derivative, _node(c[3]), self._span(c[0], c[-1]))
+
+    def set_stmt(self, c):
+        return ast.Set(c[1], _node(c[3]), self._span(c[0], c[-1]))
+
+    def terminate_stmt(self, c):
+        return ast.Terminate(self._span(c[0], c[0]))
+
     def input_decl(self, c):
         return ast.Input(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]))
 

@@ -41,6 +41,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self._call_depth = 0
         self._cyclic: set[str] = set()
         self.broken_links: set[tuple[str, str]] = set()
+        self.mode_names: set[str] = set()
+        self.switches: bool | None = None  # the model setting; None: on when the model has events or modes
 
     # ====================================================================================== entry
     def model(self, module: Module, block: ast.Model, harness: bool = False) -> M.Model | None:
@@ -66,10 +68,13 @@ class Elaborator(PlacementMixin, ParameterMixin):
         parts = [M.Part(p.name, p.frames + tuple(self.part_frames.get(p.name, ())), p.body, p.description, p.span)
                  for p in parts]
         outputs = self.outputs(root)
+        from .events import build_events
+        events = tuple(build_events(self, root))
         params = self.parameters()
         gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
-                        gravity, tuple(parts), tuple(interactions), (), block.span)
+                        gravity, tuple(parts), tuple(interactions), (), block.span, events,
+                        self.switches if self.switches is not None else bool(events or self.mode_names))
         return built
 
     def module_scope(self, module: Module) -> Scope:
@@ -87,6 +92,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
                 continue
             if isinstance(st, ast.Param):
                 self.add(scope, st.name, ParamEntry(scope.full(st.name.text), st))
+                if st.kind == "mode":
+                    self.mode_names.add(scope.full(st.name.text))
             elif isinstance(st, ast.Input):
                 self.add(scope, st.name, InputEntry(scope.full(st.name.text), st))
             elif isinstance(st, ast.Func):
@@ -271,9 +278,15 @@ class Elaborator(PlacementMixin, ParameterMixin):
         return None
 
     def model_setting(self, scope: Scope, st: ast.Setting) -> None:
-        if st.name.text != "gravity":
-            self.diags.error(f"unknown model setting '{st.name.text}'{did_you_mean(st.name.text, ['gravity'])}",
-                             scope.at(st.name.span))
+        if st.name.text == "switches" and scope is self.root:
+            value = st.value.ref.dotted if isinstance(st.value, ast.Name) else None
+            if value not in ("true", "false"):
+                self.diags.error("switches = true or false: whether comparisons and min/max/abs/sign kinks in the "
+                                 "motion become events", scope.at(st.value.span))
+            self.switches = value == "true"
+        elif st.name.text != "gravity":
+            self.diags.error(f"unknown model setting '{st.name.text}'"
+                             f"{did_you_mean(st.name.text, ['gravity', 'switches'])}", scope.at(st.name.span))
         elif scope is not self.root:
             self.diags.error("gravity is set by the model, not by a component", scope.at(st.span))
         else:

@@ -94,7 +94,20 @@ class _Printer:
         if isinstance(node, ast.Import):
             self.emit(node, depth, f"import {node.path.dotted}" + (f" as {node.alias.text}" if node.alias else ""))
         elif isinstance(node, ast.Param):
-            self.emit(node, depth, f"param {node.name.text} = {expr(node.value)}{_desc(node.description)}")
+            self.emit(node, depth, f"{node.kind} {node.name.text} = {expr(node.value)}{_desc(node.description)}")
+        elif isinstance(node, ast.Event):
+            head = f"event {node.name.text} when {expr(node.condition)}{_desc(node.description)}"
+            if self.source.text.find("{", node.condition.span.end, node.span.end) >= 0:
+                self.open_block(node, depth, head, node.actions, self.statement)
+            else:
+                self.emit(node, depth, head)
+        elif isinstance(node, ast.Reinit):
+            target = f"der({node.target.dotted})" if node.derivative else node.target.dotted
+            self.emit(node, depth, f"reinit {target} = {expr(node.value)}")
+        elif isinstance(node, ast.Set):
+            self.emit(node, depth, f"set {node.target.dotted} = {expr(node.value)}")
+        elif isinstance(node, ast.Terminate):
+            self.emit(node, depth, "terminate")
         elif isinstance(node, ast.Input):
             self.emit(node, depth, f"input {node.name.text} = {expr(node.value)}{_desc(node.description)}")
         elif isinstance(node, ast.Output):

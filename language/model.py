@@ -34,6 +34,7 @@ class Parameter:
     description: str | None
     span: Span = field(compare=False)
     unit: str | None = field(default=None, compare=False)  # shown unit (results, tables): as written if SI
+    kind: str = field(default="param", compare=False)  # "mode": a discrete value that events switch
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,31 @@ class Scene:
 
 
 @dataclass(frozen=True)
+class Action:
+    """What an event does: ``kind`` "speed" (reinit a joint speed; ``target`` names the coordinate) or "set"
+    (a mode or parameter takes a new value); ``value`` is evaluated just before the event (Modelica's pre())."""
+
+    kind: str
+    target: str
+    value: E
+    span: Span = field(compare=False)
+
+
+@dataclass(frozen=True)
+class Event:
+    """A zero crossing of the scalar ``indicator`` in ``direction`` (+1 rising, -1 falling, 0 either) and its
+    actions; ``terminal`` ends the run there."""
+
+    name: str
+    indicator: E
+    direction: int
+    actions: tuple[Action, ...]
+    terminal: bool
+    description: str | None
+    span: Span = field(compare=False)
+
+
+@dataclass(frozen=True)
 class Model:
     name: str
     description: str | None
@@ -200,6 +226,8 @@ class Model:
     interactions: tuple[Interaction, ...]
     scenes: tuple[Scene, ...]
     span: Span = field(compare=False)
+    events: tuple[Event, ...] = ()
+    switches: bool = False  # comparisons and kinks in the motion become events (compiler/events.py)
 
     @cached_property
     def part_map(self) -> dict[str, Part]:

@@ -124,5 +124,6 @@ class ParameterMixin:
                 if not self._cyclic:  # a cycle is reported once, where it is found
                     self.diags.error(f"parameter '{full}' cannot be evaluated: {exc}", span)
                 value = float("nan")
-            out.append(M.Parameter(full, e, value, dim, description, span, self._param_units.get(full)))
+            kind = "mode" if full in getattr(self, "mode_names", ()) else "param"
+            out.append(M.Parameter(full, e, value, dim, description, span, self._param_units.get(full), kind))
         return tuple(out)

@@ -12,7 +12,7 @@ import math
 
 from . import expr as X
 from . import model as M
-from .diagnostics import Diagnostics, Span
+from .diagnostics import Diagnostics
 
 QUATERNION_COMPONENTS = ("qw", "qx", "qy", "qz")
 #: the speed of a quaternion joint that stands where der(qx) would: the angular velocity in frame b

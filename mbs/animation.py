@@ -17,7 +17,6 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from mbs import pipeline
 
 #: frames at most in a page (longer runs are strided)
 MAX_FRAMES = 1200

@@ -28,7 +28,6 @@ from pathlib import Path
 import numpy as np
 
 from mbs.runtime.equilibrium import static_equilibrium
-from mbs.runtime.workspace import Workspace
 
 BODY_MOTIONS = {"x": "longitudinal", "y": "lateral", "z": "bounce", "wx": "roll", "wy": "pitch", "wz": "yaw",
                 "alpha": "roll", "beta": "pitch", "gamma": "yaw"}

@@ -22,6 +22,7 @@ import sympy as sp
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.constraints import Constraints, derive_constraints
 from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
+from mbs.compiler.events import FROZEN, event_code
 from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.jacobian import JACOBIAN_INTEGRATORS
 from mbs.compiler.lower import Lowered, lower
@@ -52,6 +53,7 @@ class Generated:
     p_names: tuple[str, ...]
     y_names: tuple[str, ...]
     constraints: Constraints | None = None   # loop-closure constraints of the cut joints (None: a tree)
+    events: tuple = ()   # per indicator of mbs_events: name, direction, terminal, assignments, switch (events.py)
 
 
 def display_name(symbol_name: str) -> str:
@@ -111,18 +113,24 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
         if frames:
             routines += frame_routines(lowered.kinematics, named_frames(lowered, frames))
         asked = (routines, inputs, tuple(frames))
-    parameters = [parameter_symbol(p.name) for p in model.parameters]
+    switch_flags = [s.symbol for s in lowered.switches]
+    # switch flags and the frozen flag are run-time values after the parameters (compiler/events.py)
+    parameters = ([parameter_symbol(p.name) for p in model.parameters] + switch_flags
+                  + ([FROZEN] if switch_flags else []))
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
     origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
+    tree = lowered.tree
+    state_names = tuple(display_name(s.name) for s in tree.q_symbols + tree.v_symbols)
+    p_names = tuple(s.name for s in parameters)
+    indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names, tree.nq, p_names)
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
-                   dynamics=asked)
+                   events=indicators, actions=action_values, dynamics=asked)
     if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
         options["jacobian"] = True
-    tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
@@ -130,7 +138,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     return Generated(model, scene, lowered, equations, c_source, numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     tuple(p.name for p in model.parameters), tuple(name for name, _ in outputs), constraints)
+                     p_names, tuple(name for name, _ in outputs), constraints, event_table)
 
 
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by

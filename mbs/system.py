@@ -69,7 +69,8 @@ class System:
             gen = self.generate(scene, jacobian=jacobian, dynamics=dynamics, frames=frames)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
-                        y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
+                        y_names=gen.y_names, p_default=[params.get(n, 0.0) for n in gen.p_names],
+                        events=gen.events,
                         x0=pipeline.initial_state(gen, params), units=pipeline.units_of(gen))
             if gen.constraints is not None and not (self.backend != "numpy" and _build.have_c_compiler()):
                 raise MbsError([Diagnostic("error", f"model '{self.model.name}' has closed kinematic loops, which "
@@ -159,7 +160,7 @@ class System:
     def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]):
         """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops)."""
         data = Workspace(compiled)
-        data.p = [values[n] for n in compiled.p_names]
+        data.p = [values.get(n, 0.0) for n in compiled.p_names]  # switch flags (compiler/events.py) start at 0
         data.x = pipeline.initial_state(gen, values)
         if gen.constraints is None:
             return data, None

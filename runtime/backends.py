@@ -34,6 +34,9 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "qdot": ("NQ",),
     "outputs": ("NY",),
     "jacobian": ("NX", "NX1"),  # [d xdot/d x | d xdot/d t], when generated (compiler/jacobian.py)
+    # models with events (compiler/events.py): indicators and the values their actions assign
+    "events": ("NEV",),
+    "event_actions": ("NACT",),
     # models with closed loops (NC constraint rows; runtime/c/loops.c)
     "constraints": ("NC",),
     "constraint_velocity": ("NC",),
@@ -106,6 +109,7 @@ class NumpyBackend:
             self.sizes["NXA"] = int(module.MBS_NXA)
         if hasattr(module, "MBS_NF"):  # named frames: pose (position, rotation) and twist (velocity, angular)
             self.sizes.update(NF=int(module.MBS_NF), NF6=6 * int(module.MBS_NF), POSE=12, TWIST=6)
+        self.sizes.update(NEV=int(getattr(module, "MBS_NEV", 0)), NACT=int(getattr(module, "MBS_NACT", 0)))
         self.functions = {}
         for name, dims in FUNCTION_SHAPES.items():
             fn = getattr(module, "mbs_" + name, None)

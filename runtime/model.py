@@ -19,6 +19,7 @@ import numpy as np
 from . import build as _build
 from .backends import Backend, CBackend, NumpyBackend, load_numpy_module
 from .errors import UsageError
+from .events import EventSpec
 
 _log = logging.getLogger(__name__)
 
@@ -58,11 +59,12 @@ class CompiledModel:
     p_default: np.ndarray           #: (np,) default parameter values, SI units
     x0: np.ndarray                  #: (nx,) default initial state [q0; v0], SI units
     units: Mapping[str, str] = field(default_factory=dict)  #: name -> unit text ("rad", "m/s")
+    events: tuple = ()              #: per indicator of mbs_events: EventSpec (runtime/events.py)
 
     @classmethod
     def from_backend(cls, backend: Backend, *, name: str = "model", q_names=None, v_names=None, p_names=None,
-                     y_names=None, p_default=None, x0=None, units: Mapping[str, str] | None = None
-                     ) -> "CompiledModel":
+                     y_names=None, p_default=None, x0=None, units: Mapping[str, str] | None = None,
+                     events=()) -> "CompiledModel":
         """Wrap a back end with the metadata the compiler knows (names, defaults, units); missing names
         default to q0.., v0.., p0.., y0.. and missing values to zeros."""
         s = backend.sizes
@@ -75,6 +77,7 @@ class CompiledModel:
             p_default=_frozen(np.zeros(s["NP"]) if p_default is None else p_default, s["NP"], "p_default"),
             x0=_frozen(np.zeros(s["NX"]) if x0 is None else x0, s["NX"], "x0"),
             units=MappingProxyType(dict(units or {})),
+            events=tuple(EventSpec.of(e) for e in events),
         )
 
     nq = property(lambda self: self.backend.sizes["NQ"], doc="number of position coordinates")

@@ -5,7 +5,7 @@ sees the old file or the complete new one, never a partial one.
 
 CSV layout: metadata lines ``# key: <JSON value>``, one header line of column names, then rows with
 17 significant digits (exact round trip of float64).  NPZ layout: arrays ``data`` (n, ncols), ``names``
-(ncols,) and ``metadata`` (a JSON string); readable with ``allow_pickle=False``.
+(ncols,), ``metadata`` and ``events`` (JSON strings; the event log); readable with ``allow_pickle=False``.
 """
 
 from __future__ import annotations
@@ -23,6 +23,9 @@ from mbs.atomic import atomic_path
 from .errors import SimulationError, UsageError
 
 TIME = "time"
+EVENT_COLUMNS = ("time", "event", "direction", "changes")
+#: A plot marks at most this many events (a chattering contact would paint the plot grey).
+MAX_EVENT_MARKS = 500
 
 
 def _jsonable(value):
@@ -40,7 +43,7 @@ class Results:
     holds model, integrator, tolerances, status ("finished", "failed", "stopped") and message.
     """
 
-    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None):
+    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None):
         self.names = tuple(str(n) for n in names)
         data = np.array(data, dtype=float, ndmin=2)
         if data.size == 0:
@@ -55,6 +58,8 @@ class Results:
         data.flags.writeable = False
         self.data = data
         self.metadata = dict(metadata or {})
+        #: the event log: one dict per event with time [s], event (name), direction, changes (what it set)
+        self.events: list[dict] = list(events or [])
         self._index = {n: i for i, n in enumerate(self.names)}
 
     # -- access ----------------------------------------------------------------------------------
@@ -139,6 +144,16 @@ class Results:
             np.savetxt(f, self.data, delimiter=",", fmt="%.17g")
         return Path(path)
 
+    def to_events_csv(self, path: str | os.PathLike) -> Path:
+        """Write the event log as CSV (columns time, event, direction, changes) atomically; returns the path."""
+        import csv
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8", newline="") as f:
+            writer = csv.writer(f, lineterminator="\n")
+            writer.writerow(EVENT_COLUMNS)
+            for row in self.events:
+                writer.writerow([repr(float(row["time"])), row["event"], row["direction"], row["changes"]])
+        return Path(path)
+
     @classmethod
     def from_csv(cls, path: str | os.PathLike) -> "Results":
         metadata, header, rows = {}, None, []
@@ -160,13 +175,15 @@ class Results:
         """Write NPZ atomically (written through a file object, so no '.npz' is appended); returns the path."""
         with atomic_path(path) as tmp, open(tmp, "wb") as f:
             np.savez(f, data=self.data, names=np.array(self.names, dtype=str),
-                     metadata=np.array(json.dumps(self.metadata, default=_jsonable)))
+                     metadata=np.array(json.dumps(self.metadata, default=_jsonable)),
+                     events=np.array(json.dumps(self.events, default=_jsonable)))
         return Path(path)
 
     @classmethod
     def from_npz(cls, path: str | os.PathLike) -> "Results":
         with np.load(path, allow_pickle=False) as z:
-            return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])))
+            events = json.loads(str(z["events"])) if "events" in z.files else None
+            return cls([str(n) for n in z["names"]], z["data"], json.loads(str(z["metadata"])), events=events)
 
     def to_hdf5(self, path: str | os.PathLike) -> Path:
         """Write HDF5 atomically: a dataset per column with its unit and description (see hdf5.py)."""

@@ -22,6 +22,7 @@ from .errors import EvaluationError, UsageError, status_text
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
 from .guard import STALL_TIME, RunGuard
+from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
@@ -93,9 +94,15 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     times = output_times(t0, t_end, t_eval, sample)
     cls, note = runnable_integrator(model, integrator or default_integrator(model))
     started = time.perf_counter()
-    solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, rtol=rtol, atol=atol, first_step=first_step,
-                 max_step=max_step, min_step=min_step, max_steps=max_steps, jac=state_jacobian(data))
+    options = dict(rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, min_step=min_step,
+                   max_steps=max_steps, jac=state_jacobian(data))
     guard = RunGuard(t0, t_end, progress, max_wall_time, stall_time)
+    if model.events:
+        with guard:
+            res = _simulate_events(model, data, cls, times, t_end, options, outputs, guard, started)
+        res.metadata["notes"] = [note] if note else []
+        return res
+    solver = cls(data.function("rhs"), t0, data.x.copy(), t_end, **options)
     guard.watch(solver)
     states = np.empty((times.size, model.nx))
     with guard:
@@ -143,6 +150,58 @@ def state_jacobian(data: Workspace):
         return None
     full = data.function("jacobian")
     return lambda t, x: full(t, x)[:, :-1]
+
+
+def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, started) -> Results:
+    """simulate() for a model with events (runtime/event_loop.py): rows at both sides of every event, outputs
+    evaluated with the modes and parameters in force, the event log in ``res.events``."""
+    t0 = float(data.t)
+
+    def make_solver(t, y, events, step=None):
+        settings = options if step is None or options["first_step"] is not None else \
+            {**options, "first_step": min(step, t_end - t) if t_end > t else None}
+        solver = cls(data.function("rhs"), t, y, t_end, events=events, **settings)
+        guard.watch(solver)
+        return solver
+
+    segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress)
+    ts, xs, which = segments.arrays(model.nx)
+    if status == "stopped":
+        message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
+        status = "interrupted" if guard.interrupted else status
+    if "project" in model.functions and len(ts):
+        projected = project_samples(data, ts, xs)
+        if projected < len(ts):
+            ts, xs, which = ts[:projected], xs[:projected], which[:projected]
+            status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
+    columns, names = [ts[:, None], xs], [TIME, *model.x_names]
+    if outputs and model.ny and "outputs" in model.functions:
+        ys = np.empty((len(ts), model.ny))
+        saved = data.p.copy()
+        try:
+            for k, p in enumerate(segments.p):
+                rows = np.flatnonzero(which == k)
+                data.p = p
+                part, error = _outputs(data, ts[rows], xs[rows], model.ny)
+                ys[rows[:len(part)]] = part
+                if error is not None:
+                    keep = int(rows[len(part)])
+                    ts, xs, ys, columns = ts[:keep], xs[:keep], ys[:keep], [ts[:keep, None], xs[:keep]]
+                    status = FAILED
+                    message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
+                               f"{status_text(error.status)}")
+                    break
+        finally:
+            data.p = saved
+        columns.append(ys)
+        names += list(model.y_names)
+    data.stats = stats
+    metadata = {
+        "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
+        "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
+        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+    }
+    return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):

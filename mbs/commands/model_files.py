@@ -45,10 +45,16 @@ def summary(model) -> str:
     bodies = sum(1 for p in model.parts if p.body is not None)
     joints = sum(1 for i in model.interactions if i.joint is not None)
     coords = ", ".join(c.name + (" (prescribed)" if c.prescribed is not None else "") for c in model.coordinates)
-    return (f"model {model.name}: {len(model.parts)} parts ({bodies} rigid), {len(model.interactions)} interactions "
+    text = (f"model {model.name}: {len(model.parts)} parts ({bodies} rigid), {len(model.interactions)} interactions "
             f"({joints} joints), {len(model.parameters)} parameters, {degrees_of_freedom_estimate(model)} joint "
             f"velocities\n  coordinates: {coords or 'none'}\n  scenes: "
             f"{', '.join(s.name for s in model.scenes) or 'none'}")
+    modes = [p.name for p in model.parameters if p.kind == "mode"]
+    if modes or model.events:
+        events = ", ".join(e.name + (" (terminal)" if e.terminal else "") for e in model.events)
+        text += (f"\n  modes: {', '.join(modes) or 'none'}\n  events: {events or 'none'}"
+                 f"\n  switches: {'on' if model.switches else 'off'} (comparisons and kinks as events)")
+    return text
 
 
 class Fmt:

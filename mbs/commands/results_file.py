@@ -12,6 +12,10 @@ RESULT_FORMATS = (".csv", ".npz", ".h5", ".hdf5")
 
 
 def write_results(res, path, system=None, scene: str | None = None) -> Path:
+    """The results in the format of the suffix (CSV, NPZ, HDF5), atomically; a model with events also gets its
+    event log beside CSV and NPZ samples (run.csv -> run.events.csv)."""
+    if system is not None and system.compile(scene).events and Path(path).suffix.lower() in (".csv", ".npz"):
+        res.to_events_csv(events_path(path))
     suffix = Path(path).suffix.lower()
     if suffix == ".npz":
         return res.to_npz(path)
@@ -40,3 +44,9 @@ def _parameters(system, scene) -> dict:
     from mbs import pipeline
     values = pipeline.parameter_values(system.model, pipeline.scene_overrides(system.scene(scene)))
     return {p.name: {"value": values[p.name], "description": p.description or ""} for p in system.model.parameters}
+
+
+def events_path(path) -> Path:
+    """run.csv -> run.events.csv: the event log next to the samples."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}.events.csv")

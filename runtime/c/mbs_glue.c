@@ -70,6 +70,12 @@ static const mbs_entry MBS_TABLE[] = {
     {"frame_velocities", mbs_frame_velocities, MBS_NF, 6, 0},
     {"frame_jacobians", mbs_frame_jacobians, 6 * MBS_NF, MBS_NV, 0},
 #endif
+#ifdef MBS_NEV
+    {"events", mbs_events, MBS_NEV, 0},
+#endif
+#ifdef MBS_NACT
+    {"event_actions", mbs_event_actions, MBS_NACT, 0},
+#endif
 #ifdef MBS_NC
     {"constraints", mbs_constraints, MBS_NC, 0},
     {"constraint_velocity", mbs_constraint_velocity, MBS_NC, 0},
@@ -302,6 +308,7 @@ typedef struct {
     PyObject_HEAD
     mbs_ode ode;
     PyObject *function;  /* the FunctionObject whose p and work the run uses */
+    PyObject *events;    /* the FunctionObject of the event indicators, or NULL */
     int busy;            /* a call is running with the GIL released */
 } SolverObject;
 
@@ -375,6 +382,7 @@ static void solver_dealloc(SolverObject *self)
 {
     mbs_ode_free(&self->ode);
     Py_XDECREF(self->function);
+    Py_XDECREF(self->events);
     Py_TYPE(self)->tp_free((PyObject *)self);
 }
 
@@ -395,7 +403,11 @@ static PyObject *solver_step(SolverObject *self, PyObject *unused)
     (void)unused;
     if (solver_enter(self)) return NULL;
     Py_BEGIN_ALLOW_THREADS
-    status = self->ode.status == MBS_ODE_RUNNING ? self->ode.step(&self->ode) : self->ode.status;
+    if (self->ode.status == MBS_ODE_RUNNING) {
+        self->ode.step(&self->ode);
+        mbs_ode_find_event(&self->ode);
+    }
+    status = self->ode.status;
     Py_END_ALLOW_THREADS
     self->busy = 0;
     return PyLong_FromLong(status);
@@ -443,6 +455,47 @@ static PyObject *solver_sample(SolverObject *self, PyObject *args)
     return Py_BuildValue("il", status, start);
 }
 
+/* s.set_events(events, directions, g_start=None): watch the indicators of a model function (its "events"
+ * entry); g_start replaces their values at the start (the side an indicator at zero is leaving to) */
+static PyObject *solver_set_events(SolverObject *self, PyObject *args)
+{
+    PyObject *fn_obj, *dir_obj, *dir_tmp, *g0_obj = Py_None, *g0_tmp = NULL;
+    FunctionObject *fn;
+    npy_intp n;
+    if (!PyArg_ParseTuple(args, "O!O|O:set_events", &FunctionType, &fn_obj, &dir_obj, &g0_obj)) return NULL;
+    fn = (FunctionObject *)fn_obj;
+    if (self->events || self->ode.naccept > 0) {
+        PyErr_SetString(PyExc_RuntimeError, "set_events: only once, before the first step");
+        return NULL;
+    }
+    if (fn->entry->cols != 0 || fn->p != ((FunctionObject *)self->function)->p) {
+        PyErr_SetString(PyExc_ValueError, "set_events needs a vector function bound to the same workspace");
+        return NULL;
+    }
+    dir_tmp = PyArray_FROMANY(dir_obj, NPY_INT, 1, 1, NPY_ARRAY_CARRAY_RO);
+    if (!dir_tmp) return NULL;
+    n = PyArray_DIM((PyArrayObject *)dir_tmp, 0);
+    if (n != fn->entry->rows) {
+        Py_DECREF(dir_tmp);
+        PyErr_Format(PyExc_ValueError, "directions must have %d elements", fn->entry->rows);
+        return NULL;
+    }
+    if (mbs_ode_set_events(&self->ode, fn->entry->fn, (int)n, (const int *)PyArray_DATA((PyArrayObject *)dir_tmp))) {
+        Py_DECREF(dir_tmp);
+        return PyErr_NoMemory();
+    }
+    Py_DECREF(dir_tmp);
+    Py_INCREF(fn_obj);
+    self->events = fn_obj;
+    if (g0_obj != Py_None) {
+        const double *g0 = as_vector(g0_obj, n, "g_start", &g0_tmp);
+        if (!g0) return NULL;
+        memcpy(self->ode.g_old, g0, (size_t)n * sizeof(double));
+        Py_XDECREF(g0_tmp);
+    }
+    Py_RETURN_NONE;
+}
+
 static PyObject *vector_copy(const double *data, npy_intp n)
 {
     PyObject *a = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
@@ -451,6 +504,12 @@ static PyObject *vector_copy(const double *data, npy_intp n)
 }
 
 static PyObject *solver_get_y(SolverObject *self, void *c) { (void)c; return vector_copy(self->ode.y, MBS_NX); }
+static PyObject *solver_get_g_old(SolverObject *self, void *c)
+{
+    (void)c;
+    if (!self->ode.nev) Py_RETURN_NONE;
+    return vector_copy(self->ode.g_old, self->ode.nev);
+}
 static PyObject *solver_get_cont(SolverObject *self, void *c)
 {
     (void)c;
@@ -483,6 +542,7 @@ static PyMemberDef solver_members[] = {
 static PyGetSetDef solver_getset[] = {
     {"y", (getter)solver_get_y, NULL, "copy of the state at t", NULL},
     {"cont", (getter)solver_get_cont, NULL, "copy of the dense-output coefficients of the last step", NULL},
+    {"g_old", (getter)solver_get_g_old, NULL, "event indicators at the start of the last step (None without)", NULL},
     {"stats", (getter)solver_get_stats, NULL, "counters: nfev, njev, nlu, nsteps, naccept, nreject", NULL},
     {NULL, NULL, NULL, NULL, NULL},
 };
@@ -491,6 +551,8 @@ static PyMethodDef solver_methods[] = {
     {"step", (PyCFunction)solver_step, METH_NOARGS, "step() -> status: advance by one accepted step"},
     {"budget", (PyCFunction)solver_budget, METH_O, "budget(n): allow n more steps (resumes a run stopped at its "
      "step budget)"},
+    {"set_events", (PyCFunction)solver_set_events, METH_VARARGS,
+     "set_events(events, directions): locate zero crossings of a model function after every step"},
     {"sample", (PyCFunction)solver_sample, METH_VARARGS,
      "sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start"},
     {NULL, NULL, 0, NULL},

@@ -32,6 +32,7 @@ typedef int (*mbs_fn)(double t, const double *x, const double *p, double *out, d
 #define MBS_ODE_SINGULAR 105        /* iteration matrix singular at every step size tried */
 #define MBS_ODE_BAD_SAMPLE 106      /* output times not increasing or before the current step */
 #define MBS_ODE_STIFF 107           /* stiffness detected and stop_on_stiff set (the auto integrator switches) */
+#define MBS_ODE_EVENT 108           /* an event was located: t, y are the state at it; restart from there */
 
 typedef struct mbs_ode mbs_ode;
 
@@ -71,6 +72,13 @@ struct mbs_ode {
     int stop_on_stiff;
     int stiff;              /* 1 once detected */
     double stiff_t, stiff_h, stiff_hlamb;  /* when, the step then, h |lambda| estimated at that step */
+    /* events (optional, nev = 0 without): indicators g = events(t, y) checked after every accepted step; the
+     * earliest crossing is located on the dense output and the run stops there with MBS_ODE_EVENT */
+    mbs_fn events;          /* the model's mbs_events, or NULL */
+    int nev;                /* number of indicators */
+    int *directions;        /* [nev], owned: +1 rising, -1 falling, 0 either */
+    double *g_old, *g_new, *g_try;  /* [nev] each, owned: at the step's start, end, and a trial time */
+    double *y_try;          /* [n], owned: the dense output at a trial time */
     /* method hooks */
     int (*step)(mbs_ode *);                               /* one accepted step; returns status */
     void (*dense)(const mbs_ode *, double t, double *out);  /* interpolate within the last step */

@@ -12,11 +12,15 @@
 /* Shrink the step by this factor after the model reported a failure (e.g. non-finite values):
  * stronger than an ordinary rejection because the failure carries no error estimate. */
 #define MBS_ODE_MODEL_FAILURE_SHRINK 0.25
+/* The look ahead after a restart that tells which side an indicator at zero leaves to (DEPARTURE_STEP of
+ * runtime/events.py), relative to max(1, |t|). */
+#define MBS_ODE_DEPARTURE_STEP 1e-12
 
 static void mbs_ode_free(mbs_ode *o)
 {
     if (o->release) o->release(o);
     free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl); free(o->yproj);
+    free(o->directions); free(o->g_old); free(o->g_new); free(o->g_try); free(o->y_try);
     memset(o, 0, sizeof *o);
 }
 
@@ -137,6 +141,98 @@ static void mbs_ode_accept(mbs_ode *o, double h, int last)
     if (last) o->status = MBS_ODE_FINISHED;
 }
 
+/* Watch the indicators of events(t, y): allocates the arrays once and evaluates g at the current point.
+ * Returns 0, -1 without memory; a model failure sets the status. */
+static int mbs_ode_set_events(mbs_ode *o, mbs_fn events, int nev, const int *directions)
+{
+    int k, s;
+    o->events = events;
+    o->nev = nev;
+    o->directions = calloc((size_t)nev + 1, sizeof(int));
+    o->g_old = calloc((size_t)nev + 1, sizeof(double));
+    o->g_new = calloc((size_t)nev + 1, sizeof(double));
+    o->g_try = calloc((size_t)nev + 1, sizeof(double));
+    o->y_try = calloc((size_t)o->n + 1, sizeof(double));
+    if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->y_try) return -1;
+    for (k = 0; k < nev; k++) o->directions[k] = directions[k];
+    s = events(o->t, o->y, o->p, o->g_old, o->work);
+    if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; }
+    return 0;
+}
+
+/* Whether indicator k left its old sign in an allowed direction (reaching zero counts; starting at zero not). */
+static int mbs_ode_crossed(const mbs_ode *o, int k, double g_old, double g_new)
+{
+    int d = o->directions[k];
+    return (d >= 0 && g_old < 0 && g_new >= 0) || (d <= 0 && g_old > 0 && g_new <= 0);
+}
+
+/* g_k on the dense output at t (the trial state is left in y_try); a model failure returns NaN. */
+static double mbs_ode_g_at(mbs_ode *o, int k, double t)
+{
+    o->dense(o, t, o->y_try);
+    if (o->events(t, o->y_try, o->p, o->g_try, o->work) != MBS_OK) return NAN;
+    return o->g_try[k];
+}
+
+/* The first time in (a, b] at which g_k has left the sign of ga, to adjacent doubles: Illinois (a secant that
+ * halves the value at an end kept twice) until the bracket is 1e-12 s wide, bisection after that.  The same
+ * algorithm as mbs.runtime.events.locate_crossing.  A NaN counts as the new side (the bracket closes on it). */
+static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
+{
+    int retained = 0;
+    /* ga may be the value an indicator at zero leaves with (1e-12 s on, runtime/event_loop.py): start there */
+    double probe = a + MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(a));
+    if (probe < b) {
+        double gp = mbs_ode_g_at(o, k, probe);
+        if (gp * ga > 0) { a = probe; ga = gp; }
+    }
+    for (;;) {
+        double width = b - a, c, gc;
+        if (width <= 1e-12 * fmax(1.0, fabs(b))) c = a + 0.5 * width;
+        else {
+            c = b - gb * width / (gb - ga);
+            if (!(a < c && c < b)) c = a + 0.5 * width;
+        }
+        if (!(a < c && c < b)) return b;  /* adjacent doubles */
+        gc = mbs_ode_g_at(o, k, c);
+        if (gc * ga > 0) {
+            a = c; ga = gc;
+            if (retained == 1) gb *= 0.5;
+            retained = 1;
+        } else {
+            b = c; gb = gc;
+            if (retained == -1) ga *= 0.5;
+            retained = -1;
+        }
+    }
+}
+
+/* After an accepted step: stop at the earliest located crossing (status MBS_ODE_EVENT, t and y at it; g_old
+ * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old. */
+static void mbs_ode_find_event(mbs_ode *o)
+{
+    int k, s, found = 0;
+    double t_event = o->t, *swap;
+    if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
+    s = o->events(o->t, o->y, o->p, o->g_new, o->work);
+    if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
+    for (k = 0; k < o->nev; k++) {
+        if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
+            double tk = mbs_ode_locate(o, k, o->t_old, o->t, o->g_old[k], o->g_new[k]);
+            if (!found || tk < t_event) t_event = tk;
+            found = 1;
+        }
+    }
+    if (!found) {
+        swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;
+        return;
+    }
+    o->dense(o, t_event, o->y);
+    o->t = t_event;
+    o->status = MBS_ODE_EVENT;
+}
+
 /* Fill out[i*n .. i*n+n) with y(t_eval[i]) for i from *index on, stepping as needed.  Stops when all
  * samples are filled (returns the status, RUNNING or FINISHED) or the run fails (returns the failure;
  * *index is then the first unfilled sample).  No Python, no allocation. */
@@ -145,7 +241,8 @@ static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *i
     long i = *index;
     int n = o->n;
     for (;;) {
-        while (i < n_eval && t_eval[i] <= o->t) {
+        /* at an event only the samples before it: from its time on they belong to the state after it */
+        while (i < n_eval && (t_eval[i] < o->t || (t_eval[i] == o->t && o->status != MBS_ODE_EVENT))) {
             double *row = out + (size_t)i * (size_t)n;
             if (t_eval[i] == o->t) memcpy(row, o->y, (size_t)n * sizeof(double));
             else if (o->naccept > 0 && t_eval[i] >= o->t_old && (i == 0 || t_eval[i] >= t_eval[i - 1]))
@@ -154,9 +251,10 @@ static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *i
             i++;
         }
         *index = i;
-        if (i >= n_eval) return o->status;
+        if (i >= n_eval || o->status == MBS_ODE_EVENT) return o->status;
         if (o->status == MBS_ODE_FINISHED) return o->status = MBS_ODE_BAD_SAMPLE;  /* beyond t_bound */
         if (o->status != MBS_ODE_RUNNING) return o->status;
         o->step(o);
+        mbs_ode_find_event(o);
     }
 }

@@ -28,6 +28,8 @@ from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
 from ..errors import EvaluationError, UsageError, status_text
 
 RUNNING, FINISHED, FAILED = "running", "finished", "failed"
+#: An event was located: t, y are the state at it (the step's end lies beyond); a new solver continues.
+EVENT = "event"
 
 
 class DenseOutput:
@@ -58,7 +60,7 @@ class OdeSolver:
     def __init__(self, fun: Callable[[float, np.ndarray], np.ndarray], t0: float, y0, t_bound: float, *,
                  rtol: float = DEFAULT_RTOL, atol=DEFAULT_ATOL, first_step: float | None = None,
                  max_step: float = np.inf, min_step: float = 0.0, max_steps: int = 1_000_000,
-                 jac: Callable[[float, np.ndarray], np.ndarray] | None = None):
+                 jac: Callable[[float, np.ndarray], np.ndarray] | None = None, events=None):
         y0 = np.array(y0, dtype=float)
         if y0.ndim != 1:
             raise UsageError(f"y0 must be a vector, got shape {y0.shape}")
@@ -86,6 +88,12 @@ class OdeSolver:
         self.status = FINISHED if self.t >= self.t_bound else RUNNING
         self.message = ""
         self.nfev = self.njev = self.nlu = self.nsteps = self.nreject = 0
+        # events = (g(t, y) -> indicators, directions[, g at the start]): after each step the solver looks for
+        # zero crossings (the start values may be given: the sign an indicator at zero is leaving with)
+        self.events = events[:2] if events is not None else None
+        self.g_old = None
+        if events is not None:
+            self.g_old = np.asarray(events[2] if len(events) > 2 else events[0](self.t, self.y), dtype=float)
 
     # -- public ------------------------------------------------------------------------------------
 
@@ -106,9 +114,25 @@ class OdeSolver:
             self.y = self._y_previous
             self.t = self.t_old if self.t_old is not None else self.t0
             return self._fail("the state became non-finite (NaN or inf)")
-        if self.t >= self.t_bound:
+        if self.status == RUNNING and self.t >= self.t_bound:
             self.status = FINISHED
+        if self.events is not None and self.status in (RUNNING, FINISHED):
+            self._find_event()
         return self.status
+
+    def _find_event(self) -> None:
+        """After an accepted step: locate the earliest zero crossing on the dense output and stop there."""
+        from ..events import crossings, locate_crossing
+        g, directions = self.events
+        g_new = np.asarray(g(self.t, self.y), dtype=float)
+        crossed = crossings(self.g_old, g_new, directions)
+        if crossed.size == 0:
+            self.g_old = g_new
+            return
+        dense = self.dense_output()
+        t_event = min(locate_crossing(lambda s, k=k: float(g(s, dense(s))[k]), self.t_old, self.t,
+                                      float(self.g_old[k]), float(g_new[k])) for k in crossed)
+        self.t, self.y, self.status = t_event, dense(t_event), EVENT
 
     def dense_output(self) -> DenseOutput:
         """Interpolant of the last accepted step."""
@@ -122,7 +146,7 @@ class OdeSolver:
         on success, less when the run failed (status and message tell why)."""
         i, n = start, len(t_eval)
         while i < n:
-            if t_eval[i] == self.t:  # the current point, also t0 before any step
+            if t_eval[i] == self.t and self.status != EVENT:  # the current point, also t0 before any step
                 out[i] = self.y
                 i += 1
             elif t_eval[i] < self.t:
@@ -133,11 +157,18 @@ class OdeSolver:
                 i = j
             elif self.status == RUNNING:
                 self.step()
+            elif self.status == EVENT:  # samples from the event time on belong to the state after it
+                break
             elif self.status == FINISHED:
                 raise UsageError(f"output time {t_eval[i]:g} s lies beyond t_bound = {self.t_bound:g} s")
             else:
                 break
         return i
+
+    @property
+    def step_hint(self) -> float | None:
+        """The step size the method would try next, or None (then a restart chooses its own first step)."""
+        return None
 
     @property
     def stats(self) -> dict[str, int]:

@@ -14,11 +14,11 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import UsageError, status_text
-from .base import FAILED, FINISHED, DenseOutput, OdeSolver
+from .base import EVENT, FAILED, FINISHED, DenseOutput, OdeSolver
 
 # outcome codes of c/mbs_runtime.h (MBS_ODE_*)
 _C_RUNNING, _C_FINISHED, _C_COLLAPSED, _C_TOO_MANY = 0, 101, 102, 103
-_C_MODEL, _C_SINGULAR, _C_BAD_SAMPLE, _C_STIFF = 104, 105, 106, 107
+_C_MODEL, _C_SINGULAR, _C_BAD_SAMPLE, _C_STIFF, _C_EVENT = 104, 105, 106, 107, 108
 #: status of a run that stopped because it found stiffness (only when asked to: stop_on_stiff)
 STIFF = "stiff"
 
@@ -52,6 +52,11 @@ class NativeSolver(OdeSolver):
                                 first_step=self.first_step or 0.0,
                                 max_step=0.0 if not np.isfinite(self.max_step) else self.max_step,
                                 min_step=self.min_step, max_steps=self.max_steps)
+        if self.events is not None:  # the C loop locates the crossings itself (c/ode.c)
+            g, directions = self.events
+            if native_module(g) is not module:
+                raise UsageError("the event indicators must come from the same compiled model as the right-hand side")
+            self._c.set_events(g, np.ascontiguousarray(directions, dtype=np.intc), self.g_old)
         self._sync()
 
     def _sync(self) -> None:
@@ -68,6 +73,8 @@ class NativeSolver(OdeSolver):
             self.status = FINISHED
         elif c.status == _C_STIFF:
             self.status = STIFF
+        elif c.status == _C_EVENT:
+            self.status, self.g_old = EVENT, c.g_old
         elif c.status == _C_BAD_SAMPLE:
             raise UsageError("output times must increase and lie within [t0, t_bound]")
         elif c.status != _C_RUNNING:
@@ -88,6 +95,12 @@ class NativeSolver(OdeSolver):
     def stop_on_stiffness(self) -> None:
         """End the run (status STIFF) as soon as stiffness is detected, for a caller that switches method."""
         self._c.stop_on_stiff = 1
+    @property
+    def step_hint(self):
+        return self._c.h if self._c.h > 0 else None
+
+    def _find_event(self):
+        """C has looked for events after its step already (c/ode.c)."""
 
     def _step_impl(self):
         self._c.step()

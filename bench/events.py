@@ -1,0 +1,94 @@
+"""What events cost: nothing in a model that has none, and how fast a model with many of them runs.
+
+    python bench/events.py [--repeats R]
+
+1. A model without events (the double pendulum example, dopri5 in C, 10 s): ``simulate()`` against the bare
+   C sampling loop with no driver around it (``Solver.sample`` of the same compiled model), the median of R
+   runs each.  The ratio bounds what the event machinery costs a model that does not use it: it contains the
+   driver's fixed cost (workspace, results table), and of the event machinery only one test per step in C
+   (``nev == 0``) and one attribute test in Python.
+2. The bouncing ball example to its accumulation point: events per second of wall time.
+3. The Iltis quarter car over the bump at 10 m/s with dopri5: the tyre contact, leaf stop and damper kinks as
+   switches (events) against the smooth form of the same model (the baseline), median of R runs each.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "library" / "examples"
+
+
+def median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=21)
+    args = parser.parse_args(argv)
+    import mbs
+    from mbs.runtime.simulate import output_times, simulate
+    from mbs.runtime.workspace import Workspace
+
+    system = mbs.load(EXAMPLES / "double_pendulum.mbs")
+    compiled = system.compile()
+    data = system._workspace(compiled, system.generate(), {p.name: p.value for p in system.model.parameters})
+    x0, times = data.x.copy(), output_times(0.0, 10.0, sample=0.01)
+    module = compiled.backend.module
+    rhs = data.function("rhs")
+
+    def bare():
+        solver = module.Solver("dopri5", rhs, 0.0, x0, 10.0, 1e-8, 1e-10)
+        out = np.empty((times.size, compiled.nx))
+        solver.sample(times, out, 0)
+
+    def full():
+        fresh = Workspace(compiled)
+        fresh.p, fresh.x = data.p, x0
+        simulate(compiled, fresh, 10.0, sample=0.01, rtol=1e-8, atol=1e-10)
+
+    base = median_time(bare, args.repeats)
+    driver = median_time(full, args.repeats)
+    print(f"double pendulum, 10 s, dopri5 in C, median of {args.repeats}:")
+    print(f"  bare C sampling loop (baseline)          {base * 1e3:8.2f} ms")
+    print(f"  simulate() of a model without events     {driver * 1e3:8.2f} ms   ratio {driver / base:.2f}")
+    ball = mbs.load(EXAMPLES / "bouncing_ball.mbs")
+    ball.simulate("drop")  # compile first
+    runs = []
+    for _ in range(max(3, args.repeats // 4)):
+        res = ball.simulate("drop")
+        runs.append((res.metadata["wall_time"], len(res.events)))
+    wall = statistics.median(w for w, _ in runs)
+    print(f"bouncing ball to its accumulation point: {runs[0][1]} events in {wall * 1e3:.1f} ms "
+          f"({runs[0][1] / wall:.0f} events/s)")
+    quarter = ROOT / "library" / "iltis" / "quarter_car.mbs"
+    header = 'model quarter_car "Iltis quarter car" {'
+    smooth = mbs.load(quarter)
+    switched = mbs.loads(quarter.read_text().replace(header, header + "\n    switches = true"), path=str(quarter))
+    walls = {}
+    for label, sys_ in (("smooth", smooth), ("events", switched)):
+        sys_.simulate("bump_10")  # compile and warm up
+        walls[label] = [sys_.simulate("bump_10") for _ in range(max(3, args.repeats // 2))]
+    med = {k: statistics.median(r.metadata["wall_time"] for r in v) for k, v in walls.items()}
+    ev = walls["events"][0]
+    print(f"Iltis quarter car, bump at 10 m/s, dopri5, median of {len(walls['smooth'])}:")
+    print(f"  smooth form (baseline)   {med['smooth'] * 1e3:8.1f} ms   nfev {walls['smooth'][0].metadata['stats']['nfev']}")
+    print(f"  event form               {med['events'] * 1e3:8.1f} ms   nfev {ev.metadata['stats']['nfev']}, "
+          f"{len(ev.events)} events   ratio {med['events'] / med['smooth']:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
