@@ -404,7 +404,7 @@ class ExprResolver:
             raise self.error(f"an ISO 8608 road class is one of {', '.join(roads.CLASSES)}", cls.span)
         constant = ExprResolver(self.elab, self.scope, None, False, False, "a road definition")
 
-        def value(expr, dim):
+        def value(expr, dim, what=None):
             e, d = constant.scalar(expr)
             if dim is not None:
                 self.same(d, dim, expr, "use")

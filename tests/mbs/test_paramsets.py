@@ -29,7 +29,7 @@ def test_bad_lines_are_located(tmp_path, vehicle):
     rendered = [d.render() for d in err.value.diagnostics]
     assert len(rendered) == 2
     assert "bad.params:3:1: error: model 'vehicle' has no parameter 'fl.bogus'" in rendered[0]
-    assert "bad.params:4:1: error: fl.m_rod: expected mass" in rendered[1]
+    assert "bad.params:4:1: error: parameter fl.m_rod: expected mass" in rendered[1]
 
 
 def test_unknown_set_lists_the_known_ones(vehicle):
