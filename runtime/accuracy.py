@@ -119,10 +119,11 @@ class Table:
 
 
 def work_precision(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None,
-                   integrators=DEFAULT_INTEGRATORS, tolerances=DEFAULT_TOLERANCES, repeats: int = 3,
+                   integrators=None, tolerances=DEFAULT_TOLERANCES, repeats: int = 3,
                    max_steps: int = 2_000_000) -> Table:
     """Run every integrator at every tolerance from (data.t, data.x) to t_end and compare with the reference.
-    data is not changed. Integrators the back end cannot run are skipped."""
+    data is not changed. Integrators the back end cannot run are skipped; None: DEFAULT_INTEGRATORS."""
+    integrators = DEFAULT_INTEGRATORS if integrators is None else integrators
     times = np.linspace(data.t, t_end, 201) if t_eval is None else np.asarray(t_eval, dtype=float)
     tight = max(min(tolerances) * REFERENCE_FACTOR, REFERENCE_FLOOR)
     ref, ref_y, _ = _run(model, data, t_end, times,

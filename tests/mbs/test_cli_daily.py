@@ -49,7 +49,7 @@ def test_summary_lists_the_requested_outputs_with_units(capsys):
 @pytest.mark.parametrize("args, message", [
     (["simulate", PENDULUM, "--integrator", "rk99"], "unknown integrator 'rk99' (available: dopri5"),
     (["simulate", PENDULUM, "--scene", "nope"], "has no scene 'nope'"),
-    (["simulate", PENDULUM, "--out", "r.txt"], "results are written as .csv or .npz"),
+    (["simulate", PENDULUM, "--out", "r.txt"], "results are written as .csv, .npz or .h5"),
     (["linearize", PENDULUM, "--param", "l=2s"], "expected length (m), got time (s)"),
     (["equilibrium", PENDULUM, "--scene", "nope"], "has no scene 'nope'"),
 ])
