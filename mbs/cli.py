@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "run", None):
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    _configure_logging(args.log_verbose, args.log_quiet)
+    restore = _configure_logging(args.log_verbose, args.log_quiet)
     from mbs.language.diagnostics import MbsError
     try:
         return args.run(args)
@@ -59,19 +59,27 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mbs: internal error: {type(exc).__name__}: {exc}\n(this is a bug in mbs; rerun with --debug "
               "for the traceback and report it)", file=sys.stderr)
         return EXIT_INTERNAL
+    finally:
+        restore()
 
 
-def _configure_logging(verbose: int, quiet: bool) -> None:
-    """The library logs through `logging` (logger 'mbs.*'); the command shows it on stderr."""
+def _configure_logging(verbose: int, quiet: bool):
+    """The library logs through `logging` (logger 'mbs.*'); the command shows it on stderr. Returns the function
+    that puts the logger back as it was (main() called from Python, e.g. by tests, leaves no trace)."""
     import logging
     note = 25  # mbs.pipeline.NOTE: compile phases slower than a second (not importing the pipeline here)
     level = logging.ERROR if quiet else (note, logging.INFO)[min(verbose, 1)] if verbose < 2 else logging.DEBUG
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(logging.Formatter("mbs: %(message)s"))
     logger = logging.getLogger("mbs")
+    saved = (logger.handlers[:], logger.level, logger.propagate)
     logger.handlers[:] = [handler]
     logger.setLevel(level)
     logger.propagate = False
+
+    def restore() -> None:
+        logger.handlers[:], logger.level, logger.propagate = saved
+    return restore
 
 
 if __name__ == "__main__":

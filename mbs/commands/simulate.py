@@ -80,8 +80,6 @@ class Simulate:
             res.plot(requested_outputs(system, scene, res), args.plot,
                      title=f"{system.model.name}" + (f", scene {scene}" if scene else ""))
         _summary(system, scene, res, args)
-        for warning in res.metadata.get("warnings", ()):
-            print(f"{args.file}: warning: {warning}", file=sys.stderr)
         if not res.success:
             print(f"{args.file}: {res.message}", file=sys.stderr)
             return 130 if res.metadata.get("status") == "interrupted" else 1

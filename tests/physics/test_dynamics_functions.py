@@ -139,17 +139,18 @@ def test_inverse_dynamics_of_the_iltis_quarter_car_is_the_loop_closure_force():
 
 
 def test_the_standalone_header_exports_the_dynamics_functions_only_when_asked(tmp_path):
+    """mbs compile names the exported functions with the model's prefix (spatial_arm_inverse_dynamics)."""
     from mbs.cli import main
     arm = str(ROOT / "tests" / "compiler" / "models" / "spatial_arm.mbs")
     assert main(["compile", arm, "-o", str(tmp_path / "plain")]) == 0
-    assert "mbs_inverse_dynamics" not in (tmp_path / "plain" / "spatial_arm.h").read_text()
+    assert "inverse_dynamics" not in (tmp_path / "plain" / "spatial_arm.h").read_text()
     assert main(["compile", arm, "--dynamics", "-o", str(tmp_path / "dyn")]) == 0
     header = (tmp_path / "dyn" / "spatial_arm.h").read_text()
-    for name in ("mbs_inverse_dynamics", "mbs_bias_forces", "mbs_gravity_forces", "mbs_mass_matrix"):
-        assert f"int {name}(double t, const double *x, const double *p," in header
-    assert "#define MBS_NXA (MBS_NX+MBS_NV)" in header
+    for name in ("inverse_dynamics", "bias_forces", "gravity_forces", "mass_matrix"):
+        assert f"int spatial_arm_{name}(double t, const double *x, const double *p," in header
+    assert "#define SPATIAL_ARM_NXA (SPATIAL_ARM_NX+SPATIAL_ARM_NV)" in header
     assert main(["compile", arm, "--frame", "fore.tip", "-o", str(tmp_path / "frames")]) == 0
     header = (tmp_path / "frames" / "spatial_arm.h").read_text()
-    assert "#define MBS_NF 1" in header and "const char *mbs_frame_name(int i);" in header
-    assert "int mbs_frame_jacobians(double t, const double *x, const double *p, double *mbs_jac, double *work);" \
-        in header
+    assert "#define SPATIAL_ARM_NF 1" in header and "const char *spatial_arm_frame_name(int i);" in header
+    assert ("int spatial_arm_frame_jacobians(double t, const double *x, const double *p, double *mbs_jac, "
+            "double *work);") in header
