@@ -22,6 +22,7 @@ import numpy as np
 
 from mbs import pipeline
 from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.language.units import unit_text
 
 from .metrics import parse
 from .package import ModelPackage
@@ -169,7 +170,7 @@ def optimum_scene(system, scene: str | None, values: Mapping[str, float], object
     lines = []
     for name, value in values.items():
         dim = units.get(name)
-        unit = "" if dim is None or dim.is_dimensionless else f" {pipeline._unit(dim)}"
+        unit = "" if dim is None or dim.is_dimensionless else f" {unit_text(dim)}"
         lines.append(f"    param {name} = {value:.10g}{unit}")
     note = f'"optimum of {objective.replace(chr(34), chr(39))} found by mbs optimize"'
     sc = system.scene(scene)

@@ -42,7 +42,7 @@ def test_latin_hypercube_covers_each_stratum_once(dask_client, tmp_path, capsys)
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--param", "l=1,x"], "--param expects name=value[unit]"),
+    (["--param", "l=1,x"], "expected a number with an optional unit"),
     (["--param", "l=1s,2s"], "expected length"),
     (["--param", "l=1,2", "--design", "lhs"], "expected 'grid' or 'lhs N'"),
     (["--param", "l=1,2", "--metric", "peak(nothing)"], "no output or coordinate 'nothing'"),
