@@ -497,5 +497,8 @@ def test_slider_crank_model_file_end_to_end(cache_dir, monkeypatch):
     states = np.column_stack([res[n] for n in compiled.x_names])
     project_samples(data, res.t, states)
     th, s = states[:, 0], states[:, 1]
-    assert np.max(np.abs(s - 0.1 * np.cos(th) - np.sqrt(0.16 - 0.01 * np.sin(th)**2))) < 1e-12
+    # the projection stops at max |g| <= 1e-12 (MBS_LOOP_TOL in c/loops.c) in the cut joint's own rows; along the
+    # guide that residual grows by at most 1 / cos(rod angle), sin(rod angle) <= r / L = 0.25, plus round-off
+    bound = 1e-12 / math.sqrt(1 - 0.25**2) + 1e-13
+    assert np.max(np.abs(s - 0.1 * np.cos(th) - np.sqrt(0.16 - 0.01 * np.sin(th)**2))) < bound
     assert (th[-1] - th[0]) > 2 * math.pi
