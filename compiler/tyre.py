@@ -6,7 +6,9 @@ geometry symbolically, so any law written in the model file sees the same slip q
 
 - road normal n from the road height z(x, y) at the wheel centre, its slopes by central differences over
   +-SLOPE_STEP (a contact patch's length scale: exact enough for smooth roads, and defined for tables and
-  piecewise profiles that have no derivative at their breaks);
+  piecewise profiles that have no derivative at their breaks); with `vertical = true` n is frame a's z axis
+  (the point contact of the Iltis benchmark: the road's height counts, not its slope; on a slope the normal
+  force then has no component along the road, so a car without brakes still has a static equilibrium);
 - tyre axes: e_x = e_y x n / |e_y x n| forward in the road plane, e_l = n x e_x to the left in it, u = e_y x e_x
   the wheel plane's direction towards the road;
 - camber gamma = asin(e_y . n) (positive when the wheel top leans to the tyre's right, -y), loaded radius
@@ -92,8 +94,11 @@ def attach_tyre(lowering, inter: M.Interaction, force: M.Force) -> dict[str, sp.
 
     h_step = sp.Float(SLOPE_STEP)
     z_road = tape.temp(road(x, y), "tyzr")
-    sx = tape.temp((road(x + h_step, y) - road(x - h_step, y)) / (2 * h_step), "tysx")
-    sy = tape.temp((road(x, y + h_step) - road(x, y - h_step)) / (2 * h_step), "tysy")
+    if force.arg("vertical"):   # a point contact that sees only the road's height
+        sx = sy = sp.Integer(0)
+    else:
+        sx = tape.temp((road(x + h_step, y) - road(x - h_step, y)) / (2 * h_step), "tysx")
+        sy = tape.temp((road(x, y + h_step) - road(x, y - h_step)) / (2 * h_step), "tysy")
     n, _ = _unit(tape, [-sx, -sy, sp.Integer(1)], "tyn")
     e_y = to_road([Rb[k][1] for k in range(3)])
     e_x, cos_gamma = _unit(tape, cross(e_y, n), "tyex")

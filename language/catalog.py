@@ -123,7 +123,10 @@ FORCES: dict[str, ElementKind] = {k.name: k for k in (
                          Arg("fy", "law", U.FORCE, optional=True, doc="lateral force (tyre y to the left)"),
                          Arg("mz", "law", U.TORQUE, optional=True, doc="aligning torque about the road normal"),
                          Arg("v_low", "scalar", U.VELOCITY, default=0.5,
-                             doc="speed added (in quadrature) to |vx| in the slip denominators: finite at standstill")),
+                             doc="speed added (in quadrature) to |vx| in the slip denominators: finite at standstill"),
+                         Arg("vertical", "flag", optional=True,
+                             doc="the normal along frame a's z instead of the road's normal (a point contact that "
+                                 "sees only the height, as the Iltis benchmark's tyre)")),
                 TYRE_LOCALS,
                 doc="wheel (frame b, spin axis y) on a road (frame a, height along z): contact kinematics and "
                     "force laws of the slip quantities (compiler/tyre.py)"),

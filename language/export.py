@@ -40,7 +40,7 @@ def _value(v):
         return {"part": v.part, "frame": v.frame}
     if isinstance(v, tuple):
         return _vec(v)
-    if isinstance(v, str):
+    if isinstance(v, (str, bool)):   # words and flags (a tyre's vertical = true)
         return v
     return expr_json(v)
 

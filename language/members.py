@@ -248,6 +248,8 @@ def _element_args(elab, scope, entry, member, kind: catalog.ElementKind, what) -
                 out[name] = G.mirror_axial(scope.signs, vec) if name == "torque" else G.mirror_vec(scope.signs, vec)
             elif arg.kind == "axis":
                 out[name] = elab.axis(scope, node, f"'{name}'")
+            elif arg.kind == "flag":
+                out[name] = _flag(elab, scope, node)
             elif arg.kind == "frame":
                 if not isinstance(node, ast.Name):
                     elab.diags.error(f"'{name}' takes a frame, such as inertial or part.frame", scope.at(node.span))

@@ -20,7 +20,7 @@ def probe(tmp_path_factory):
 
 def at_start(system, **params):
     res = system.simulate("probe", params=params)
-    return {name: res[name][0] for name in res.names if name.startswith("tyre.")}
+    return {name: res[name][0] for name in res.names if name.startswith(("tyre.", "point_contact."))}
 
 
 def test_flat_road_deflection_slip_angle_and_load(probe):
@@ -52,12 +52,14 @@ def test_standstill_slip_is_finite(probe):
     assert out["tyre.t.kappa"] == 0.0
 
 
-def test_normal_force_along_the_normal_of_a_sloped_road(probe):
+def test_normal_force_along_the_normal_of_a_sloped_road_or_vertical(probe):
     slope, z0 = 0.2, 0.355
     out = at_start(probe, vx=0.0, vy=0.0, slope=slope, z0=z0)
     height = z0 / math.sqrt(1 + slope ** 2)          # the centre above the tangent plane through the origin
     assert out["tyre.t.rho"] == pytest.approx(R0 - height, rel=1e-12)
-    # at rest and without gravity the body accelerates along the road normal (-slope, 0, 1)
-    assert out["tyre.acc.x"] / out["tyre.acc.z"] == pytest.approx(-slope, rel=1e-9)
+    # at rest and without gravity: one tyre pushes along the road normal (-slope, 0, 1), the other up
     assert out["tyre.acc.y"] == pytest.approx(0.0, abs=1e-9)
-    assert math.hypot(out["tyre.acc.x"], out["tyre.acc.z"]) == pytest.approx(out["tyre.t.fz"] / 400.0, rel=1e-12)
+    assert out["tyre.acc.x"] == pytest.approx(-slope / math.sqrt(1 + slope ** 2) * out["tyre.t.fz"] / 400.0, rel=1e-9)
+    assert out["point_contact.t.rho"] == pytest.approx(R0 - z0, rel=1e-12)   # the height above the road below
+    assert out["tyre.acc.z"] == pytest.approx((out["tyre.t.fz"] / math.sqrt(1 + slope ** 2)
+                                               + out["point_contact.t.fz"]) / 400.0, rel=1e-9)

@@ -23,8 +23,13 @@ def single_track_eigenvalues(v):
 
 
 @pytest.fixture(scope="module")
-def car(tmp_path_factory):
-    return mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
+def cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("cache")
+
+
+@pytest.fixture(scope="module")
+def car(cache):
+    return mbs.load(MODEL, cache_dir=str(cache))
 
 
 @pytest.mark.parametrize("speed", [10.0, 30.0])
@@ -41,11 +46,11 @@ def test_lateral_and_yaw_modes_are_the_single_track_models(car, speed):
     assert {"bounce", "pitch", "roll"} <= names
 
 
-def test_command_prints_the_table_and_draws_the_root_locus(tmp_path, capsys, monkeypatch):
-    monkeypatch.setenv("MBS_CACHE_DIR", str(tmp_path / "cache"))
+def test_command_prints_the_table_and_draws_the_root_locus(tmp_path, capsys, monkeypatch, car, cache):
+    monkeypatch.setenv("MBS_CACHE_DIR", str(cache))    # the fixture's build: no second compile
     plot, out = tmp_path / "locus.png", tmp_path / "modes.json"
     shapes = tmp_path / "shapes.png"
-    assert main(["modes", str(MODEL), "--speed", "10:30:10", "--plot", str(plot), "--out", str(out),
+    assert main(["modes", str(MODEL), "--speed", "10:20:10", "--plot", str(plot), "--out", str(out),
                  "--shapes", str(shapes)]) == 0
     text = capsys.readouterr().out
     assert "steady run at 20 m/s" in text and "bounce" in text and "damping [%]" in text
