@@ -34,7 +34,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_LOGIC, CodegenError, ExprPrinte
                           Routine, check_inputs, describe, equation_routines, plan_routine, printable,
                           table_slopes)
 from .equations import Equations
-from .jacobian import jacobian_or_none
+from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY
 
 GENERATOR = "mbs.compiler.pycode"
@@ -123,11 +123,13 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=(), jacobian: bool = False):
+                 run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
-        self.jacobian = None
+        self.jacobian = self.parameter_jacobian = None
         if jacobian:
             self.eqs, self.jacobian = jacobian_or_none(equations)
+        if parameter_jacobian:
+            self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
         self.run_time_inputs = tuple(run_time_inputs)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
@@ -152,7 +154,7 @@ class PyEmitter:
         return "\n\n\n".join(parts) + "\n"
 
     def _routines(self) -> list:
-        return equation_routines(self.eqs, self.outputs) + ([self.jacobian] if self.jacobian else [])
+        return equation_routines(self.eqs, self.outputs) + [r for r in (self.jacobian, self.parameter_jacobian) if r]
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -244,12 +246,12 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=(), jacobian: bool = False) -> str:
+                   run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                      inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
-                     jacobian=jacobian).source()
+                     jacobian=jacobian, parameter_jacobian=parameter_jacobian).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

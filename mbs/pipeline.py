@@ -61,8 +61,11 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
     return bool(name) and str(name).lower() in JACOBIAN_INTEGRATORS
 
 
-def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None) -> Generated:
+def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
+             parameter_jacobian: bool = False) -> Generated:
     """Validated model -> generated source (symbolic derivation included).
+
+    parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p, for sensitivities; trees only).
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
@@ -80,6 +83,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
     if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
         options["jacobian"] = True
+    if parameter_jacobian and constraints is None:
+        options["parameter_jacobian"] = True
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""

@@ -48,18 +48,24 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None, *, jacobian: bool | None = None) -> pipeline.Generated:
-        """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it)."""
+    def generate(self, scene: str | None = None, *, jacobian: bool | None = None,
+                 parameter_jacobian: bool = False) -> pipeline.Generated:
+        """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
+        parameter_jacobian: with mbs_param_jacobian (for sensitivities)."""
         key = ("generated", scene) if jacobian is None else ("generated", scene, jacobian)
+        key += ("parameter_jacobian",) if parameter_jacobian else ()
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian)
+            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian,
+                                                    parameter_jacobian=parameter_jacobian)
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None, *, jacobian: bool | None = None) -> CompiledModel:
+    def compile(self, scene: str | None = None, *, jacobian: bool | None = None,
+                parameter_jacobian: bool = False) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs."""
         key = ("compiled", scene) if jacobian is None else ("compiled", scene, jacobian)
+        key += ("parameter_jacobian",) if parameter_jacobian else ()
         if key not in self._compiled:
-            gen = self.generate(scene, jacobian=jacobian)
+            gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params[n] for n in gen.p_names],
@@ -99,15 +105,15 @@ class System:
 
 
     def start(self, scene: str | None = None, *, params: Mapping[str, float] | None = None, x0=None,
-              jacobian: bool | None = None, **overrides) -> tuple[Workspace, dict]:
+              jacobian: bool | None = None, parameter_jacobian: bool = False, **overrides) -> tuple[Workspace, dict]:
         """(workspace at the scene's start, run settings): what a run of the scene begins with. overrides:
-        t_end, sample, integrator, rtol, atol as for simulate. jacobian: as for compile."""
+        t_end, sample, integrator, rtol, atol as for simulate. jacobian, parameter_jacobian: as for compile."""
         sc = self.scene(scene)
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
             jacobian = True
-        compiled = self.compile(scene, jacobian=jacobian)
-        gen = self.generate(scene, jacobian=jacobian)
+        compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
+        gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc), **(params or {})})
         data = self._workspace(compiled, gen, values)
         if x0 is not None:

@@ -34,6 +34,7 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "qdot": ("NQ",),
     "outputs": ("NY",),
     "jacobian": ("NX", "NX1"),  # [d xdot/d x | d xdot/d t], when generated (compiler/jacobian.py)
+    "param_jacobian": ("NX", "NP"),  # d xdot/d p, when generated for sensitivities (compiler/jacobian.py)
     # models with closed loops (NC constraint rows; runtime/c/loops.c)
     "constraints": ("NC",),
     "constraint_velocity": ("NC",),
