@@ -80,6 +80,20 @@ class SensitivityTable:
     def normalised(self, metric: str, parameter: str) -> float:
         return self.row(metric, parameter).normalised
 
+    def text(self) -> str:
+        """The table as the command line prints it."""
+        head = ("metric", "parameter", "value", "p", "d metric/dp", "(p/metric) d/dp")
+        body = [(r.metric, r.parameter, f"{r.value:.10g}", f"{r.p:.6g}", f"{r.derivative:.8g}", f"{r.normalised:.6g}")
+                for r in self.rows]
+        widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head))]
+        return "\n".join("  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths)))
+                         .rstrip() for row in [head, *body])
+
+    def csv(self) -> str:
+        lines = ["metric,parameter,value,p,derivative,normalised"]
+        lines += [f'"{r.metric}",{r.parameter},{r.value!r},{r.p!r},{r.derivative!r},{r.normalised!r}' for r in self.rows]
+        return "\n".join(lines) + "\n"
+
 
 def parse_metric(text: str, columns: Sequence[str]) -> tuple[str, str]:
     """'period(hinge.phi)' -> ('period', 'hinge.phi'), checked against the known columns."""
@@ -194,13 +208,13 @@ def default_metrics(columns: Sequence[str]) -> list[str]:
     return [f"{kind}({name})" for name in columns for kind in ("peak", "final")]
 
 
-def sensitivities(system, scene: str | None = None, *, params: Sequence[str] | Mapping[str, float],
+def sensitivities(system, scene: str | None = None, *, params: Sequence[str], values: Mapping[str, float] | None = None,
                   metrics: Sequence[str] | None = None, t_end: float | None = None, method: str = "DOP853",
                   rtol: float | None = None, atol: float | None = None) -> SensitivityTable:
-    """d(metric)/d(p) of a scene's run for each metric and each parameter in `params` (names, or a mapping
-    name -> value to differentiate at other values than the scene's)."""
-    names = list(params)
-    at = dict(params) if isinstance(params, Mapping) else {}
+    """d(metric)/d(p) of a scene's run for each metric and each parameter named in `params`, at the scene's
+    parameter values overridden by `values` (as --param name=value of a run)."""
+    names = [params] if isinstance(params, str) else list(params)
+    at = dict(values or {})
     unknown = [n for n in names if n not in system.model.parameter_map]
     if unknown:
         known = ", ".join(p.name for p in system.model.parameters) or "none"

@@ -10,8 +10,9 @@ from .compile import Compile
 from .eom import Eom
 from .model_files import Check, Export, Fmt
 from .numerics import Numerics
+from .sensitivity import Sensitivity
 from .simulate import Simulate
 
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy,
-            "numerics": Numerics}
+            "numerics": Numerics, "sensitivity": Sensitivity}
