@@ -74,6 +74,6 @@ def parameter_jacobian_routine(equations: Equations, parameters) -> tuple[Equati
     results = [(i * npar + k, d) for i, row in enumerate(rows) for k, d in enumerate(row)]
     kinematics = copy.copy(equations.kinematics)
     kinematics.tape = fork
-    routine = ("mbs_param_jacobian", "out", "d xdot/d p (nx rows, np columns, row-major) by forward differentiation "
-               "of the tape", (len(rows), npar), results, False)
+    doc = "d xdot/d p (nx rows, np columns, row-major) by forward differentiation of the tape"
+    routine = ("mbs_param_jacobian", "out", doc, (len(rows), npar), results, False)
     return dataclasses.replace(equations, kinematics=kinematics), routine

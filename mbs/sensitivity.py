@@ -26,8 +26,8 @@ which is algebraic: step 1e-6 * max(|p|, 1), error about 1e-10 relative for smoo
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import brentq
@@ -83,8 +83,8 @@ class SensitivityTable:
     def text(self) -> str:
         """The table as the command line prints it."""
         head = ("metric", "parameter", "value", "p", "d metric/dp", "(p/metric) d/dp")
-        body = [(r.metric, r.parameter, f"{r.value:.10g}", f"{r.p:.6g}", f"{r.derivative:.8g}", f"{r.normalised:.6g}")
-                for r in self.rows]
+        body = [(r.metric, r.parameter, f"{r.value:.10g}", f"{r.p:.6g}", f"{r.derivative:.8g}",
+                 f"{r.normalised:.6g}") for r in self.rows]
         widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head))]
         return "\n".join("  ".join(c.ljust(w) if i < 2 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths)))
                          .rstrip() for row in [head, *body])
@@ -156,7 +156,7 @@ def _extremum(column: _Column, y: np.ndarray, sign: float) -> tuple[float, np.nd
     t = column.run.t
     i = int(np.argmax(sign * y))
     if 0 < i < len(t) - 1:
-        rate = lambda s: column.at(s)[1]  # noqa: E731
+        rate = lambda s: column.at(s)[1]
         lo, hi = (t[i - 1], t[i]) if rate(t[i]) * sign < 0 else (t[i], t[i + 1])
         if rate(lo) * rate(hi) < 0:
             value, _, dp = column.at(brentq(rate, lo, hi, xtol=1e-14, rtol=1e-14))
@@ -237,7 +237,8 @@ def sensitivities(system, scene: str | None = None, *, params: Sequence[str], va
         S0[:, k] = (up.x - down.x) / (2 * h)
     times = output_times(data.t, settings["t_end"], sample=settings.get("sample"))
     run = integrate_sensitivities(model, data, settings["t_end"], P, S0, t_eval=times, method=method,
-                                  rtol=settings["rtol"], atol=settings["atol"], scales=[max(abs(v), 1.0) for v in values])
+                                  rtol=settings["rtol"], atol=settings["atol"],
+                                  scales=[max(abs(v), 1.0) for v in values])
     columns = list(model.x_names) + list(model.y_names)
     metrics = list(metrics) if metrics else default_metrics(list(model.y_names) or list(model.q_names))
     parsed = [parse_metric(m, columns) for m in metrics]

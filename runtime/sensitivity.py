@@ -92,8 +92,8 @@ def integrate_sensitivities(model: CompiledModel, data: Workspace, t_end: float,
     sol = solve_ivp(augmented, (data.t, t_end), z0, method=method, t_eval=t_eval, rtol=rtol, atol=atol_z,
                     dense_output=True, **options)
     if sol.status != 0:
-        raise SimulationError(f"sensitivity integration of {model.name} failed at t = {sol.t[-1] if sol.t.size else data.t:g} s: "
-                              f"{sol.message}")
+        t_fail = sol.t[-1] if sol.t.size else data.t
+        raise SimulationError(f"sensitivity integration of {model.name} failed at t = {t_fail:g} s: {sol.message}")
     z = sol.y.T
     return SensitivityRun(sol.t, z[:, :nx].copy(), z[:, nx:].reshape(len(sol.t), k, nx).transpose(0, 2, 1).copy(),
                           sol.sol, int(sol.nfev))

@@ -1,5 +1,5 @@
 """Forward sensitivities against what no one here wrote: the closed-form period of the pendulum and its
-derivatives, and central finite differences of full runs of a double pendulum."""
+derivatives, and central finite differences of full runs of a double pendulum and of the quarter car."""
 
 import math
 import sys
@@ -15,7 +15,7 @@ from mbs.language.diagnostics import MbsError
 from mbs.sensitivity import sensitivities
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "physics"))
-import physkit  # noqa: E402
+import physkit
 
 G = 9.81
 RTOL, ATOL = 1e-11, 1e-13
