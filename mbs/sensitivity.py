@@ -6,7 +6,9 @@ equations, one run for all parameters, no finite differences of runs.
     table.derivative("period(hinge.phi)", "l"), table.normalised("period(hinge.phi)", "l")
 
 A metric is a reduction of one column (a state such as `hinge.phi` or `der(hinge.phi)`, or a scene output), with
-the reductions of the sweep's metrics: final, peak, min, range, mean, rms, period. Each has its derivative:
+the reductions of the sweep's metrics: final, peak, min, range, mean, rms, period, or arithmetic of such
+(`peak(heave) - min(heave)`, `rms(load) / 3700`; + - * /, ** a number, abs, sqrt), differentiated by the chain
+rule. Each reduction has its derivative:
 
 - final, mean, rms: from dy/dp at the samples (mean over the samples, like the metric itself);
 - peak, min: the extremum is located on the integrator's interpolant (a root of dy/dt between samples) and, since
@@ -25,7 +27,7 @@ which is algebraic: step 1e-6 * max(|p|, 1), error about 1e-10 relative for smoo
 
 from __future__ import annotations
 
-import re
+import ast
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -95,17 +97,71 @@ class SensitivityTable:
         return "\n".join(lines) + "\n"
 
 
-def parse_metric(text: str, columns: Sequence[str]) -> tuple[str, str]:
-    """'period(hinge.phi)' -> ('period', 'hinge.phi'), checked against the known columns."""
-    match = re.fullmatch(r"\s*(\w+)\s*\((.+)\)\s*", text)
-    if match is None or match.group(1) not in REDUCTIONS:
-        raise _error(f"metric '{text}': expected REDUCTION(COLUMN) with a reduction among "
-                     f"{', '.join(REDUCTIONS)}, e.g. period(hinge.phi)")
-    column = match.group(2).strip()
-    if column not in columns:
-        from mbs.language.scope import did_you_mean
-        raise _error(f"metric '{text}': no state or output '{column}'{did_you_mean(column, list(columns))}")
-    return match.group(1), column
+def parse_metric(text: str, columns: Sequence[str]) -> ast.Expression:
+    """A metric as an expression tree, checked: reductions REDUCTION(COLUMN) of known columns, numbers,
+    + - * /, ** with a number as exponent, abs and sqrt (the sweep's metric syntax; nothing else runs)."""
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError:
+        raise _error(f"metric '{text}': not an expression; expected e.g. period(hinge.phi)") from None
+
+    def check(node) -> None:
+        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value,
+                                                                                                       bool):
+            return
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            return check(node.operand)
+        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
+            if isinstance(node.op, ast.Pow) and not isinstance(node.right, ast.Constant):
+                raise _error(f"metric '{text}': the exponent of ** must be a number")
+            check(node.left)
+            return check(node.right)
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and len(node.args) == 1 \
+                and not node.keywords:
+            if node.func.id in ("abs", "sqrt"):
+                return check(node.args[0])
+            if node.func.id in REDUCTIONS:
+                column = ast.unparse(node.args[0])
+                if column not in columns:
+                    from mbs.language.scope import did_you_mean
+                    raise _error(f"metric '{text}': no state or output '{column}'"
+                                 f"{did_you_mean(column, list(columns))}")
+                return None
+        raise _error(f"metric '{text}': expected REDUCTION(COLUMN) with a reduction among {', '.join(REDUCTIONS)}"
+                     ", e.g. period(hinge.phi), or numbers, + - * / ** abs sqrt of such")
+
+    check(tree.body)
+    return tree
+
+
+def evaluate_metric(tree: ast.Expression, reduce) -> tuple[float, np.ndarray]:
+    """(value, gradient) of a parsed metric by the chain rule; reduce(reduction, column) -> (value, gradient)."""
+
+    def walk(node):
+        if isinstance(node, ast.Constant):
+            return float(node.value), 0.0
+        if isinstance(node, ast.UnaryOp):
+            a, da = walk(node.operand)
+            return (-a, -da) if isinstance(node.op, ast.USub) else (a, da)
+        if isinstance(node, ast.Call):
+            if node.func.id in REDUCTIONS:
+                return reduce(node.func.id, ast.unparse(node.args[0]))
+            a, da = walk(node.args[0])
+            if node.func.id == "abs":
+                return abs(a), np.sign(a) * da
+            return np.sqrt(a), da / (2 * np.sqrt(a))
+        (a, da), (b, db) = walk(node.left), walk(node.right)
+        if isinstance(node.op, ast.Add):
+            return a + b, da + db
+        if isinstance(node.op, ast.Sub):
+            return a - b, da - db
+        if isinstance(node.op, ast.Mult):
+            return a * b, da * b + a * db
+        if isinstance(node.op, ast.Div):
+            return a / b, (da * b - a * db) / (b * b)
+        return a ** b, b * a ** (b - 1) * da  # b a number (checked)
+
+    return walk(tree.body)
 
 
 class _Column:
@@ -242,8 +298,16 @@ def sensitivities(system, scene: str | None = None, *, params: Sequence[str], va
     columns = list(model.x_names) + list(model.y_names)
     metrics = list(metrics) if metrics else default_metrics(list(model.y_names) or list(model.q_names))
     parsed = [parse_metric(m, columns) for m in metrics]
+    cache: dict = {}
+
+    def reduce(reduction: str, name: str):
+        if (reduction, name) not in cache:
+            cache[reduction, name] = metric_sensitivity(reduction, _Column(name, data, run, P, steps))
+        return cache[reduction, name]
+
     rows = []
-    for text, (reduction, name) in zip(metrics, parsed):
-        value, derivative = metric_sensitivity(reduction, _Column(name, data, run, P, steps))
+    for text, tree in zip(metrics, parsed):
+        value, derivative = evaluate_metric(tree, reduce)
+        derivative = np.broadcast_to(np.asarray(derivative, dtype=float), (len(names),))
         rows += [Sensitivity(text.strip(), n, float(value), v, float(d)) for n, v, d in zip(names, values, derivative)]
     return SensitivityTable(tuple(rows), run)

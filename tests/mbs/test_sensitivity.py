@@ -107,20 +107,22 @@ def double():
 def full_run_final(system, values):
     res = system.simulate(t_end=T_END, sample=0.01, params=values, rtol=RTOL, atol=ATOL)
     assert res.success, res.message
-    return np.array([res[n][-1] for n in ("shoulder.phi", "elbow.phi", "der(shoulder.phi)", "der(elbow.phi)",
-                                          "spread")]), float(np.max(res["spread"]))
+    final = np.array([res[n][-1] for n in ("shoulder.phi", "elbow.phi", "der(shoulder.phi)", "der(elbow.phi)",
+                                           "spread")])
+    return final, np.array([np.max(res["spread"]), final[0] * final[1] / (1 + final[2] ** 2)])
 
 
-def test_final_state_sensitivities_match_central_differences_of_full_runs(double):
+def test_final_state_and_metric_arithmetic_sensitivities_match_central_differences_of_full_runs(double):
     metrics = [f"final({n})" for n in ("shoulder.phi", "elbow.phi", "der(shoulder.phi)", "der(elbow.phi)",
-                                      "spread")] + ["peak(spread)"]
+                                      "spread")] + ["peak(spread)",
+                                                    "final(shoulder.phi) * final(elbow.phi) / (1 + final(der(shoulder.phi))**2)"]
     table = sensitivities(double, params=PARAMS, metrics=metrics, t_end=T_END, rtol=RTOL, atol=ATOL)
     base = {"l1": 1.0, "m2": 0.7, "phi0": math.radians(40)}
     for name in PARAMS:
         h = 1e-4 * base[name]
         up_final, up_peak = full_run_final(double, {name: base[name] + h})
         down_final, down_peak = full_run_final(double, {name: base[name] - h})
-        fd = np.append((up_final - down_final) / (2 * h), (up_peak - down_peak) / (2 * h))
+        fd = np.append((up_final - down_final) / (2 * h), (up_peak - down_peak) / (2 * h))  # + the arithmetic
         ours = np.array([table.derivative(m, name) for m in metrics])
         # central differences: truncation ~h^2 ~1e-8, integration noise ~1e-11/h ~1e-7 of derivatives O(1..10);
         # l2 = 0.6 l1 must follow l1, phi0 moves both initial angles: missing either is an O(1) error
