@@ -35,7 +35,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_UNARY, CodegenError, ExprPrinte
                           printable, table_slopes)
 from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
 from .equations import Equations
-from .jacobian import jacobian_or_none
+from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
 GENERATOR = "mbs.compiler.ccode"
@@ -99,11 +99,14 @@ class CEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()):
+                 constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
+                 dynamics=None, events=(), actions=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
-        self.jacobian = None
+        self.jacobian = self.parameter_jacobian = None
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
+        if parameter_jacobian and not (constraints is not None and constraints.nc):
+            self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
         self.run_time_inputs = tuple(run_time_inputs)
         # the dynamics functions asked for (compiler/dynamics_functions.py): (routines, acceleration inputs)
         self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
@@ -142,7 +145,7 @@ class CEmitter:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
         routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
-            return routines + ([self.jacobian] if self.jacobian else [])
+            return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
         return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
 
     def write(self, path: str | Path) -> Path:
@@ -178,6 +181,8 @@ class CEmitter:
             lines.append(f"#define MBS_NEV {len(self.events)}   /* event indicators (mbs_events) */")
         if self.actions:
             lines.append(f"#define MBS_NACT {len(self.actions)}   /* values of event actions (mbs_event_actions) */")
+        if self.parameter_jacobian:
+            lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints)]
@@ -344,7 +349,8 @@ def _names_function(name: str, names: list) -> str:
 
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-               constraints=None, run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()) -> str:
+               constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
+               dynamics=None, events=(), actions=()) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -355,8 +361,9 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     (`Lowered.run_time_inputs`): mbs_outputs then evaluates the right-hand side first.
     jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators.
     dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for.
-    events, actions: (name, expression) pairs of mbs_events (MBS_NEV) and mbs_event_actions (MBS_NACT)."""
+    events, actions: (name, expression) pairs of mbs_events (MBS_NEV) and mbs_event_actions (MBS_NACT).
+    parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p; trees only), for sensitivities."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs, jacobian=jacobian, dynamics=dynamics).source()
+                    run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()

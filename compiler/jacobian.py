@@ -36,6 +36,14 @@ def jacobian_or_none(equations: Equations) -> tuple[Equations, tuple | None]:
         return equations, None
 
 
+def parameter_jacobian_or_none(equations: Equations, parameters) -> tuple[Equations, tuple | None]:
+    """`parameter_jacobian_routine`, or (equations, None) without a printable derivative (a lookup table)."""
+    try:
+        return parameter_jacobian_routine(equations, parameters)
+    except NotDifferentiable:
+        return equations, None
+
+
 def jacobian_routine(equations: Equations) -> tuple[Equations, tuple]:
     """(equations on a tape that also holds the derivatives, the routine in emit_common's format)."""
     tree = equations.tree
@@ -48,4 +56,24 @@ def jacobian_routine(equations: Equations) -> tuple[Equations, tuple]:
     kinematics.tape = fork
     routine = ("mbs_jacobian", "out", "J = [d xdot/d x | d xdot/d t] (nx rows, nx + 1 columns, row-major) by forward "
                "differentiation of the tape", (nx, nx + 1), results, False)
+    return dataclasses.replace(equations, kinematics=kinematics), routine
+
+
+def parameter_jacobian_routine(equations: Equations, parameters) -> tuple[Equations, tuple]:
+    """(equations on a tape that also holds d xdot / d p, the routine `mbs_param_jacobian`):
+
+        int mbs_param_jacobian(double t, const double *x, const double *p, double *out, double *work);
+        out = MBS_NX rows of MBS_NP columns, row-major: d xdot_i / d p_k at fixed (t, x).
+
+    The forcing term of the forward sensitivity equations S' = (df/dx) S + df/dp (mbs.runtime.sensitivity).
+    Raises NotDifferentiable when a parameter reaches the right-hand side through a lookup table."""
+    parameters = list(parameters)
+    npar = len(parameters)
+    fork, rows = forward_derivatives(equations.tape, equations.rhs, parameters,
+                                     labels=[s.name for s in parameters])
+    results = [(i * npar + k, d) for i, row in enumerate(rows) for k, d in enumerate(row)]
+    kinematics = copy.copy(equations.kinematics)
+    kinematics.tape = fork
+    doc = "d xdot/d p (nx rows, np columns, row-major) by forward differentiation of the tape"
+    routine = ("mbs_param_jacobian", "out", doc, (len(rows), npar), results, False)
     return dataclasses.replace(equations, kinematics=kinematics), routine

@@ -34,7 +34,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_LOGIC, CodegenError, ExprPrinte
                           Routine, check_inputs, describe, equation_routines, plan_routine, printable,
                           table_slopes)
 from .equations import Equations
-from .jacobian import jacobian_or_none
+from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY
 
 GENERATOR = "mbs.compiler.pycode"
@@ -123,11 +123,14 @@ class PyEmitter:
 
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                 run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()):
+                 run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
+                 dynamics=None, events=(), actions=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
-        self.jacobian = None
+        self.jacobian = self.parameter_jacobian = None
         if jacobian:
             self.eqs, self.jacobian = jacobian_or_none(equations)
+        if parameter_jacobian:
+            self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
         self.run_time_inputs = tuple(run_time_inputs)
         self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
         self.frame_names = tuple(frames[0]) if frames else ()
@@ -157,7 +160,7 @@ class PyEmitter:
 
     def _routines(self) -> list:
         return (equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
-                + ([self.jacobian] if self.jacobian else []))
+                + [r for r in (self.jacobian, self.parameter_jacobian) if r])
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -258,12 +261,13 @@ def _docstring_text(text: str) -> str:
 
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
-                   run_time_inputs=(), jacobian: bool = False, dynamics=None, events=(), actions=()) -> str:
+                   run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
+                   dynamics=None, events=(), actions=()) -> str:
     """The Python module text of `equations` (see the module docstring), arguments as for ccode.generate_c.
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                      inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
-                     jacobian=jacobian, dynamics=dynamics).source()
+                     jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]

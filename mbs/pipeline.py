@@ -88,11 +88,13 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
     return bool(name) and str(name).lower() in JACOBIAN_INTEGRATORS
 
 
-def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
-             frames: tuple[str, ...] = ()) -> Generated:
+def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
+             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = ()) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
     functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
     them the positions, velocities and Jacobians of these frames ("part.frame").
+
+    parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p, for sensitivities; trees only).
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
@@ -131,6 +133,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
                    events=indicators, actions=action_values, dynamics=asked)
     if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
         options["jacobian"] = True
+    if parameter_jacobian and constraints is None:
+        options["parameter_jacobian"] = True
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)

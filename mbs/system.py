@@ -51,22 +51,25 @@ class System:
             raise MbsError([Diagnostic("error", f"model '{self.model.name}' has no scene '{name}' "
                                                 f"(scenes: {names})", None)]) from None
 
-    def generate(self, scene: str | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
-                 frames: tuple[str, ...] = ()) -> pipeline.Generated:
+    def generate(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
+                 dynamics: bool = False, frames: tuple[str, ...] = ()) -> pipeline.Generated:
         """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
-        dynamics: also the dynamics functions, and the kinematics of the named frames (mbs.dynamics)."""
-        key = ("generated", scene, jacobian, dynamics, tuple(frames))
+        parameter_jacobian: with mbs_param_jacobian (for sensitivities); dynamics: also the dynamics functions,
+        and the kinematics of the named frames (mbs.dynamics)."""
+        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
             self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian,
-                                                    dynamics=dynamics, frames=tuple(frames))
+                                                    parameter_jacobian=parameter_jacobian, dynamics=dynamics,
+                                                    frames=tuple(frames))
         return self._compiled[key]
 
-    def compile(self, scene: str | None = None, *, jacobian: bool | None = None, dynamics: bool = False,
-                frames: tuple[str, ...] = ()) -> CompiledModel:
+    def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
+                dynamics: bool = False, frames: tuple[str, ...] = ()) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate."""
-        key = ("compiled", scene, jacobian, dynamics, tuple(frames))
+        key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
-            gen = self.generate(scene, jacobian=jacobian, dynamics=dynamics, frames=frames)
+            gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
+                                frames=frames)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params.get(n, 0.0) for n in gen.p_names],
@@ -118,10 +121,11 @@ class System:
         return owners
 
     def start(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None, x0=None,
-              jacobian: bool | None = None, drive=None, **overrides) -> tuple[Workspace, dict]:
+              jacobian: bool | None = None, parameter_jacobian: bool = False, drive=None,
+              **overrides) -> tuple[Workspace, dict]:
         """(workspace at the scene's start, run settings): what a run of the scene begins with. overrides:
-        t_end, sample, integrator, rtol, atol as for simulate. jacobian: as for compile. drive: sets the
-        run-time inputs on the workspace (mbs.inputs)."""
+        t_end, sample, integrator, rtol, atol as for simulate. jacobian, parameter_jacobian: as for compile.
+        drive: sets the run-time inputs on the workspace (mbs.inputs)."""
         sc = self.scene(scene)
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
@@ -129,8 +133,8 @@ class System:
         # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
-        compiled = self.compile(scene, jacobian=jacobian)
-        gen = self.generate(scene, jacobian=jacobian)
+        compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
+        gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
         data = self._workspace(compiled, gen, values)
         if drive is not None:
             drive(data)

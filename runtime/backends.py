@@ -37,6 +37,7 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     # models with events (compiler/events.py): indicators and the values their actions assign
     "events": ("NEV",),
     "event_actions": ("NACT",),
+    "param_jacobian": ("NX", "NP"),  # d xdot/d p, when generated for sensitivities (compiler/jacobian.py)
     # models with closed loops (NC constraint rows; runtime/c/loops.c)
     "constraints": ("NC",),
     "constraint_velocity": ("NC",),

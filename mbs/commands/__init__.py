@@ -16,6 +16,7 @@ from .model_files import Check, Export, Fmt
 from .modes import Modes
 from .numerics import Numerics
 from .optimize import Optimize
+from .sensitivity import Sensitivity
 from .simulate import Simulate
 from .sweep import Sweep
 from .tir import Tir
@@ -23,4 +24,4 @@ from .tir import Tir
 COMMANDS = {"check": Check, "fmt": Fmt, "export": Export, "simulate": Simulate, "compile": Compile, "eom": Eom,
             "info": Info, "equilibrium": Equilibrium, "linearize": Linearize, "accuracy": Accuracy,
             "animate": Animate, "cache": Cache, "comfort": Comfort, "fmu": Fmu, "modes": Modes,
-            "numerics": Numerics, "optimize": Optimize, "sweep": Sweep, "tir": Tir}
+            "numerics": Numerics, "optimize": Optimize, "sensitivity": Sensitivity, "sweep": Sweep, "tir": Tir}

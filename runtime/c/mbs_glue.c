@@ -76,6 +76,9 @@ static const mbs_entry MBS_TABLE[] = {
 #ifdef MBS_NACT
     {"event_actions", mbs_event_actions, MBS_NACT, 0},
 #endif
+#ifdef MBS_PARAM_JACOBIAN
+    {"param_jacobian", mbs_param_jacobian, MBS_NX, MBS_NP},
+#endif
 #ifdef MBS_NC
     {"constraints", mbs_constraints, MBS_NC, 0},
     {"constraint_velocity", mbs_constraint_velocity, MBS_NC, 0},
