@@ -11,7 +11,6 @@ class Sensitivity:
 
     @staticmethod
     def arguments(p):
-        from mbs.runtime.sensitivity import METHODS
         model_args(p)
         p.add_argument("--scene", help="scene to run (default: the model's first scene, if any)")
         p.add_argument("--param", action="append", default=[], metavar="NAME[=VALUE]", required=True,
@@ -20,8 +19,9 @@ class Sensitivity:
         p.add_argument("--metric", action="append", default=[], metavar="REDUCTION(COLUMN)",
                        help="e.g. period(hinge.phi), peak(der(hinge.phi)), final(x) (repeatable; default: peak "
                             "and final of each output)")
-        p.add_argument("--method", default="DOP853", choices=METHODS,
-                       help="scipy method for the augmented system (default: %(default)s)")
+        p.add_argument("--method", default="DOP853",
+                       help="scipy method for the augmented system: DOP853, RK45, Radau, BDF or LSODA "
+                            "(default: %(default)s; checked by mbs.runtime.sensitivity)")
         p.add_argument("--t-end", type=float, help="end time [s] (default: the scene's)")
         p.add_argument("--out", help="CSV of the table (metric, parameter, value, p, derivative, normalised)")
 
