@@ -66,7 +66,9 @@ def generate(model: M.Model, scene: M.Scene | None = None) -> Generated:
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
-    origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
+    # the model's file only: scenes that differ in parameters, inputs or settings generate the same text and so
+    # share one compiled library in the build cache (a scene's name here would give each its own)
+    origin = f"{model.span.source.path}"
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs)
     tree = lowered.tree
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them

@@ -44,8 +44,9 @@
 #include <math.h>
 #include <string.h>
 
-#if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK)
-#error "loops.c needs a model with loops: MBS_NC, MBS_NQUAT, MBS_TREE_NWORK, MBS_LOOP_NWORK"
+#if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK) \
+    || !defined(MBS_NCOLOUR)
+#error "loops.c needs a model with loops: MBS_NC, MBS_NQUAT, MBS_TREE_NWORK, MBS_LOOP_NWORK, MBS_NCOLOUR"
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
@@ -60,6 +61,10 @@
 /* Below this residual an iteration (with a fresh Jacobian) that no longer halves it has reached the round-off
  * floor (positions far from the origin): converged. */
 #define MBS_LOOP_FLOOR 1e-9
+/* A converged projection above this residual takes more (simplified) Newton steps while they halve it ... */
+#define MBS_LOOP_POLISH 1e-15
+/* ... at most this many. */
+#define MBS_LOOP_POLISH_STEPS 3
 /* Iteration cap of the position projection (a converging Newton run takes 2-5). */
 #define MBS_LOOP_MAXIT 30
 /* Refresh the Jacobian when an iteration reduces the residual by less than this factor. */
@@ -176,21 +181,25 @@ static void mbs_loop_normalize_q(double *x)
     }
 }
 
-/* Gout (NC x NV) and hout = g_t at the positions of x: gdot is affine in v, so column k is gdot(e_k) - gdot(0). */
+/* Gout (NC x NV) and hout = g_t at the positions of x: gdot is affine in v, so column j is gdot(e_j) - gdot(0),
+ * and columns of one colour (sharing no row, compiler/jacobian_colours.py) come from one evaluation. */
 static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mbs_loop_work *w, double *Gout,
                                   double *hout)
 {
-    int i, k, s;
+    int i, j, c, s;
     if (x != w->xt) memcpy(w->xt, x, MBS_NQ * sizeof(double));
     memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
+    memset(Gout, 0, MBS_NC * MBS_NV * sizeof(double));
     if ((s = mbs_constraint_velocity(t, w->xt, p, hout, w->tree)) != 0) return s;
-    for (k = 0; k < MBS_NV; k++) {
-        w->xt[MBS_NQ + k] = 1.0;
-        s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree);
-        w->xt[MBS_NQ + k] = 0.0;
-        if (s != 0) return s;
-        for (i = 0; i < MBS_NC; i++) Gout[i * MBS_NV + k] = w->y[i] - hout[i];
+    for (c = 0; c < MBS_NCOLOUR; c++) {
+        for (j = 0; j < MBS_NV; j++) w->xt[MBS_NQ + j] = mbs_column_colour[j] == c ? 1.0 : 0.0;
+        if ((s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree)) != 0) return s;
+        for (i = 0; i < MBS_NC; i++) {
+            j = mbs_colour_column[i * MBS_NCOLOUR + c];
+            if (j >= 0) Gout[i * MBS_NV + j] = w->y[i] - hout[i];
+        }
     }
+    memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
     return 0;
 }
 
@@ -416,7 +425,7 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
 static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
     double *q = w->xc, res;
-    int s, i, keep = 0;
+    int s, i, k, keep = 0;
     mbs_loop_normalize_q(q);
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
     res = info->residual0 = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
@@ -443,6 +452,33 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
         if (!keep && !(res < 0.5 * previous) && res <= MBS_LOOP_FLOOR) break;  /* round-off floor */
         /* keep the factors while they converge fast (simplified Newton), refresh them when they do not */
         keep = res <= MBS_LOOP_SLOW * previous;
+    }
+    /* a few more steps with the factors at hand (fresh ones if none yet) while they halve the residual: they
+     * take a linearly converged run, or a state that was just inside the tolerance, down to round-off */
+    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
+        double before = res;
+        if (info->iterations == 0 && k == 0) {
+            if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
+            info->jacobians++;
+            if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) <= 0) return 0;
+        }
+        memset(w->dv, 0, MBS_NV * sizeof(double));
+        mbs_loop_solve(w, info->rank, w->g, w->dv);
+        memcpy(w->xt, q, MBS_NQ * sizeof(double));
+        memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
+        if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return s;
+        for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
+        mbs_loop_normalize_q(q);
+        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        if (!(res < before)) {  /* at the round-off floor: undo this step */
+            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
+            mbs_loop_normalize_q(q);
+            if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+            break;
+        }
+        info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
+        if (res > 0.5 * before) break;  /* no longer converging: the floor is near */
     }
     return 0;
 }
@@ -568,11 +604,16 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
     /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
-    for (j = 0; j < m; j++) {
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        w->dv[(int)w->cp[r + j]] = 1.0;
-        mbs_loop_solve(w, r, NULL, w->dv);
-        for (i = 0; i < MBS_NV; i++) T[i * MBS_NV + j] = w->dv[i];
+    for (j = 0; j < m; j++) {  /* U11 y = -U12 e_j (L11^-1 0 = 0): the dependent part of column j */
+        const double *G = w->G;
+        for (k = r - 1; k >= 0; k--) {
+            double sum = -G[k * MBS_NV + r + j];
+            for (i = k + 1; i < r; i++) sum -= G[k * MBS_NV + i] * w->y[i];
+            w->y[k] = sum / G[k * MBS_NV + k];
+        }
+        for (i = 0; i < MBS_NV; i++) T[i * MBS_NV + j] = 0.0;
+        T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
+        for (k = 0; k < r; k++) T[(int)w->cp[k] * MBS_NV + j] = w->y[k];
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
