@@ -617,28 +617,33 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
-    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column */
-    for (i = 0; i < MBS_NV; i++) {
-        double sum = w->f[i];
-        for (k = 0; k < MBS_NV; k++) sum -= M[i * MBS_NV + k] * w->c0[k];
-        w->b[i] = sum;
+    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column.  T and
+     * c0 are sparse where the loops are independent (a column moves one loop's coordinates): zeros skipped */
+    memcpy(w->b, w->f, MBS_NV * sizeof(double));
+    for (k = 0; k < MBS_NV; k++) {
+        const double c = w->c0[k];
+        if (c != 0.0)
+            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[i * MBS_NV + k] * c;
     }
     for (j = 0; j < m; j++) {
-        for (i = 0; i < MBS_NV; i++) {
-            double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++) sum += M[i * MBS_NV + k] * T[k * MBS_NV + j];
-            w->vd[i] = sum;
+        memset(w->vd, 0, MBS_NV * sizeof(double));
+        for (k = 0; k < MBS_NV; k++) {
+            const double tk = T[k * MBS_NV + j];
+            if (tk != 0.0)
+                for (i = 0; i < MBS_NV; i++) w->vd[i] += M[i * MBS_NV + k] * tk;
         }
         for (i = j; i < m; i++) {
             double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + i] * w->vd[k];
+            for (k = 0; k < MBS_NV; k++)
+                if (T[k * MBS_NV + i] != 0.0) sum += T[k * MBS_NV + i] * w->vd[k];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = fmax(dmax, A[j * MBS_NV + j]);
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + j] * w->b[k];
+        for (k = 0; k < MBS_NV; k++)
+            if (T[k * MBS_NV + j] != 0.0) sum += T[k * MBS_NV + j] * w->b[k];
         w->a[j] = sum;
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
@@ -693,12 +698,12 @@ static int mbs_loop_rows_hold(const mbs_loop_work *w)
 }
 
 /* vdot at w->xc (G evaluated there by mbs_loop_jacobian_at) into w->vd, with the partition (and its rank in
- * *rank) that solved it. */
+ * *rank) that solved it.  *rank >= 0 on entry: G is factored already (with that rank), e.g. by the projection. */
 static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work *w, int adopt, int *rank,
                                         mbs_loop_info *info)
 {
     int s;
-    if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
+    if (*rank < 0 && (*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
     s = mbs_loop_accelerations(t, p, w, rank);
     if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
         w->keep[0] = 0.0;
@@ -718,10 +723,8 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
     int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
-    if (s == 0) {
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));  /* factored again by the kept partition */
-        s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
-    }
+    r = info.rank;  /* the projection leaves G factored at the projected state */
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
     if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
@@ -742,6 +745,7 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
     s = mbs_loop_jacobian_at(t, x, p, &w);
+    r = -1;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
@@ -763,10 +767,8 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
     mbs_loop_info info;
     const double *A = w.G;
     int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
-    if (s == 0) {
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
-        s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
-    }
+    r = info.rank;
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s != 0) return s;
     /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
     for (k = 0; k < r; k++) {
@@ -806,7 +808,7 @@ int mbs_loop_report(double t, const double *x, const double *p, double *out, dou
     int j, r;
     mbs_loop_project_state(t, x, p, &w, -1, &info);
     if (info.status == 0) {  /* the rank of the motion: at a singular position, with the limit's rows */
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
+        r = info.rank;
         if (mbs_loop_solve_accelerations(t, p, &w, -1, &r, &info) == 0) info.rank = r;
     }
     out[0] = info.status;
