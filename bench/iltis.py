@@ -94,7 +94,7 @@ def main() -> None:
         print(f"  nq = {compiled.nq}, nv = {compiled.nv}, constraint rows = {len(gen.constraints.names)}, "
               f"rank {int(report[5])}, degrees of freedom {int(report[6])}")
 
-        eq_time, eq = median_time(lambda: static_equilibrium(compiled, Workspace_like(system, args.scenes[0]),
+        eq_time, eq = median_time(lambda: static_equilibrium(compiled, fresh_workspace(system, args.scenes[0]),
                                                              x_start), args.repeat)
         print(f"\nstatic equilibrium ({args.scenes[0]}): {eq_time * 1e3:.1f} ms")
 
@@ -111,20 +111,21 @@ def main() -> None:
             t_end = system.scene(scene).t_end
             system.compile(scene)
             wall, res = median_time(lambda: system.simulate(scene), args.repeat)
-            sc_data = Workspace_like(system, scene)
+            sc_data = fresh_workspace(system, scene)
             eq_wall, eq_scene = median_time(lambda: static_equilibrium(system.compile(scene), sc_data, sc_data.x),
                                             args.repeat)
             integ, res_plain = median_time(lambda: system.simulate(scene, x0=eq_scene.x, outputs=False), args.repeat)
             outputs = max(0.0, wall - eq_wall - integ)
+            stats = res.metadata["stats"]
             line = (f"{scene:8s} {t_end:5.2f} {wall * 1e3:6.0f}ms {t_end / wall:6.1f} {eq_wall * 1e3:6.0f}ms "
-                    f"{integ * 1e3:6.0f}ms {outputs * 1e3:6.0f}ms {res.metadata['stats'].get('nsteps', 0):6d} {res.metadata['stats'].get('nfev', 0):6d}")
+                    f"{integ * 1e3:6.0f}ms {outputs * 1e3:6.0f}ms {stats.get('nsteps', 0):6d} {stats.get('nfev', 0):6d}")
             if args.rk45:
                 base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
                 line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
             print(line + ("" if res.success else f"  ({res.message})"))
 
 
-def Workspace_like(system, scene):
+def fresh_workspace(system, scene):
     """A fresh workspace at the scene's assembled start."""
     return system._workspace(system.compile(scene), system.generate(scene), _values(system, scene))
 

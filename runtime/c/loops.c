@@ -7,22 +7,35 @@
  * MBS_NC, MBS_NQUAT, mbs_quaternion_slots[], MBS_TREE_NWORK and MBS_LOOP_NWORK.
  *
  * The state x = [q; v] stays the spanning tree's.  Every function below has the one model signature
- * f(t, x, p, out, work), allocates nothing, keeps no state between calls (everything lives in the caller's
- * work array of MBS_NWORK doubles) and returns a status: 0 ok, 1 singular reduced mass matrix, 2 non-finite
- * value, 3 the constraints cannot be satisfied (mbs_loop_report tells where):
+ * f(t, x, p, out, work), allocates nothing, and returns a status: 0 ok, 1 singular reduced mass matrix,
+ * 2 non-finite value, 3 the constraints cannot be satisfied (mbs_loop_report tells where).  Everything lives in
+ * the caller's work array of MBS_NWORK doubles; the one thing kept there from call to call is the partition
+ * (below), so each workspace has its own:
  *
  *   mbs_loop_rhs         x' = [qdot(q_c, v_c); vdot] at the projected state x_c      (NX)
+ *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
  *   mbs_loop_normalize   x with unit quaternions                                    (NX)
  *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
  *
- * Partitioning: G is factored by Gaussian elimination with complete pivoting at every evaluation; the pivot
- * columns are the dependent velocities, the others independent, so the partition follows the configuration
- * (near a singular dependent block other columns win the pivot search) without any restart.  Elimination stops
- * at the first pivot below MBS_LOOP_RANK_TOL times the largest entry of G: the rank r, DOF = nv - r; the rows
- * not chosen as pivot rows are redundant and dropped (they hold when the redundancy is consistent).
+ * G comes from evaluations of gdot: column j is gdot(e_j) - gdot(0), and columns that share no row (one loop's
+ * against another's) come from one evaluation (the colouring of compiler/jacobian_colours.py, MBS_NCOLOUR).
+ *
+ * Partitioning: the pivot columns of G are the dependent velocities, the others independent.  A partition is
+ * kept from call to call and G factored with it (row exchanges among its pivot rows only) while its smallest
+ * relative pivot stays above MBS_LOOP_KEEP_RATIO times its value when chosen; when it degrades, Gaussian
+ * elimination with complete pivoting chooses afresh, and the new partition is kept when the caller is between
+ * steps (the projection of an accepted state, the projecting rhs), so that x' does not jump within a step.
+ * Elimination stops at the first pivot below MBS_LOOP_RANK_TOL times the largest entry of G: the rank r,
+ * DOF = nv - r; the rows not chosen as pivot rows are redundant and dropped (they hold when the redundancy is
+ * consistent; mbs_loop_rows_hold checks that on the accelerations and chooses afresh when they do not).
+ *
+ * Singular positions (a four-bar stretched flat: the rank of G drops where two branches of motion cross) are
+ * told from rows redundant everywhere by the rank a little way along the allowed motion; there the accelerations
+ * are those of the limit of the motion through the position (mbs_loop_singular_rows), and such a partition is
+ * never kept.
  *
  * Newton on positions: dq = qdot(q, dv) with dv_I = 0 and G_D dv_D = -g (the pivot rows), quaternions
  * renormalised after each update; the Jacobian is refreshed when the residual falls by less than a factor
@@ -113,7 +126,8 @@ typedef struct {
 
 /* The kept partition, the one piece of state the loop functions carry from call to call (in the caller's work,
  * so one per workspace): keep[0] a marker (valid when equal to MBS_LOOP_KEEP_MARK), keep[1] its rank r,
- * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot order (the first r dependent) and the r pivot rows.  Anything else
+ * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot
+ * order (the first r dependent) and the r pivot rows.  Anything else
  * (zeroed or overwritten work) reads as "no partition" and is chosen afresh. */
 #define MBS_LOOP_KEEP_MARK 1517.0
 #define MBS_LOOP_KEEP_SIZE (4 + MBS_NV + MBS_NC)
