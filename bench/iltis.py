@@ -11,7 +11,8 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
   open chain with the same number of joint velocities (bench/chain.py's spatial pendulum, compiled here);
   the ratios are medians of per-round ratios, the rounds interleaved;
-* equilibrium: `static_equilibrium` from the scene's assembled start;
+* equilibrium: `static_equilibrium` from the scene's assembled start (Newton on the reduced equations), against
+  kinetic damping alone (the former method) as the baseline, and how far the two results lie apart;
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
   real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
   and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
@@ -27,7 +28,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 import mbs
+from mbs.runtime import equilibrium
 from mbs.runtime.equilibrium import static_equilibrium
 from mbs.runtime.workspace import Workspace
 
@@ -96,7 +100,13 @@ def main() -> None:
 
         eq_time, eq = median_time(lambda: static_equilibrium(compiled, fresh_workspace(system, args.scenes[0]),
                                                              x_start), args.repeat)
-        print(f"\nstatic equilibrium ({args.scenes[0]}): {eq_time * 1e3:.1f} ms")
+        damped_time, damped = median_time(lambda: kinetic_damping(compiled, fresh_workspace(system, args.scenes[0]),
+                                                                   x_start), 1)
+        shift = np.abs(eq.x - damped.x)[:compiled.nq]
+        print(f"\nstatic equilibrium ({args.scenes[0]}): Newton {eq_time * 1e3:.1f} ms, kinetic damping (the former "
+              f"method) {damped_time * 1e3:.0f} ms: {damped_time / eq_time:.0f} x; max |vdot| left {eq.residual:.1e} "
+              f"against {damped.residual:.1e}; largest difference {shift.max():.1e} in "
+              f"{compiled.x_names[int(shift.argmax())]} (a direction without stiffness where the damping drifts)")
 
         rhs, direct, open_rhs, ratio, ratio_direct = rhs_costs(system, args.scenes[0], eq.x, open_compiled,
                                                                  args.repeat)
@@ -123,6 +133,16 @@ def main() -> None:
                 base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
                 line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
             print(line + ("" if res.success else f"  ({res.message})"))
+
+
+def kinetic_damping(compiled, data, x0):
+    """The equilibrium by kinetic damping alone (Newton switched off): the former method, as the baseline."""
+    saved = equilibrium.newton_equilibrium
+    equilibrium.newton_equilibrium = lambda *args: None
+    try:
+        return equilibrium.static_equilibrium(compiled, data, x0)
+    finally:
+        equilibrium.newton_equilibrium = saved
 
 
 def fresh_workspace(system, scene):

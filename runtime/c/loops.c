@@ -618,16 +618,23 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
     /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
-    for (j = 0; j < m; j++) {  /* U11 y = -U12 e_j (L11^-1 0 = 0): the dependent part of column j */
+    {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
+        * row upwards so that the inner loops run over the columns and skip the zeros of U11 */
         const double *G = w->G;
+        double *Y = w->K;
         for (k = r - 1; k >= 0; k--) {
-            double sum = -G[k * MBS_NV + r + j];
-            for (i = k + 1; i < r; i++) sum -= G[k * MBS_NV + i] * w->y[i];
-            w->y[k] = sum / G[k * MBS_NV + k];
+            double *yk = Y + k * MBS_NV;
+            for (j = 0; j < m; j++) yk[j] = -G[k * MBS_NV + r + j];
+            for (i = k + 1; i < r; i++) {
+                const double u = G[k * MBS_NV + i];
+                if (u != 0.0)
+                    for (j = 0; j < m; j++) yk[j] -= u * Y[i * MBS_NV + j];
+            }
+            for (j = 0; j < m; j++) yk[j] /= G[k * MBS_NV + k];
         }
-        for (i = 0; i < MBS_NV; i++) T[i * MBS_NV + j] = 0.0;
-        T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
-        for (k = 0; k < r; k++) T[(int)w->cp[k] * MBS_NV + j] = w->y[k];
+        memset(T, 0, MBS_NV * MBS_NV * sizeof(double));
+        for (j = 0; j < m; j++) T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
+        for (k = 0; k < r; k++) memcpy(T + (int)w->cp[k] * MBS_NV, Y + k * MBS_NV, m * sizeof(double));
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
