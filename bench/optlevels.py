@@ -1,6 +1,6 @@
 """What each C optimisation level buys: compile time against right-hand-side speed for the closed-loop models.
 
-    python bench/optlevels.py [--models iltis chain40] [--levels -O0 -O1 -O2 -O3]
+    python bench/optlevels.py [--models iltis chain40] [--levels O0 O1 O2 O3]
 
 For each model the generated C (derived once) is compiled with each level appended to the build flags (the last
 -O wins) into a fresh cache: the C compiler's wall time, then the right-hand side the integrators call, timed
@@ -35,7 +35,7 @@ def system_of(name: str):
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40"])
-    ap.add_argument("--levels", nargs="+", default=["-O0", "-O1", "-O2", "-O3"])
+    ap.add_argument("--levels", nargs="+", default=["O0", "O1", "O2", "O3"], help="without the dash")
     args = ap.parse_args()
     for name in args.models:
         system, scene = system_of(name)
@@ -43,7 +43,7 @@ def main() -> None:
         data = system._workspace(compiled, system.generate(scene), dict(zip(compiled.p_names, compiled.p_default)))
         code = system.generate(scene).c_source
         rows = {}
-        for level in args.levels:
+        for level in ("-" + name.lstrip("-") for name in args.levels):
             with tempfile.TemporaryDirectory() as cache:
                 start = time.perf_counter()
                 result = build.build(code, cache_dir=cache, extra_flags=(level,))
