@@ -1,38 +1,86 @@
-"""The Iltis full vehicle: compile time, size, and the bump runs against scipy's RK45 as the baseline.
+"""The Iltis full vehicle: compile time, the constrained right-hand side against an open chain of the same size,
+the static equilibrium, and each bump scene's wall time and real-time factor with its breakdown.
 
-Prints the compile time (text to loaded library, fresh cache), the numbers of coordinates, velocities and
-degrees of freedom, the generated C size, and for each bump scene the wall time and real-time factor
-(simulated time / wall time) with the best integrator available (DOPRI5 in C) and with scipy's RK45
-driving the same compiled model, as a ratio. Medians of --repeat runs.
+    python bench/iltis.py [--repeat 5] [--scenes bump_5 bump_10] [--rk45]
 
-    python bench/iltis.py [--repeat 3] [--scenes bump_5 bump_10]
+Printed, all measured in this run (medians of --repeat; the machine is shared and noisy):
+
+* compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load);
+* rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
+  the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
+  accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
+  open chain with the same number of joint velocities (bench/chain.py's spatial pendulum, compiled here);
+  the ratios are medians of per-round ratios, the rounds interleaved;
+* equilibrium: `static_equilibrium` from the scene's assembled start (Newton on the reduced equations), against
+  kinetic damping alone (the former method) as the baseline, and how far the two results lie apart;
+* per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
+  real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
+  and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
+  with --rk45 also scipy's RK45 on the same compiled model, as a ratio.
 """
 
 from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import tempfile
 import time
+from pathlib import Path
+
+import numpy as np
 
 import mbs
+from mbs.runtime import equilibrium
+from mbs.runtime.equilibrium import static_equilibrium
+from mbs.runtime.workspace import Workspace
 
-MODEL = "library/iltis/vehicle.mbs"
+sys.path.insert(0, str(Path(__file__).parent))
+from chain import chain_text  # noqa: E402
+
+MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
 
 
-def median_run(system, scene: str, integrator: str, repeat: int):
+def median_time(fn, repeat: int):
     times, result = [], None
     for _ in range(repeat):
         start = time.perf_counter()
-        result = system.simulate(scene, integrator=integrator)
+        result = fn()
         times.append(time.perf_counter() - start)
     return statistics.median(times), result
 
 
+def rhs_costs(system, scene, x, open_compiled, rounds: int):
+    """Seconds per call inside C of rhs, loop_rhs and the open chain's rhs; the ratios to the open chain."""
+    compiled = system.compile(scene)
+    data = system._workspace(compiled, system.generate(scene), _values(system, scene))
+    open_data = Workspace(open_compiled)
+    backend = compiled.backend
+    f_rhs, f_direct = data.function("rhs"), data.function("loop_rhs")
+    f_open = open_data.function("rhs")
+    x_open = open_compiled.x0
+    calls = 2000
+    rows = []
+    for _ in range(rounds):
+        a = backend.time_call(f_rhs, x, calls, 0.0)
+        b = backend.time_call(f_direct, x, calls, 0.0)
+        c = open_compiled.backend.time_call(f_open, x_open, 20 * calls, 0.0)
+        rows.append((a, b, c))
+    med = statistics.median
+    return (med(r[0] for r in rows), med(r[1] for r in rows), med(r[2] for r in rows),
+            med(r[0] / r[2] for r in rows), med(r[1] / r[2] for r in rows))
+
+
+def _values(system, scene):
+    from mbs import pipeline
+    return pipeline.parameter_values(system.model, pipeline.scene_overrides(system.scene(scene)))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
+    ap.add_argument("--rk45", action="store_true", help="also run scipy's RK45 as a baseline")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
@@ -40,27 +88,66 @@ def main() -> None:
         compiled = system.compile(args.scenes[0])
         compile_time = time.perf_counter() - start
         gen = system.generate(args.scenes[0])
-        report = None
-        print(f"model {MODEL}: compile {compile_time:.1f} s (text to loaded library, fresh cache)")
-        print(f"  tree coordinates nq = {compiled.nq}, velocities nv = {compiled.nv}, "
-              f"cut-joint constraint rows = {len(gen.constraints.names) if gen.constraints else 0}")
-        from mbs.runtime.workspace import Workspace
-        data = Workspace(compiled)
-        if "loop_report" in compiled.functions:
-            data.x = compiled.x0
-            report = data.loop_report(0.0, compiled.x0)
-        if report is not None:
-            print(f"  degrees of freedom (rank of the constraint Jacobian): {int(report[6])}")
-        print(f"  generated C: {len(gen.c_source) / 1024:.0f} KiB")
-        print(f"\n{'scene':10s} {'t_end':>6s} {'dopri5 wall':>12s} {'RTF':>6s} {'RK45 wall':>10s} {'RTF':>6s} "
-              f"{'RK45/dopri5':>12s}")
+        open_system = mbs.loads(chain_text(compiled.nv), cache_dir=cache)
+        open_compiled = open_system.compile()
+        data = system._workspace(compiled, gen, _values(system, args.scenes[0]))
+        x_start = data.x.copy()
+        report = data.loop_report(0.0, x_start)
+        print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache); "
+              f"generated C {len(gen.c_source) / 1024:.0f} KiB")
+        print(f"  nq = {compiled.nq}, nv = {compiled.nv}, constraint rows = {len(gen.constraints.names)}, "
+              f"rank {int(report[5])}, degrees of freedom {int(report[6])}")
+
+        eq_time, eq = median_time(lambda: static_equilibrium(compiled, fresh_workspace(system, args.scenes[0]),
+                                                             x_start), args.repeat)
+        damped_time, damped = median_time(lambda: kinetic_damping(compiled, fresh_workspace(system, args.scenes[0]),
+                                                                   x_start), 1)
+        shift = np.abs(eq.x - damped.x)[:compiled.nq]
+        print(f"\nstatic equilibrium ({args.scenes[0]}): Newton {eq_time * 1e3:.1f} ms, kinetic damping (the former "
+              f"method) {damped_time * 1e3:.0f} ms: {damped_time / eq_time:.0f} x; max |vdot| left {eq.residual:.1e} "
+              f"against {damped.residual:.1e}; largest difference {shift.max():.1e} in "
+              f"{compiled.x_names[int(shift.argmax())]} (a direction without stiffness where the damping drifts)")
+
+        rhs, direct, open_rhs, ratio, ratio_direct = rhs_costs(system, args.scenes[0], eq.x, open_compiled,
+                                                                 args.repeat)
+        print(f"\nrhs per call inside C at the equilibrium (medians of {args.repeat} interleaved rounds):")
+        print(f"  constrained rhs (projected)  {rhs * 1e6:8.2f} us  {ratio:5.1f} x the open chain")
+        print(f"  constrained rhs (no projection) {direct * 1e6:5.2f} us  {ratio_direct:5.1f} x the open chain")
+        print(f"  open chain of {compiled.nv} links     {open_rhs * 1e6:8.2f} us")
+
+        print(f"\n{'scene':8s} {'t_end':>5s} {'wall':>8s} {'RTF':>6s} {'equil.':>8s} {'integr.':>8s} "
+              f"{'outputs':>8s} {'steps':>6s} {'rhs':>6s}" + (f" {'RK45':>8s} {'RK45/ours':>9s}" if args.rk45 else ""))
         for scene in args.scenes:
             t_end = system.scene(scene).t_end
-            best, res = median_run(system, scene, "dopri5", args.repeat)
-            base, res_base = median_run(system, scene, "RK45", max(1, args.repeat // 2))
-            ok = "" if res.success and res_base.success else f"  ({res.message or res_base.message})"
-            print(f"{scene:10s} {t_end:6.2f} {best:11.2f}s {t_end / best:6.2f} {base:9.2f}s {t_end / base:6.2f} "
-                  f"{base / best:12.1f}{ok}")
+            system.compile(scene)
+            wall, res = median_time(lambda: system.simulate(scene), args.repeat)
+            sc_data = fresh_workspace(system, scene)
+            eq_wall, eq_scene = median_time(lambda: static_equilibrium(system.compile(scene), sc_data, sc_data.x),
+                                            args.repeat)
+            integ, res_plain = median_time(lambda: system.simulate(scene, x0=eq_scene.x, outputs=False), args.repeat)
+            outputs = max(0.0, wall - eq_wall - integ)
+            stats = res.metadata["stats"]
+            line = (f"{scene:8s} {t_end:5.2f} {wall * 1e3:6.0f}ms {t_end / wall:6.1f} {eq_wall * 1e3:6.0f}ms "
+                    f"{integ * 1e3:6.0f}ms {outputs * 1e3:6.0f}ms {stats.get('nsteps', 0):6d} {stats.get('nfev', 0):6d}")
+            if args.rk45:
+                base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
+                line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
+            print(line + ("" if res.success else f"  ({res.message})"))
+
+
+def kinetic_damping(compiled, data, x0):
+    """The equilibrium by kinetic damping alone (Newton switched off): the former method, as the baseline."""
+    saved = equilibrium.newton_equilibrium
+    equilibrium.newton_equilibrium = lambda *args: None
+    try:
+        return equilibrium.static_equilibrium(compiled, data, x0)
+    finally:
+        equilibrium.newton_equilibrium = saved
+
+
+def fresh_workspace(system, scene):
+    """A fresh workspace at the scene's assembled start."""
+    return system._workspace(system.compile(scene), system.generate(scene), _values(system, scene))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,6 @@
 """The cost of closing kinematic loops, and how far the integrated state drifts off them over a long run.
 
-    python bench/loops.py [--models slider_crank quarter_car [vehicle]] [--rounds 9] [--t-end-scale 1]
+    python bench/loops.py [--models slider_crank quarter_car vehicle] [--rounds 9] [--t-end-scale 1]
 
 For each closed-loop model of the library:
 
@@ -171,7 +171,7 @@ def _batch(f, states, repeat):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car"], choices=sorted(MODELS))
+    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle"], choices=sorted(MODELS))
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--t-end-scale", type=float, default=1.0, help="scale the long runs' simulated time")
     args = ap.parse_args()

@@ -33,6 +33,7 @@ import sympy as sp
 from .constraints import Constraints
 from .emit_common import CodegenError, equation_routines, plan_routine
 from .equations import Equations
+from .jacobian_colours import constraint_colours
 
 #: Doubles of scalar scratch in the loop solver's work area (runtime/c/loops.c, MBS_LOOP_NWORK_NEEDED).
 LOOP_SCALARS = 16
@@ -64,6 +65,9 @@ def loop_definitions(constraints: Constraints) -> str:
     tree = constraints.tree
     slots = constraints.quaternion_slots
     work = loop_work_size(tree.nq, tree.nv, constraints.nc)
+    colours = constraint_colours(constraints)
+    ncol = max(colours.ncolours, 1)
+    table = [colours.column_of(i, c) for i in range(constraints.nc) for c in range(ncol)]
     return "\n".join([
         f"#define MBS_NC {constraints.nc}   /* loop-closure constraint rows */",
         f"#define MBS_NQUAT {len(slots)}   /* quaternions in q */",
@@ -71,6 +75,13 @@ def loop_definitions(constraints: Constraints) -> str:
         "/* Index in x of the first component (qw) of each quaternion (the list holds -1 when there is none). */",
         f"static const int mbs_quaternion_slots[{max(len(slots), 1)}] = "
         f"{{{', '.join(str(s) for s in slots) or '-1'}}};",
+        "/* Columns of the constraint Jacobian G that share no row get one colour: one evaluation of",
+        " * mbs_constraint_velocity with all of them set to 1 gives them all (runtime/c/loops.c). */",
+        f"#define MBS_NCOLOUR {colours.ncolours}   /* evaluations for G beyond gdot(v = 0) */",
+        "/* Colour of each velocity column, -1 when no row depends on it. */",
+        f"static const int mbs_column_colour[{tree.nv}] = {{{', '.join(map(str, colours.colour))}}};",
+        "/* Row i, colour c: the column of that colour row i depends on, -1 when none. */",
+        f"static const int mbs_colour_column[{len(table)}] = {{{', '.join(map(str, table))}}};",
         "",
         "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",
         " * after this file. */",

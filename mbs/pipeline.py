@@ -124,7 +124,9 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
     outputs = lowered.outputs
-    origin = f"{model.span.source.path}" + (f", scene {scene.name}" if scene is not None else "")
+    # the model's file only: scenes that differ in parameters, inputs or settings generate the same text and so
+    # share one compiled library in the build cache (a scene's name here would give each its own)
+    origin = f"{model.span.source.path}"
     tree = lowered.tree
     state_names = tuple(display_name(s.name) for s in tree.q_symbols + tree.v_symbols)
     p_names = tuple(s.name for s in parameters)

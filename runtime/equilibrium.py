@@ -1,6 +1,7 @@
 """Static equilibrium: the configuration in which the system rests under gravity and its static forces.
 
-Found by kinetic damping (dynamic relaxation, as in form-finding of structures): integrate from rest and,
+Found by Newton's method on the reduced equations (runtime/equilibrium_newton.py) where it converges to a
+stable solution, else by kinetic damping (dynamic relaxation, as in form-finding of structures): integrate from rest and,
 whenever the kinetic energy passes a maximum, stop every velocity. The system then slides down into the
 nearest minimum of its potential energy without any change to the model, and the constraints of closed
 loops stay satisfied because the compiled right-hand side projects onto them. It needs no Jacobian, which
@@ -17,6 +18,7 @@ import numpy as np
 
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from .equilibrium_newton import newton_equilibrium
 from .integrators import get_integrator
 from .model import CompiledModel
 from .workspace import Workspace
@@ -55,8 +57,10 @@ def _acceleration(data: Workspace, t: float, x: np.ndarray, nq: int) -> np.ndarr
 
 def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t: float = 0.0) -> Equilibrium:
     nq = model.nq
-    x = np.array(x0, dtype=float)
-    x[nq:] = 0.0
+    x = newton_equilibrium(model, data, x0, t)  # fast and exact where it finds a stable solution
+    if x is None:
+        x = np.array(x0, dtype=float)
+        x[nq:] = 0.0
     frozen = lambda _t, y: data.rhs(t, y)  # noqa: E731  (prescribed motions held at time t)
     solver = get_integrator("RK45")  # driven from Python: this is set-up, not the hot path
     steps = resets = 0

@@ -7,22 +7,35 @@
  * MBS_NC, MBS_NQUAT, mbs_quaternion_slots[], MBS_TREE_NWORK and MBS_LOOP_NWORK.
  *
  * The state x = [q; v] stays the spanning tree's.  Every function below has the one model signature
- * f(t, x, p, out, work), allocates nothing, keeps no state between calls (everything lives in the caller's
- * work array of MBS_NWORK doubles) and returns a status: 0 ok, 1 singular reduced mass matrix, 2 non-finite
- * value, 3 the constraints cannot be satisfied (mbs_loop_report tells where):
+ * f(t, x, p, out, work), allocates nothing, and returns a status: 0 ok, 1 singular reduced mass matrix,
+ * 2 non-finite value, 3 the constraints cannot be satisfied (mbs_loop_report tells where).  Everything lives in
+ * the caller's work array of MBS_NWORK doubles; the one thing kept there from call to call is the partition
+ * (below), so each workspace has its own:
  *
  *   mbs_loop_rhs         x' = [qdot(q_c, v_c); vdot] at the projected state x_c      (NX)
+ *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
  *   mbs_loop_normalize   x with unit quaternions                                    (NX)
  *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
  *
- * Partitioning: G is factored by Gaussian elimination with complete pivoting at every evaluation; the pivot
- * columns are the dependent velocities, the others independent, so the partition follows the configuration
- * (near a singular dependent block other columns win the pivot search) without any restart.  Elimination stops
- * at the first pivot below MBS_LOOP_RANK_TOL times the largest entry of G: the rank r, DOF = nv - r; the rows
- * not chosen as pivot rows are redundant and dropped (they hold when the redundancy is consistent).
+ * G comes from evaluations of gdot: column j is gdot(e_j) - gdot(0), and columns that share no row (one loop's
+ * against another's) come from one evaluation (the colouring of compiler/jacobian_colours.py, MBS_NCOLOUR).
+ *
+ * Partitioning: the pivot columns of G are the dependent velocities, the others independent.  A partition is
+ * kept from call to call and G factored with it (row exchanges among its pivot rows only) while its smallest
+ * relative pivot stays above MBS_LOOP_KEEP_RATIO times its value when chosen; when it degrades, Gaussian
+ * elimination with complete pivoting chooses afresh, and the new partition is kept when the caller is between
+ * steps (the projection of an accepted state, the projecting rhs), so that x' does not jump within a step.
+ * Elimination stops at the first pivot below MBS_LOOP_RANK_TOL times the largest entry of G: the rank r,
+ * DOF = nv - r; the rows not chosen as pivot rows are redundant and dropped (they hold when the redundancy is
+ * consistent; mbs_loop_rows_hold checks that on the accelerations and chooses afresh when they do not).
+ *
+ * Singular positions (a four-bar stretched flat: the rank of G drops where two branches of motion cross) are
+ * told from rows redundant everywhere by the rank a little way along the allowed motion; there the accelerations
+ * are those of the limit of the motion through the position (mbs_loop_singular_rows), and such a partition is
+ * never kept.
  *
  * Newton on positions: dq = qdot(q, dv) with dv_I = 0 and G_D dv_D = -g (the pivot rows), quaternions
  * renormalised after each update; the Jacobian is refreshed when the residual falls by less than a factor
@@ -44,8 +57,9 @@
 #include <math.h>
 #include <string.h>
 
-#if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK)
-#error "loops.c needs a model with loops: MBS_NC, MBS_NQUAT, MBS_TREE_NWORK, MBS_LOOP_NWORK"
+#if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK) \
+    || !defined(MBS_NCOLOUR)
+#error "loops.c needs a model with loops: MBS_NC, MBS_NQUAT, MBS_TREE_NWORK, MBS_LOOP_NWORK, MBS_NCOLOUR"
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
@@ -60,6 +74,10 @@
 /* Below this residual an iteration (with a fresh Jacobian) that no longer halves it has reached the round-off
  * floor (positions far from the origin): converged. */
 #define MBS_LOOP_FLOOR 1e-9
+/* A converged projection above this residual takes more (simplified) Newton steps while they halve it ... */
+#define MBS_LOOP_POLISH 1e-15
+/* ... at most this many. */
+#define MBS_LOOP_POLISH_STEPS 3
 /* Iteration cap of the position projection (a converging Newton run takes 2-5). */
 #define MBS_LOOP_MAXIT 30
 /* Refresh the Jacobian when an iteration reduces the residual by less than this factor. */
@@ -108,7 +126,8 @@ typedef struct {
 
 /* The kept partition, the one piece of state the loop functions carry from call to call (in the caller's work,
  * so one per workspace): keep[0] a marker (valid when equal to MBS_LOOP_KEEP_MARK), keep[1] its rank r,
- * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot order (the first r dependent) and the r pivot rows.  Anything else
+ * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot
+ * order (the first r dependent) and the r pivot rows.  Anything else
  * (zeroed or overwritten work) reads as "no partition" and is chosen afresh. */
 #define MBS_LOOP_KEEP_MARK 1517.0
 #define MBS_LOOP_KEEP_SIZE (4 + MBS_NV + MBS_NC)
@@ -176,21 +195,25 @@ static void mbs_loop_normalize_q(double *x)
     }
 }
 
-/* Gout (NC x NV) and hout = g_t at the positions of x: gdot is affine in v, so column k is gdot(e_k) - gdot(0). */
+/* Gout (NC x NV) and hout = g_t at the positions of x: gdot is affine in v, so column j is gdot(e_j) - gdot(0),
+ * and columns of one colour (sharing no row, compiler/jacobian_colours.py) come from one evaluation. */
 static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mbs_loop_work *w, double *Gout,
                                   double *hout)
 {
-    int i, k, s;
+    int i, j, c, s;
     if (x != w->xt) memcpy(w->xt, x, MBS_NQ * sizeof(double));
     memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
+    memset(Gout, 0, MBS_NC * MBS_NV * sizeof(double));
     if ((s = mbs_constraint_velocity(t, w->xt, p, hout, w->tree)) != 0) return s;
-    for (k = 0; k < MBS_NV; k++) {
-        w->xt[MBS_NQ + k] = 1.0;
-        s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree);
-        w->xt[MBS_NQ + k] = 0.0;
-        if (s != 0) return s;
-        for (i = 0; i < MBS_NC; i++) Gout[i * MBS_NV + k] = w->y[i] - hout[i];
+    for (c = 0; c < MBS_NCOLOUR; c++) {
+        for (j = 0; j < MBS_NV; j++) w->xt[MBS_NQ + j] = mbs_column_colour[j] == c ? 1.0 : 0.0;
+        if ((s = mbs_constraint_velocity(t, w->xt, p, w->y, w->tree)) != 0) return s;
+        for (i = 0; i < MBS_NC; i++) {
+            j = mbs_colour_column[i * MBS_NCOLOUR + c];
+            if (j >= 0) Gout[i * MBS_NV + j] = w->y[i] - hout[i];
+        }
     }
+    memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
     return 0;
 }
 
@@ -416,7 +439,7 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
 static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
     double *q = w->xc, res;
-    int s, i, keep = 0;
+    int s, i, k, keep = 0;
     mbs_loop_normalize_q(q);
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
     res = info->residual0 = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
@@ -443,6 +466,33 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
         if (!keep && !(res < 0.5 * previous) && res <= MBS_LOOP_FLOOR) break;  /* round-off floor */
         /* keep the factors while they converge fast (simplified Newton), refresh them when they do not */
         keep = res <= MBS_LOOP_SLOW * previous;
+    }
+    /* a few more steps with the factors at hand (fresh ones if none yet) while they halve the residual: they
+     * take a linearly converged run, or a state that was just inside the tolerance, down to round-off */
+    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
+        double before = res;
+        if (info->iterations == 0 && k == 0) {
+            if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
+            info->jacobians++;
+            if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) <= 0) return 0;
+        }
+        memset(w->dv, 0, MBS_NV * sizeof(double));
+        mbs_loop_solve(w, info->rank, w->g, w->dv);
+        memcpy(w->xt, q, MBS_NQ * sizeof(double));
+        memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
+        if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return s;
+        for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
+        mbs_loop_normalize_q(q);
+        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        if (!(res < before)) {  /* at the round-off floor: undo this step */
+            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
+            mbs_loop_normalize_q(q);
+            if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+            break;
+        }
+        info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
+        if (res > 0.5 * before) break;  /* no longer converging: the floor is near */
     }
     return 0;
 }
@@ -568,36 +618,53 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
     /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
-    for (j = 0; j < m; j++) {
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        w->dv[(int)w->cp[r + j]] = 1.0;
-        mbs_loop_solve(w, r, NULL, w->dv);
-        for (i = 0; i < MBS_NV; i++) T[i * MBS_NV + j] = w->dv[i];
+    {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
+        * row upwards so that the inner loops run over the columns and skip the zeros of U11 */
+        const double *G = w->G;
+        double *Y = w->K;
+        for (k = r - 1; k >= 0; k--) {
+            double *yk = Y + k * MBS_NV;
+            for (j = 0; j < m; j++) yk[j] = -G[k * MBS_NV + r + j];
+            for (i = k + 1; i < r; i++) {
+                const double u = G[k * MBS_NV + i];
+                if (u != 0.0)
+                    for (j = 0; j < m; j++) yk[j] -= u * Y[i * MBS_NV + j];
+            }
+            for (j = 0; j < m; j++) yk[j] /= G[k * MBS_NV + k];
+        }
+        memset(T, 0, MBS_NV * MBS_NV * sizeof(double));
+        for (j = 0; j < m; j++) T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
+        for (k = 0; k < r; k++) memcpy(T + (int)w->cp[k] * MBS_NV, Y + k * MBS_NV, m * sizeof(double));
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
-    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column */
-    for (i = 0; i < MBS_NV; i++) {
-        double sum = w->f[i];
-        for (k = 0; k < MBS_NV; k++) sum -= M[i * MBS_NV + k] * w->c0[k];
-        w->b[i] = sum;
+    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column.  T and
+     * c0 are sparse where the loops are independent (a column moves one loop's coordinates): zeros skipped */
+    memcpy(w->b, w->f, MBS_NV * sizeof(double));
+    for (k = 0; k < MBS_NV; k++) {
+        const double c = w->c0[k];
+        if (c != 0.0)
+            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[i * MBS_NV + k] * c;
     }
     for (j = 0; j < m; j++) {
-        for (i = 0; i < MBS_NV; i++) {
-            double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++) sum += M[i * MBS_NV + k] * T[k * MBS_NV + j];
-            w->vd[i] = sum;
+        memset(w->vd, 0, MBS_NV * sizeof(double));
+        for (k = 0; k < MBS_NV; k++) {
+            const double tk = T[k * MBS_NV + j];
+            if (tk != 0.0)
+                for (i = 0; i < MBS_NV; i++) w->vd[i] += M[i * MBS_NV + k] * tk;
         }
         for (i = j; i < m; i++) {
             double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + i] * w->vd[k];
+            for (k = 0; k < MBS_NV; k++)
+                if (T[k * MBS_NV + i] != 0.0) sum += T[k * MBS_NV + i] * w->vd[k];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = fmax(dmax, A[j * MBS_NV + j]);
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        for (k = 0; k < MBS_NV; k++) sum += T[k * MBS_NV + j] * w->b[k];
+        for (k = 0; k < MBS_NV; k++)
+            if (T[k * MBS_NV + j] != 0.0) sum += T[k * MBS_NV + j] * w->b[k];
         w->a[j] = sum;
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
@@ -652,12 +719,12 @@ static int mbs_loop_rows_hold(const mbs_loop_work *w)
 }
 
 /* vdot at w->xc (G evaluated there by mbs_loop_jacobian_at) into w->vd, with the partition (and its rank in
- * *rank) that solved it. */
+ * *rank) that solved it.  *rank >= 0 on entry: G is factored already (with that rank), e.g. by the projection. */
 static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work *w, int adopt, int *rank,
                                         mbs_loop_info *info)
 {
     int s;
-    if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
+    if (*rank < 0 && (*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
     s = mbs_loop_accelerations(t, p, w, rank);
     if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
         w->keep[0] = 0.0;
@@ -677,10 +744,8 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
     int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
-    if (s == 0) {
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));  /* factored again by the kept partition */
-        s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
-    }
+    r = info.rank;  /* the projection leaves G factored at the projected state */
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
     if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
@@ -701,6 +766,7 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
     s = mbs_loop_jacobian_at(t, x, p, &w);
+    r = -1;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
@@ -722,10 +788,8 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
     mbs_loop_info info;
     const double *A = w.G;
     int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
-    if (s == 0) {
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
-        s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
-    }
+    r = info.rank;
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s != 0) return s;
     /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
     for (k = 0; k < r; k++) {
@@ -765,7 +829,7 @@ int mbs_loop_report(double t, const double *x, const double *p, double *out, dou
     int j, r;
     mbs_loop_project_state(t, x, p, &w, -1, &info);
     if (info.status == 0) {  /* the rank of the motion: at a singular position, with the limit's rows */
-        memcpy(w.G, w.G0, MBS_NC * MBS_NV * sizeof(double));
+        r = info.rank;
         if (mbs_loop_solve_accelerations(t, p, &w, -1, &r, &info) == 0) info.rank = r;
     }
     out[0] = info.status;

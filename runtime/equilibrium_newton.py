@@ -1,0 +1,92 @@
+"""Static equilibrium by Newton's method on the reduced equations: the accelerations at rest as functions of the
+independent coordinates of the loop solver's partition (all coordinates for a tree).
+
+At rest (v = 0) the accelerations are vdot = T a with a the accelerations of the independent velocities, so the
+equilibrium is a = 0 in the independent coordinates alone; the dependent ones follow by the projection onto the
+loop-closure constraints. The Jacobian (the reduced stiffness over the reduced mass) is taken by forward
+differences, one column per independent velocity, moving the positions along that velocity (q += qdot(q, e_j) h,
+which handles quaternions) and projecting. Directions without stiffness (a wheel's spin, the chassis' position on
+level ground) have zero columns: the least-squares step leaves them where they are, as the kinetic damping did.
+
+Newton finds any stationary point; a solution is accepted only if it is stable (no eigenvalue of the reduced
+Jacobian d a / d q_I with a positive real part), so a start near an unstable position falls back to the kinetic
+damping of runtime/equilibrium.py, which slides into the nearest minimum.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Newton iterations before giving up (a converging run takes 3-6).
+MAX_ITERATIONS = 30
+#: Forward-difference step along one independent velocity [m or rad].
+DIFFERENCE_STEP = 1e-7
+#: Converged when max |vdot| at rest falls below this [m/s^2 or rad/s^2] (well inside the kinetic damping's 1e-6).
+TOLERANCE = 1e-9
+#: Eigenvalues of d a / d q_I above this fraction of the largest magnitude count as unstable.
+UNSTABLE = 1e-8
+
+
+def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarray | None:
+    """The stable equilibrium near x0 with zero velocities, or None (no convergence, or an unstable one)."""
+    nq, nv = model.nq, model.nv
+    loops = "project" in model.functions
+    qdot = data.function("qdot")
+    x = np.array(x0, dtype=float)
+    x[nq:] = 0.0
+    try:
+        if loops:
+            x = data.project(t, x)
+            report = data.loop_report(t, x)
+            rank = int(report[5])
+            free = np.sort(report[8:8 + nv].astype(int)[rank:])
+        else:
+            free = np.arange(nv)
+
+        def move(state: np.ndarray, dv: np.ndarray) -> np.ndarray:
+            probe = state.copy()
+            probe[nq:] = dv
+            moved = state.copy()
+            moved[:nq] += qdot(t, probe)
+            moved[nq:] = 0.0
+            return data.project(t, moved) if loops else moved
+
+        def accelerations(state: np.ndarray) -> np.ndarray:
+            return data.rhs(t, state)[nq:]
+
+        acc = accelerations(x)
+        J = np.zeros((nv, free.size))
+        for _ in range(MAX_ITERATIONS):
+            if np.max(np.abs(acc), initial=0.0) <= TOLERANCE:
+                return x if _stable(J, free) else None
+            for k, j in enumerate(free):
+                dv = np.zeros(nv)
+                dv[j] = DIFFERENCE_STEP
+                J[:, k] = (accelerations(move(x, dv)) - acc) / DIFFERENCE_STEP
+            step = np.linalg.lstsq(J, -acc, rcond=1e-10)[0]
+            dv = np.zeros(nv)
+            dv[free] = step
+            for _ in range(8):  # halve a step that makes things worse (far from the solution)
+                trial = move(x, dv)
+                trial_acc = accelerations(trial)
+                if np.max(np.abs(trial_acc)) < np.max(np.abs(acc)):
+                    break
+                dv *= 0.5
+            else:
+                return None
+            x, acc = trial, trial_acc
+    except Exception:  # a failing evaluation far from the start: leave it to the kinetic damping
+        return None
+    return None
+
+
+def _stable(J: np.ndarray, free: np.ndarray) -> bool:
+    """No growing motion about the solution: the eigenvalues of d a / d q_I (a = vdot at the independent
+    velocities) have no positive real part."""
+    if free.size == 0 or not np.any(J):
+        return True
+    eig = np.linalg.eigvals(J[free, :])
+    return bool(np.max(eig.real) <= UNSTABLE * np.max(np.abs(eig)))
+
+
+__all__ = ["newton_equilibrium"]

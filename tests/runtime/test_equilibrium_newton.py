@@ -1,0 +1,65 @@
+"""Static equilibrium by Newton on the reduced equations (runtime/equilibrium_newton.py) against the kinetic
+damping it replaces (an independent method: a damped transient that slides into the minimum), on the Iltis
+quarter car (closed loops) and on a pendulum started near its unstable upright position (Newton must not
+return that one)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import mbs
+from mbs import pipeline
+from mbs.runtime import build
+from mbs.runtime import equilibrium as E
+from mbs.runtime.equilibrium_newton import newton_equilibrium
+
+pytestmark = pytest.mark.skipif(not build.have_c_compiler(), reason="needs a C compiler")
+
+
+def start(system, scene):
+    compiled = system.compile(scene)
+    values = pipeline.parameter_values(system.model, pipeline.scene_overrides(system.scene(scene)))
+    return compiled, system._workspace(compiled, system.generate(scene), values)
+
+
+def test_newton_finds_the_quarter_cars_rest_of_the_kinetic_damping(tmp_path, monkeypatch):
+    system = mbs.load("library/iltis/quarter_car.mbs", cache_dir=str(tmp_path))
+    compiled, data = start(system, "settle")
+    x = newton_equilibrium(compiled, data, data.x)
+    assert x is not None
+    assert np.max(np.abs(data.rhs(0.0, x)[compiled.nq:])) < 1e-9
+    monkeypatch.setattr(E, "newton_equilibrium", lambda *args: None)
+    compiled, data = start(system, "settle")
+    damped = E.static_equilibrium(compiled, data, data.x)
+    # the damping stops at |vdot| <= 1e-6: positions agree to that over the stiffness (about 1e-7 m here)
+    assert np.max(np.abs(x[:compiled.nq] - damped.x[:compiled.nq])) < 1e-6
+
+
+PENDULUM = """
+model pendulum "a pendulum near its upright position" {
+    rigid bob {
+        body {
+            mass = 1 kg
+            com = (0, 0, -1) m
+            inertia = diag(0.01, 0.01, 0.01) kg*m^2
+        }
+    }
+    interact hinge {
+        connect inertial -> bob
+        joint revolute(axis = x) {
+            init phi = 179 deg
+        }
+    }
+}
+"""
+
+
+def test_an_unstable_rest_is_left_to_the_kinetic_damping(tmp_path):
+    system = mbs.loads(PENDULUM, cache_dir=str(tmp_path))
+    compiled, data = start(system, None)
+    assert newton_equilibrium(compiled, data, data.x) is None  # it converges to upright, which is unstable
+    result = E.static_equilibrium(compiled, data, data.x)
+    assert math.cos(result.x[0]) == pytest.approx(1.0, abs=1e-9)  # hanging down
