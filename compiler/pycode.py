@@ -267,7 +267,8 @@ def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_
     Load it with mbs.runtime.model.load_numpy (after writing it to a file) or import it."""
     return PyEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                      inline_max_chars=inline_max_chars, run_time_inputs=run_time_inputs,
-                     jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()
+                     jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, events=events,
+                     actions=actions).source()
 
 
 __all__ = ["PyEmitter", "PyPrinter", "generate_numpy", "CodegenError"]
