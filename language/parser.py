@@ -52,7 +52,7 @@ def _table_cache(grammar: str) -> Path | None:
 
     import lark as lark_module
 
-    from mbs.cachedir import default_cache_dir
+    from mbs.base.cachedir import default_cache_dir
     key = hashlib.sha256(f"{grammar}\0{lark_module.__version__}".encode()).hexdigest()[:24]
     try:
         folder = default_cache_dir() / "parser"

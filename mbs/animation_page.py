@@ -9,7 +9,7 @@ import base64
 import json
 from pathlib import Path
 
-from mbs.atomic import write_text_atomic
+from mbs.base.atomic import write_text_atomic
 
 VENDOR = Path(__file__).resolve().parent / "vendor" / "three"
 

@@ -25,7 +25,7 @@ from xml.sax.saxutils import quoteattr
 import numpy as np
 
 import mbs
-from mbs.atomic import atomic_path
+from mbs.base.atomic import atomic_path
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.runtime.build import C_DIR, compiler_command
 

@@ -148,7 +148,7 @@ def plot_root_locus(locus: dict[float, list[NamedMode]], path, title: str) -> No
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from mbs.atomic import atomic_path
+    from mbs.base.atomic import atomic_path
     fig = Figure(figsize=(8, 6))
     FigureCanvasAgg(fig)
     ax = fig.subplots()
@@ -181,7 +181,7 @@ def plot_shapes(modes: list[NamedMode], path, title: str) -> None:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from mbs.atomic import atomic_path
+    from mbs.base.atomic import atomic_path
     shown = [m for m in modes if m.frequency > 0]
     motions = sorted({k for m in shown for k in m.shares}, key=lambda k: -sum(m.shares.get(k, 0.0) for m in shown))
     fig = Figure(figsize=(9, 0.45 * len(shown) + 1.6))

@@ -12,7 +12,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-from mbs.atomic import write_bytes_atomic, write_text_atomic
+from mbs.base.atomic import write_bytes_atomic, write_text_atomic
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.runtime.build import C_DIR, compiler_command
 

@@ -87,7 +87,7 @@ class Table:
         return "\n".join(lines)
 
     def to_csv(self, path) -> None:
-        from mbs.atomic import atomic_path  # the one atomic writer of the project
+        from mbs.base.atomic import atomic_path  # the one atomic writer of the project
         with atomic_path(path) as tmp:
             with open(tmp, "w") as f:
                 f.write(",".join(COLUMNS) + "\n")
@@ -101,7 +101,7 @@ class Table:
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
-        from mbs.atomic import atomic_path
+        from mbs.base.atomic import atomic_path
         fig, ax = plt.subplots(figsize=(7, 5))
         for name in dict.fromkeys(r.integrator for r in self.rows):
             rows = [r for r in self.rows if r.integrator == name and r.status == "finished" and r.error > 0]

@@ -31,7 +31,7 @@ from types import ModuleType
 
 import numpy as np
 
-from mbs.cachedir import default_cache_dir as _default_cache_dir
+from mbs.base.cachedir import default_cache_dir as _default_cache_dir
 from . import cache as _cache
 from .errors import BuildError, EvaluationError
 
@@ -61,7 +61,7 @@ class BuildResult:
 
 
 def default_cache_dir() -> Path:
-    """``$MBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/baukasten``, else ``~/.cache/baukasten`` (mbs.cachedir)."""
+    """``$MBS_CACHE_DIR``, else ``$XDG_CACHE_HOME/baukasten``, else ``~/.cache/baukasten`` (mbs.base.cachedir)."""
     return _default_cache_dir()
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mbs.atomic import atomic_path
+from mbs.base.atomic import atomic_path
 
 KIND = "mbs results"
 

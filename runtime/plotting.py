@@ -13,7 +13,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from mbs.atomic import atomic_path
+from mbs.base.atomic import atomic_path
 
 #: Most lines in one panel before a unit group is split over several panels.
 LINES_PER_PANEL = 6

@@ -18,7 +18,7 @@ from typing import Iterable, Mapping
 
 import numpy as np
 
-from mbs.atomic import atomic_path
+from mbs.base.atomic import atomic_path
 
 from .errors import SimulationError, UsageError
 

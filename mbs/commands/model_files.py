@@ -69,7 +69,7 @@ class Fmt:
 
     @staticmethod
     def run(args) -> int:
-        from mbs.atomic import write_text_atomic
+        from mbs.base.atomic import write_text_atomic
         from mbs.language.formatter import format_source
         from mbs.language.parser import parse_source, read_source
         status = 0
@@ -104,7 +104,7 @@ class Export:
         from mbs.language.frontend import load
         text = model_to_json(load(args.file, args.model))
         if args.output:
-            from mbs.atomic import write_text_atomic
+            from mbs.base.atomic import write_text_atomic
             write_text_atomic(Path(args.output), text)
         else:
             sys.stdout.write(text)

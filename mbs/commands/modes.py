@@ -42,7 +42,7 @@ class Modes:
         import json
 
         import mbs
-        from mbs.atomic import write_text_atomic
+        from mbs.base.atomic import write_text_atomic
         from mbs.modes import plot_root_locus, plot_shapes, root_locus, table
         system = mbs.load(args.file, args.model)
         if args.speed_param not in system.model.parameter_map:

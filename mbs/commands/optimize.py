@@ -68,7 +68,7 @@ class Optimize:
             (table.to_csv if args.out.endswith(".csv") else table.to_hdf5)(args.out)
             print(f"every run written to {args.out}")
         if args.output:
-            from mbs.atomic import write_text_atomic
+            from mbs.base.atomic import write_text_atomic
             source = Path(args.file).read_text(encoding="utf-8")
             write_text_atomic(args.output, source.rstrip("\n") + "\n\n" + opt.scene_text)
             name = f"{scene}_optimum" if scene else "optimum"

@@ -45,6 +45,6 @@ class Sensitivity:
               f": forward sensitivities, {args.method}")
         print(table.text())
         if args.out:
-            from mbs.atomic import write_text_atomic
+            from mbs.base.atomic import write_text_atomic
             write_text_atomic(args.out, table.csv())
         return 0

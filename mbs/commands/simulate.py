@@ -114,7 +114,7 @@ def _check_suffixes(args) -> None:
         raise ArgumentError(f"--out {args.out}: results are written as .csv, .npz or .h5")
     if args.plot and Path(args.plot).suffix.lower() not in PLOT_FORMATS:
         raise ArgumentError(f"--plot {args.plot}: plots are written as {', '.join(PLOT_FORMATS)}")
-    from mbs.atomic import writable_problem
+    from mbs.base.atomic import writable_problem
     for option, path in (("--out", args.out), ("--plot", args.plot)):
         why = writable_problem(path) if path else None
         if why:

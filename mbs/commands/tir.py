@@ -19,7 +19,7 @@ class Tir:
     @staticmethod
     def run(args) -> int:
         import mbs
-        from mbs.atomic import write_text_atomic
+        from mbs.base.atomic import write_text_atomic
         from mbs.paramsets import read
         from mbs.tir import parameter_set, read_tir
         from mbs.language.diagnostics import Diagnostic, MbsError

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mbs.atomic import write_bytes_atomic
+from mbs.base.atomic import write_bytes_atomic
 from mbs.runtime import build as _build
 from mbs.runtime.model import CompiledModel, load_c, load_numpy
 
