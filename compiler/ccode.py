@@ -25,15 +25,31 @@ naming the algorithm step; a function only contains the temporaries its outputs 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import sympy as sp
 
-from .emit_common import (INLINE_MAX_CHARS, PREC_UNARY, CodegenError, ExprPrinter, Naming,  # noqa: F401
-                          Routine, check_inputs, describe, equation_routines, identifier, plan_routine,
-                          printable, table_slopes)
+from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
 from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
+from .constraints import Constraints
+from .emit_common import (  # noqa: F401
+    INLINE_MAX_CHARS,
+    PREC_UNARY,
+    CodegenError,
+    ExprPrinter,
+    Naming,
+    Routine,
+    check_inputs,
+    describe,
+    equation_routines,
+    identifier,
+    plan_routine,
+    printable,
+    table_slopes,
+)
 from .equations import Equations
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
@@ -131,12 +147,12 @@ class CEmitter:
                                                  inline_max_chars=self.inline_max_chars))
                      for name, out, doc, shape, results, positive in self._routines()]
         tree = self.eqs.tree
-        functions += [_names_function("mbs_state_name", [s.name for s in tree.q_symbols + tree.v_symbols]),
-                      _names_function("mbs_parameter_name", [s.name for s in self.parameters])]
+        functions += [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
+                      name_table("mbs_parameter_name", "parameter i", [s.name for s in self.parameters])]
         if self.outputs:
-            functions.append(_names_function("mbs_output_name", [name for name, _ in self.outputs]))
+            functions.append(name_table("mbs_output_name", "output i", [name for name, _ in self.outputs]))
         if self.frame_names:
-            functions.append(_names_function("mbs_frame_name", list(self.frame_names)))
+            functions.append(name_table("mbs_frame_name", "frame i", list(self.frame_names)))
         if self.constraints is not None:
             functions.append(loop_functions(self.constraints))
         return "\n".join([self._header(), *self._helpers(printer.used), *functions])
@@ -316,37 +332,6 @@ def _array(name: str, values) -> str:
     return f"static const double {name}[{len(values)}] = {{{', '.join(repr(float(v)) for v in values)}}};"
 
 
-def c_string(text: str) -> str:
-    """A C string literal of `text` (escapes quotes, backslashes, '?' against trigraphs, non-ASCII as octal)."""
-    out = []
-    for byte in text.encode("utf-8"):
-        c = chr(byte)
-        if c in '"\\?':
-            out.append("\\" + c)
-        elif 32 <= byte < 127:
-            out.append(c)
-        else:
-            out.append(f"\\{byte:03o}")
-    return '"' + "".join(out) + '"'
-
-
-def _names_function(name: str, names: list) -> str:
-    what = name[len("mbs_"):-len("_name")]
-    lines = [f"/* Name of {what} i, NULL when out of range. */", f"const char *{name}(int i)", "{"]
-    if names:
-        lines.append("    static const char *const names[] = {")
-        row = "       "
-        for q in (c_string(n) + "," for n in names):
-            if len(row) + len(q) > 110:
-                lines.append(row)
-                row = "       "
-            row += " " + q
-        lines += [row, "    };", f"    return (i >= 0 && i < {len(names)}) ? names[i] : NULL;"]
-    else:
-        lines += ["    (void)i;", "    return NULL;"]
-    return "\n".join(lines + ["}\n"])
-
-
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
@@ -367,3 +352,39 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()
+
+
+def generate_loop_c(equations: Equations, constraints: Constraints, parameters: Sequence[sp.Symbol],
+                    model_name: str = "model", *, outputs=(), tables=(), origin: str = "") -> str:
+    """The whole C file of a model with loops, from `ccode.CEmitter`'s parts: its header with MBS_NWORK
+    enlarged by MBS_LOOP_NWORK, the tree functions except the articulated-body mbs_rhs (which would solve the
+    open tree), the constraint functions, and mbs_rhs as the constrained right-hand side.
+
+    `equations` may lack vdot (derive with forward_dynamics=False: the articulated-body algorithm divides by
+    zero for massless bodies, which loops allow). Everything on the tape must be derived before this call."""
+    tree = equations.tree
+    if equations.vdot is None:  # the emitter checks that vdot exists; it is not printed here
+        equations = replace(equations, vdot=(sp.S.Zero,) * tree.nv)
+    emitter = CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin)
+    missing = [s.name for s in constraints.parameters() if s not in set(emitter.parameters)]
+    if missing:
+        raise CodegenError(f"parameters missing from the parameter list: {', '.join(missing)}")
+    printer = CPrinter(emitter.names, len(emitter.tables))
+    routines = [r for r in equation_routines(equations, emitter.outputs) if r[0] != "mbs_rhs"]
+    routines += loop_routines(constraints)
+    functions = [emitter._function(plan_routine(equations.tape, emitter.naming, printer, name, out, doc, shape,
+                                                results, check_positive=positive))
+                 for name, out, doc, shape, results, positive in routines]
+    header = emitter._header()
+    tree_work = re.search(r"#define MBS_NWORK (\d+)", header)
+    if tree_work is None:
+        raise CodegenError("the emitter's header has no '#define MBS_NWORK <n>' line")
+    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc)
+    header = header.replace(tree_work.group(0), f"#define MBS_TREE_NWORK {tree_work.group(1)}   /* of the tree "
+                                                f"functions */\n#define MBS_NWORK {total}")
+    names = [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
+             name_table("mbs_parameter_name", "parameter i", [s.name for s in emitter.parameters])]
+    if emitter.outputs:
+        names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
+    return "\n".join([header, loop_definitions(constraints), *emitter._helpers(printer.used), *functions, *names,
+                      loop_functions(constraints)])

@@ -19,20 +19,14 @@ With loops, `mbs_rhs` is the constrained right-hand side: a wrapper of `mbs_loop
 compiled after the model), so every consumer of mbs_rhs gets the dynamics of the closed mechanism.
 
 `loop_routines` gives the functions in the emitter's routine format, `loop_definitions` and `loop_functions`
-the rest of the text; `generate_loop_c` assembles a whole file from `ccode.CEmitter`'s parts.
+the rest of the text; `ccode.generate_loop_c` assembles a whole file from them and `ccode.CEmitter`'s parts
+(this module imports nothing of ccode: the emitter uses it, not the other way round).
 """
 
 from __future__ import annotations
 
-import re
-from collections.abc import Sequence
-from dataclasses import replace
-
-import sympy as sp
-
+from .c_text import name_table
 from .constraints import Constraints
-from .emit_common import CodegenError, equation_routines, plan_routine
-from .equations import Equations
 from .jacobian_colours import constraint_colours
 
 #: Doubles of scalar scratch in the loop solver's work area (runtime/c/loops.c, MBS_LOOP_NWORK_NEEDED).
@@ -99,53 +93,3 @@ def loop_functions(constraints: Constraints) -> str:
         " * null-space method (runtime/c/loops.c). */",
         "int mbs_rhs(double t, const double *x, const double *p, double *xdot, double *work)", "{",
         "    return mbs_loop_rhs(t, x, p, xdot, work);", "}", ""])
-
-
-def name_table(function: str, what: str, names: Sequence[str]) -> str:
-    """`const char *function(int i)`: names[i], NULL when out of range."""
-    from .ccode import c_string  # ccode imports this module (the splice): import at call time
-    lines = [f"/* Name of {what}, NULL when out of range. */", f"const char *{function}(int i)", "{"]
-    if names:
-        lines += ["    static const char *const names[] = {"]
-        lines += [f"        {c_string(name)}," for name in names]
-        lines += ["    };", f"    return (i >= 0 && i < {len(names)}) ? names[i] : NULL;"]
-    else:
-        lines += ["    (void)i;", "    return NULL;"]
-    return "\n".join(lines + ["}", ""])
-
-
-def generate_loop_c(equations: Equations, constraints: Constraints, parameters: Sequence[sp.Symbol],
-                    model_name: str = "model", *, outputs=(), tables=(), origin: str = "") -> str:
-    """The whole C file of a model with loops, from `ccode.CEmitter`'s parts: its header with MBS_NWORK
-    enlarged by MBS_LOOP_NWORK, the tree functions except the articulated-body mbs_rhs (which would solve the
-    open tree), the constraint functions, and mbs_rhs as the constrained right-hand side.
-
-    `equations` may lack vdot (derive with forward_dynamics=False: the articulated-body algorithm divides by
-    zero for massless bodies, which loops allow). Everything on the tape must be derived before this call."""
-    from .ccode import CEmitter, CPrinter
-    tree = equations.tree
-    if equations.vdot is None:  # the emitter checks that vdot exists; it is not printed here
-        equations = replace(equations, vdot=(sp.S.Zero,) * tree.nv)
-    emitter = CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin)
-    missing = [s.name for s in constraints.parameters() if s not in set(emitter.parameters)]
-    if missing:
-        raise CodegenError(f"parameters missing from the parameter list: {', '.join(missing)}")
-    printer = CPrinter(emitter.names, len(emitter.tables))
-    routines = [r for r in equation_routines(equations, emitter.outputs) if r[0] != "mbs_rhs"]
-    routines += loop_routines(constraints)
-    functions = [emitter._function(plan_routine(equations.tape, emitter.naming, printer, name, out, doc, shape,
-                                                results, check_positive=positive))
-                 for name, out, doc, shape, results, positive in routines]
-    header = emitter._header()
-    tree_work = re.search(r"#define MBS_NWORK (\d+)", header)
-    if tree_work is None:
-        raise CodegenError("the emitter's header has no '#define MBS_NWORK <n>' line")
-    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc)
-    header = header.replace(tree_work.group(0), f"#define MBS_TREE_NWORK {tree_work.group(1)}   /* of the tree "
-                                                f"functions */\n#define MBS_NWORK {total}")
-    names = [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
-             name_table("mbs_parameter_name", "parameter i", [s.name for s in emitter.parameters])]
-    if emitter.outputs:
-        names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
-    return "\n".join([header, loop_definitions(constraints), *emitter._helpers(printer.used), *functions, *names,
-                      loop_functions(constraints)])

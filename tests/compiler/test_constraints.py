@@ -12,7 +12,8 @@ import sympy as sp
 sys.path.insert(0, str(Path(__file__).parent))
 import treekit  # noqa: E402
 
-from mbs.compiler.ccode_loops import generate_loop_c, loop_work_size  # noqa: E402
+from mbs.compiler.ccode import generate_loop_c  # noqa: E402
+from mbs.compiler.ccode_loops import loop_work_size  # noqa: E402
 from mbs.compiler.constraints import ROWS, CutJoint, derive_constraints  # noqa: E402
 from mbs.compiler.equations import derive_equations  # noqa: E402
 from mbs.compiler.kinematics import Kinematics  # noqa: E402

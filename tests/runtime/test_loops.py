@@ -14,7 +14,7 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from mbs.compiler.ccode_loops import generate_loop_c
+from mbs.compiler.ccode import generate_loop_c
 from mbs.compiler.constraints import CutJoint, derive_constraints
 from mbs.compiler.equations import derive_equations
 from mbs.compiler.kinematics import Kinematics
