@@ -21,7 +21,7 @@ from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractE
                     PartEntry, PortEntry, Scope, did_you_mean)
 
 if TYPE_CHECKING:
-    from .elaborate import Elaborator
+    from .context import ElaborationContext
 
 Dim = U.Dimension | None  # None: free (a bare number)
 SENSOR_DIMENSIONS = {
@@ -40,7 +40,7 @@ class Invalid(Exception):
 class ExprResolver:
     """Resolves expressions of one scope. ``locals_`` are names bound by a function or a force law."""
 
-    def __init__(self, elab: "Elaborator", scope: Scope, locals_: dict[str, tuple[X.E, Dim]] | None = None,
+    def __init__(self, elab: "ElaborationContext", scope: Scope, locals_: dict[str, tuple[X.E, Dim]] | None = None,
                  allow_state: bool = True, allow_acceleration: bool = False, what: str = "expression",
                  interaction: InteractEntry | None = None):
         self.elab, self.scope, self.interaction = elab, scope, interaction

@@ -13,14 +13,14 @@ from .quaternions import QUATERNION_COMPONENTS, QUATERNION_SPEED_OF
 from .scope import InteractEntry, Scope, did_you_mean
 
 if TYPE_CHECKING:
-    from .elaborate import Elaborator
+    from .context import ElaborationContext
 
 # Rotational axes transform as axial vectors under mirroring (joint angles keep their sign on both sides);
 # translational ones as polar vectors.
 AXIAL_AXES = {("revolute", "axis"), ("universal", "axis1"), ("universal", "axis2"), ("planar", "normal")}
 
 
-def _match_args(elab: "Elaborator", scope: Scope, args, spec: tuple[catalog.Arg, ...], what: str,
+def _match_args(elab: "ElaborationContext", scope: Scope, args, spec: tuple[catalog.Arg, ...], what: str,
                 span, extra: bool = False) -> dict[str, ast.Expr]:
     """Positional then named arguments against a kind's argument list; reports unknown and missing ones."""
     names = [a.name for a in spec]
@@ -64,7 +64,7 @@ def _flag(elab, scope, node) -> bool:
 
 
 # ------------------------------------------------------------------------------------------ joints
-def build_joint(elab: "Elaborator", scope: Scope, entry: InteractEntry, st: ast.Joint) -> M.Joint | None:
+def build_joint(elab: "ElaborationContext", scope: Scope, entry: InteractEntry, st: ast.Joint) -> M.Joint | None:
     kind = catalog.JOINTS.get(st.kind.text)
     if kind is None:
         elab.diags.error(f"unknown joint kind '{st.kind.text}'{did_you_mean(st.kind.text, catalog.JOINTS)} "
@@ -190,7 +190,7 @@ def _interaction_locals(entry: InteractEntry) -> dict:
     return out
 
 
-def build_forces(elab: "Elaborator", scope: Scope, entry: InteractEntry, st: ast.Interact, a: M.FrameRef):
+def build_forces(elab: "ElaborationContext", scope: Scope, entry: InteractEntry, st: ast.Interact, a: M.FrameRef):
     forces = []
     count = 0
     for member in st.members:
@@ -279,7 +279,7 @@ def _element_args(elab, scope, entry, member, kind: catalog.ElementKind, what) -
 
 
 # ------------------------------------------------------------------------------------------ sensors
-def build_sensors(elab: "Elaborator", scope: Scope, entry: InteractEntry, st: ast.Interact):
+def build_sensors(elab: "ElaborationContext", scope: Scope, entry: InteractEntry, st: ast.Interact):
     sensors = []
     for member in st.members:
         if not isinstance(member, ast.Sensor):

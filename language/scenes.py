@@ -18,12 +18,12 @@ from .quaternions import QUATERNION_SPEED_OF, check_start_quaternions
 from .scope import InputEntry, Scope, did_you_mean
 
 if TYPE_CHECKING:
-    from .elaborate import Elaborator
+    from .context import ElaborationContext
 
 START_CHOICES = ("initial", "equilibrium")
 
 
-def build_scene(elab: "Elaborator", root: Scope, model: M.Model, st: ast.Scene) -> M.Scene | None:
+def build_scene(elab: "ElaborationContext", root: Scope, model: M.Model, st: ast.Scene) -> M.Scene | None:
     diags = elab.diags
     settings = dict(catalog.SCENE_DEFAULTS)
     sample = None

@@ -1,0 +1,29 @@
+"""What the helpers of elaboration (expressions.py, members.py, scenes.py) need of the elaborator, as a Protocol:
+they depend on this narrow interface, not on elaborate.py, which imports them (no import circle, even a typed
+one). The Elaborator (elaborate.py with its mixins parameters.py and placement.py) is the one implementation."""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+if TYPE_CHECKING:
+    from . import ast
+    from . import expr as X
+    from . import model as M
+    from .diagnostics import Diagnostics
+    from .scope import InputEntry, Module, OutputEntry, ParamEntry, Scope
+
+
+class ElaborationContext(Protocol):
+    diags: "Diagnostics"      #: where every problem of the file is collected
+    _call_depth: int          #: nesting of user function calls (a bound against runaway recursion)
+
+    def module_scope(self, module: "Module") -> "Scope": ...
+    def module_param(self, module: "Module", name: str, span, scope: "Scope"): ...
+    def param_dimension(self, entry: "ParamEntry"): ...
+    def input_dimension(self, entry: "InputEntry"): ...
+    def constant(self, e: "X.E", scope: "Scope", span) -> float: ...
+    def axis(self, scope: "Scope", node: "ast.Expr", what: str, axial: bool = False) -> "M.Vec3": ...
+    def frame_ref(self, scope: "Scope", ref: "ast.Ref") -> "M.FrameRef | None": ...
+    def output(self, scope: "Scope", st: "ast.Output") -> "list[M.Output] | None": ...
+    def output_value(self, entry: "OutputEntry", span) -> tuple: ...
