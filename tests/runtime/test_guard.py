@@ -84,7 +84,7 @@ def test_a_signal_during_the_run_keeps_the_samples(sig, how):
 
 
 def test_a_stall_ends_with_time_step_size_activity_and_cause():
-    res = mbs.loads(STIFF).simulate(t_end=1e6, integrator="dopri5", stall_time=0.3)
+    res = mbs.loads(STIFF).simulate(t_end=1e6, integrator="dopri5", stall_time=0.3, max_steps=10**12)
     assert res.metadata["status"] == "stopped" and not res.success
     message = res.message
     assert message.startswith("stalled at t = ")
