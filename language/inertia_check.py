@@ -18,7 +18,9 @@ from .rules import joint_graph
 
 def check_inertia(model: M.Model, diags: Diagnostics) -> None:
     """A located error per joint that moves only massless parts with free (not prescribed) coordinates."""
-    graph = joint_graph(model)
+    # a free joint transmits no load: it neither carries the parts beyond it nor closes a loop
+    graph = {part: [(other, inter) for other, inter in edges if inter.joint.kind != "free"]
+             for part, edges in joint_graph(model).items()}
     massive = {p.name for p in model.parts if p.body is not None}
     for inter in model.interactions:
         joint = inter.joint
@@ -27,7 +29,7 @@ def check_inertia(model: M.Model, diags: Diagnostics) -> None:
         free = [c.name for c in joint.coordinates if c.prescribed is None]
         if not free:
             continue
-        far = _far_side(graph, inter)
+        far = _far_side(graph if joint.kind != "free" else _with(graph, inter), inter)
         if far is None or far & massive:
             continue
         parts = ", ".join(f"'{p}'" for p in sorted(far))
@@ -47,6 +49,14 @@ def _far_side(graph, inter: M.Interaction) -> set[str] | None:
         return _reachable(graph, inter.b.part, inter)
     reach_b = _reachable(graph, inter.b.part, inter)
     return reach_a if M.INERTIAL in reach_b else None
+
+
+def _with(graph, inter: M.Interaction):
+    """The graph with `inter` (a free joint) put back: what it carries itself."""
+    out = {part: list(edges) for part, edges in graph.items()}
+    out.setdefault(inter.a.part, []).append((inter.b.part, inter))
+    out.setdefault(inter.b.part, []).append((inter.a.part, inter))
+    return out
 
 
 def _reachable(graph, start: str, without: M.Interaction) -> set[str]:

@@ -119,7 +119,9 @@ class PlacementMixin:
         rows = self.matrix(r, node, "a direction-cosine matrix")
         values = [[self.constant(e, r.scope, node.span) for e in row] for row in rows]
         a = np.array(values)
-        if not np.allclose(a @ a.T, np.eye(3), atol=1e-6) or np.linalg.det(a) < 0:
+        with np.errstate(all="ignore"):  # huge entries overflow here: not a rotation either way
+            proper = np.all(np.isfinite(a)) and np.allclose(a @ a.T, np.eye(3), atol=1e-6) and np.linalg.det(a) > 0
+        if not proper:
             raise r.error("a direction-cosine matrix must be a proper rotation (orthonormal, determinant +1)",
                           node.span)
         return rows

@@ -103,6 +103,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     lowered = lower(model, scene)
     clock("lowered to a tree")
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
+    if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
+        constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     try:
         equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)

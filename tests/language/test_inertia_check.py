@@ -88,3 +88,19 @@ model point {
     assert main(["simulate", str(src), "--t-end", "0.1"]) == 1
     err = capsys.readouterr().err
     assert "point.mbs:11:9: error: no mass or inertia determines the motion of j.alpha, j.beta, j.gamma" in err
+
+
+def test_a_free_joint_neither_holds_nor_carries_a_massless_part():
+    """Found by the fuzz harness: a free joint to a massive part closes no loop and transmits no load."""
+    free = 'interact back {\n connect b.end -> inertial\n joint free(rotation = cardan)\n }'
+    with pytest.raises(mbs.MbsError, match="no mass or inertia determines the motion of j2.phi"):
+        mbs.loads(model(extra=free))
+
+
+def test_a_loop_closed_by_a_free_joint_runs_as_a_tree(tmp_path):
+    """Found by the fuzz harness: the 'loop' has no constraint rows, so the tree's own dynamics run (the code
+    generator had neither constraints nor accelerations and failed)."""
+    text = model(extra="interact back {\n connect inertial -> b.end\n joint free(rotation = cardan, cut = true)\n }")
+    text = text.replace("    part b {", "    rigid b {\n body {\n mass = 1 kg\n inertia = diag(1, 1, 1) kg*m^2\n }")
+    res = mbs.loads(text, backend="numpy").simulate(t_end=0.05)
+    assert res.success

@@ -2,10 +2,6 @@
 
 import os
 import signal
-import subprocess
-import sys
-import time
-
 import numpy as np
 import pytest
 
@@ -88,7 +84,7 @@ def test_a_signal_during_the_run_keeps_the_samples(sig, how):
 
 
 def test_a_stall_ends_with_time_step_size_activity_and_cause():
-    res = mbs.loads(STIFF).simulate(t_end=1e6, integrator="dopri5", stall_time=0.3)
+    res = mbs.loads(STIFF).simulate(t_end=1e6, integrator="dopri5", stall_time=0.3, max_steps=10**12)
     assert res.metadata["status"] == "stopped" and not res.success
     message = res.message
     assert message.startswith("stalled at t = ")
@@ -98,34 +94,42 @@ def test_a_stall_ends_with_time_step_size_activity_and_cause():
     assert len(res.t) >= 1 and res.t[0] == 0.0
 
 
-def test_the_wall_time_limit_writes_the_file_marked(tmp_path):
-    src, out = tmp_path / "stiff.mbs", tmp_path / "r.csv"
-    src.write_text(STIFF)
-    env = dict(os.environ, MBS_CACHE_DIR=os.environ.get("MBS_CACHE_DIR", str(tmp_path / "cache")))
-    proc = subprocess.run([sys.executable, "-m", "mbs", "simulate", str(src), "--t-end", "100", "--sample", "1e-3",
-                           "--max-wall-time", "0.5", "--out", str(out)], env=env, capture_output=True, text=True)
-    assert proc.returncode == 1, proc.stderr
-    text = out.read_text()
-    assert '# status: "stopped"' in text and "wall-time limit of 0.5 s reached" in text
-    rows = [line for line in text.splitlines() if line and not line.startswith("#")][1:]
-    assert len(rows) >= 2  # samples every millisecond up to the stop
+def test_the_wall_time_limit_keeps_the_samples_and_marks_the_file(tmp_path):
+    res = mbs.loads(STIFF).simulate(t_end=100, sample=1e-3, integrator="dopri5", max_wall_time=0.3,
+                                    max_steps=10**12)
+    assert res.metadata["status"] == "stopped"
+    assert res.message.startswith("wall-time limit of 0.3 s reached")
+    assert len(res.t) >= 2 and np.allclose(np.diff(res.t), 1e-3)
+    res.to_csv(tmp_path / "r.csv")
+    text = (tmp_path / "r.csv").read_text()
+    assert '# status: "stopped"' in text and "wall-time limit of 0.3 s reached" in text
 
 
-@pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
-def test_ctrl_c_on_the_command_line_writes_what_was_computed(tmp_path):
-    src, out = tmp_path / "stiff.mbs", tmp_path / "r.csv"
-    src.write_text(STIFF)
-    env = dict(os.environ, MBS_CACHE_DIR=os.environ.get("MBS_CACHE_DIR", str(tmp_path / "cache")))
-    command = [sys.executable, "-m", "mbs", "simulate", str(src), "--sample", "1e-3", "--out", str(out)]
-    subprocess.run(command + ["--t-end", "1e-3"], env=env, check=True, capture_output=True)  # compiled once
-    for wait in (3, 8, 20):  # the derivation must be done before the signal (a loaded machine is slow)
-        proc = subprocess.Popen(command + ["--t-end", "100"], env=env, stdout=subprocess.PIPE,
-                                stderr=subprocess.PIPE, text=True)
-        time.sleep(wait)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
-        if proc.returncode == 130 and "interrupted at t = " in err:
-            break
-    assert proc.returncode == 130, err
-    text = out.read_text()
+def _command_line_interrupted(tmp_path, monkeypatch, argv, signal_at=None):
+    """`mbs simulate` in this process; the progress bar sends SIGINT once the run passes t = signal_at."""
+    from mbs.cli import main
+    from mbs.commands import common
+    src, out = tmp_path / "p.mbs", tmp_path / "r.csv"
+    src.write_text(PENDULUM)
+    if signal_at is not None:
+        def progress(self, t, t_end):
+            if t >= signal_at and not getattr(self, "sent", False):
+                self.sent = True
+                os.kill(os.getpid(), signal.SIGINT)  # as Ctrl-C in the terminal
+        monkeypatch.setattr(common.ProgressBar, "__call__", progress)
+    status = main(["simulate", str(src), "--t-end", "2", "--sample", "0.01", "--out", str(out), *argv])
+    return status, out.read_text()
+
+
+def test_ctrl_c_on_the_command_line_writes_what_was_computed(tmp_path, monkeypatch, capsys):
+    status, text = _command_line_interrupted(tmp_path, monkeypatch, [], signal_at=0.5)
+    assert status == 130
     assert '# status: "interrupted"' in text and "interrupted at t = " in text and "(Ctrl-C)" in text
+    rows = [line for line in text.splitlines() if line and not line.startswith("#")][1:]
+    assert 50 <= len(rows) < 201  # every sample up to the interruption, none after
+    assert "interrupted at t = " in capsys.readouterr().err
+
+
+def test_max_wall_time_on_the_command_line(tmp_path, monkeypatch):
+    status, text = _command_line_interrupted(tmp_path, monkeypatch, ["--max-wall-time", "1e-9"])
+    assert status == 1 and '# status: "stopped"' in text and "wall-time limit of 1e-09 s reached" in text
