@@ -8,7 +8,8 @@ equations, one run for all parameters, no finite differences of runs.
 A metric is a reduction of one column (a state such as `hinge.phi` or `der(hinge.phi)`, or a scene output), with
 the reductions of the sweep's metrics: final, peak, min, range, mean, rms, period, or arithmetic of such
 (`peak(heave) - min(heave)`, `rms(load) / 3700`; + - * /, ** a number, abs, sqrt), differentiated by the chain
-rule. Each reduction has its derivative:
+rule. The metric is parsed by the sweep's one grammar (mbs.studies.metrics); this module holds only the derivatives.
+Each reduction has its derivative:
 
 - final, mean, rms: from dy/dp at the samples (mean over the samples, like the metric itself);
 - peak, min: the extremum is located on the integrator's interpolant (a root of dy/dt between samples) and, since
@@ -37,8 +38,9 @@ from scipy.optimize import brentq
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.runtime.sensitivity import SensitivityRun, integrate_sensitivities
 from mbs.runtime.simulate import output_times
+from mbs.studies.metrics import REDUCTIONS, Metric, column_name, default_metrics, metric_error, parse, \
+    upward_crossings
 
-REDUCTIONS = ("final", "peak", "min", "range", "mean", "rms", "period")
 #: Relative step of the central differences of the start and of the outputs.
 STEP = 1e-6
 
@@ -97,44 +99,38 @@ class SensitivityTable:
         return "\n".join(lines) + "\n"
 
 
-def parse_metric(text: str, columns: Sequence[str]) -> ast.Expression:
-    """A metric as an expression tree, checked: reductions REDUCTION(COLUMN) of known columns, numbers,
-    + - * /, ** with a number as exponent, abs and sqrt (the sweep's metric syntax; nothing else runs)."""
-    try:
-        tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError:
-        raise _error(f"metric '{text}': not an expression; expected e.g. period(hinge.phi)") from None
+def parse_metric(text: str, columns: Sequence[str]) -> Metric:
+    """A metric parsed by the sweep's one grammar (mbs.studies.metrics.parse: whitelist, known columns), then held
+    to the form that has a derivative here: each reduction of one column as it is (`rms(load)`, not
+    `rms(load - 3700)`), no signal outside a reduction, and ** with a number as exponent."""
+    metric = parse(text, columns)
 
     def check(node) -> None:
-        if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value,
-                                                                                                       bool):
+        if isinstance(node, ast.Constant):
             return
-        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+        if isinstance(node, ast.UnaryOp):
             return check(node.operand)
-        if isinstance(node, ast.BinOp) and isinstance(node.op, (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)):
+        if isinstance(node, ast.BinOp):
             if isinstance(node.op, ast.Pow) and not isinstance(node.right, ast.Constant):
-                raise _error(f"metric '{text}': the exponent of ** must be a number")
+                raise metric_error(metric.text, "the exponent of ** must be a number for a sensitivity")
             check(node.left)
             return check(node.right)
-        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and len(node.args) == 1 \
-                and not node.keywords:
-            if node.func.id in ("abs", "sqrt"):
-                return check(node.args[0])
-            if node.func.id in REDUCTIONS:
-                column = ast.unparse(node.args[0])
-                if column not in columns:
-                    from mbs.language.scope import did_you_mean
-                    raise _error(f"metric '{text}': no state or output '{column}'"
-                                 f"{did_you_mean(column, list(columns))}")
-                return None
-        raise _error(f"metric '{text}': expected REDUCTION(COLUMN) with a reduction among {', '.join(REDUCTIONS)}"
-                     ", e.g. period(hinge.phi), or numbers, + - * / ** abs sqrt of such")
+        if isinstance(node, ast.Call) and node.func.id in REDUCTIONS:
+            if column_name(node.args[0]) is None:
+                raise metric_error(metric.text, f"a sensitivity needs {node.func.id}() of one column as it is, "
+                                                f"e.g. {node.func.id}(hinge.phi), not of "
+                                                f"'{ast.unparse(node.args[0])}'")
+            return None
+        if isinstance(node, ast.Call):  # abs, sqrt
+            return check(node.args[0])
+        raise metric_error(metric.text, f"'{ast.unparse(node)}' is a signal, not a number: reduce it with "
+                                        f"{', '.join(REDUCTIONS)}")
 
-    check(tree.body)
-    return tree
+    check(metric.tree.body)
+    return metric
 
 
-def evaluate_metric(tree: ast.Expression, reduce) -> tuple[float, np.ndarray]:
+def evaluate_metric(metric: Metric, reduce) -> tuple[float, np.ndarray]:
     """(value, gradient) of a parsed metric by the chain rule; reduce(reduction, column) -> (value, gradient)."""
 
     def walk(node):
@@ -145,7 +141,7 @@ def evaluate_metric(tree: ast.Expression, reduce) -> tuple[float, np.ndarray]:
             return (-a, -da) if isinstance(node.op, ast.USub) else (a, da)
         if isinstance(node, ast.Call):
             if node.func.id in REDUCTIONS:
-                return reduce(node.func.id, ast.unparse(node.args[0]))
+                return reduce(node.func.id, column_name(node.args[0]))
             a, da = walk(node.args[0])
             if node.func.id == "abs":
                 return abs(a), np.sign(a) * da
@@ -161,7 +157,7 @@ def evaluate_metric(tree: ast.Expression, reduce) -> tuple[float, np.ndarray]:
             return a / b, (da * b - a * db) / (b * b)
         return a ** b, b * a ** (b - 1) * da  # b a number (checked)
 
-    return walk(tree.body)
+    return walk(metric.tree.body)
 
 
 class _Column:
@@ -222,12 +218,13 @@ def _extremum(column: _Column, y: np.ndarray, sign: float) -> tuple[float, np.nd
 
 
 def _period(column: _Column, y: np.ndarray) -> tuple[float, np.ndarray]:
+    """(period, dT/dp): the sweep's period (the same upward crossings of the mid-range), each crossing located
+    on the interpolant and moved by dt_c/dp = -(dy/dp - dlevel/dp) / (dy/dt)."""
     top, dtop = _extremum(column, y, 1.0)
     bottom, dbottom = _extremum(column, y, -1.0)
     level, dlevel = 0.5 * (top + bottom), 0.5 * (dtop + dbottom)
     t = column.run.t
-    s = y - level
-    rising = np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]
+    rising = upward_crossings(y, level)
     if rising.size < 2:
         k = len(dlevel)
         return float("nan"), np.full(k, np.nan)
@@ -257,11 +254,6 @@ def metric_sensitivity(reduction: str, column: _Column) -> tuple[float, np.ndarr
         (top, dtop), (bottom, dbottom) = _extremum(column, y, 1.0), _extremum(column, y, -1.0)
         return top - bottom, dtop - dbottom
     return _period(column, y)
-
-
-def default_metrics(columns: Sequence[str]) -> list[str]:
-    """Without metrics: the peak and final value of each column (the scene's outputs, else the positions)."""
-    return [f"{kind}({name})" for name in columns for kind in ("peak", "final")]
 
 
 def sensitivities(system, scene: str | None = None, *, params: Sequence[str], values: Mapping[str, float] | None = None,
@@ -306,8 +298,8 @@ def sensitivities(system, scene: str | None = None, *, params: Sequence[str], va
         return cache[reduction, name]
 
     rows = []
-    for text, tree in zip(metrics, parsed):
-        value, derivative = evaluate_metric(tree, reduce)
+    for metric in parsed:
+        value, derivative = evaluate_metric(metric, reduce)
         derivative = np.broadcast_to(np.asarray(derivative, dtype=float), (len(names),))
-        rows += [Sensitivity(text.strip(), n, float(value), v, float(d)) for n, v, d in zip(names, values, derivative)]
+        rows += [Sensitivity(metric.text, n, float(value), v, float(d)) for n, v, d in zip(names, values, derivative)]
     return SensitivityTable(tuple(rows), run)

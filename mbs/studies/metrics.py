@@ -9,6 +9,9 @@ given on the command line can never run code.
 Reductions (signal -> number): ``peak`` (largest value), ``min``, ``rms``, ``mean``, ``final`` (last sample),
 ``range`` (peak minus min), ``period`` (mean time between upward crossings of the mid-range). Element-wise:
 ``abs``, ``sqrt``.
+
+This module is the one grammar of metrics: `mbs sweep` and `mbs optimize` evaluate a parsed Metric on sampled
+signals; `mbs sensitivity` (mbs/sensitivity.py) walks the same checked tree to differentiate it.
 """
 
 from __future__ import annotations
@@ -22,11 +25,17 @@ import numpy as np
 from mbs.language.diagnostics import Diagnostic, MbsError
 
 
+def upward_crossings(x: np.ndarray, level: float) -> np.ndarray:
+    """Indices i where the samples cross `level` upwards between i and i + 1 (the crossings `period` counts)."""
+    s = x - level
+    return np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]
+
+
 def _period(t: np.ndarray, x: np.ndarray) -> float:
     """Mean interval between upward crossings of (max + min) / 2, crossing times interpolated linearly."""
     level = 0.5 * (float(np.max(x)) + float(np.min(x)))
     s = x - level
-    rising = np.nonzero((s[:-1] < 0) & (s[1:] >= 0))[0]
+    rising = upward_crossings(x, level)
     if rising.size < 2:
         return float("nan")
     crossings = t[rising] - s[rising] * (t[rising + 1] - t[rising]) / (s[rising + 1] - s[rising])
@@ -46,20 +55,21 @@ ELEMENTWISE = {"abs": np.abs, "sqrt": np.sqrt}
 _OPERATORS = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: np.divide, ast.Pow: np.power}
 
 
-def _error(text: str, message: str) -> MbsError:
+def metric_error(text: str, message: str) -> MbsError:
+    """The one wording of a bad metric: "metric 'TEXT': message"."""
     return MbsError([Diagnostic("error", f"metric '{text}': {message}", None)])
 
 
-def _column_name(node: ast.AST) -> str | None:
+def column_name(node: ast.AST) -> str | None:
     """`a.b.c` -> "a.b.c"; `der(a.b)` -> "der(a.b)"; anything else None."""
     if isinstance(node, ast.Name):
         return node.id
     if isinstance(node, ast.Attribute):
-        head = _column_name(node.value)
+        head = column_name(node.value)
         return None if head is None or head.startswith("der(") else f"{head}.{node.attr}"
     if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "der"
             and len(node.args) == 1 and not node.keywords):
-        inner = _column_name(node.args[0])
+        inner = column_name(node.args[0])
         return None if inner is None else f"der({inner})"
     return None
 
@@ -76,12 +86,12 @@ class Metric:
         """The metric of one run; `column(name)` returns a signal."""
         value = self._eval(self.tree.body, t, column)
         if np.ndim(value) != 0:
-            raise _error(self.text, "is a signal, not a number: reduce it with peak, min, rms, mean, final, "
+            raise metric_error(self.text, "is a signal, not a number: reduce it with peak, min, rms, mean, final, "
                                     "range or period")
         return float(value)
 
     def _eval(self, node, t, column):
-        name = _column_name(node)
+        name = column_name(node)
         if name is not None:
             return np.asarray(column(name), dtype=float)
         if isinstance(node, ast.Constant):
@@ -96,7 +106,7 @@ class Metric:
         if node.func.id in ELEMENTWISE:
             return ELEMENTWISE[node.func.id](argument)
         if np.ndim(argument) == 0:
-            raise _error(self.text, f"{node.func.id}() needs a signal, got a number")
+            raise metric_error(self.text, f"{node.func.id}() needs a signal, got a number")
         if argument.size == 0:
             return float("nan")
         return REDUCTIONS[node.func.id](t, argument)
@@ -107,11 +117,11 @@ def parse(text: str, columns: Iterable[str] | None = None) -> Metric:
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError as exc:
-        raise _error(text, f"not an expression ({exc.msg})") from None
+        raise metric_error(text, f"not an expression ({exc.msg})") from None
     used: list[str] = []
 
     def check(node) -> None:
-        name = _column_name(node)
+        name = column_name(node)
         if name is not None:
             used.append(name)
             return
@@ -126,11 +136,11 @@ def parse(text: str, columns: Iterable[str] | None = None) -> Metric:
         if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
             known = {**REDUCTIONS, **ELEMENTWISE}
             if node.func.id not in known:
-                raise _error(text, f"unknown function '{node.func.id}' (known: {', '.join(known)})")
+                raise metric_error(text, f"unknown function '{node.func.id}' (known: {', '.join(known)})")
             if len(node.args) != 1 or node.keywords:
-                raise _error(text, f"{node.func.id}() takes one argument")
+                raise metric_error(text, f"{node.func.id}() takes one argument")
             return check(node.args[0])
-        raise _error(text, f"'{ast.unparse(node)}' is not allowed here (use output names, numbers, + - * / ** "
+        raise metric_error(text, f"'{ast.unparse(node)}' is not allowed here (use output names, numbers, + - * / ** "
                            "and the functions peak, min, rms, mean, final, range, period, abs, sqrt)")
 
     check(tree.body)
@@ -139,7 +149,7 @@ def parse(text: str, columns: Iterable[str] | None = None) -> Metric:
         missing = [name for name in used if name not in known]
         if missing:
             from mbs.language.scope import did_you_mean
-            raise _error(text, f"no output or coordinate '{missing[0]}'{did_you_mean(missing[0], known)}")
+            raise metric_error(text, f"no output or coordinate '{missing[0]}'{did_you_mean(missing[0], known)}")
     return Metric(text.strip(), tree, tuple(dict.fromkeys(used)))
 
 

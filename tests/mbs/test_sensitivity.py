@@ -12,7 +12,7 @@ from scipy.special import ellipe, ellipk
 import mbs
 from mbs.cli import main
 from mbs.language.diagnostics import MbsError
-from mbs.sensitivity import sensitivities
+from mbs.sensitivity import evaluate_metric, parse_metric, sensitivities
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "physics"))
 import physkit
@@ -157,10 +157,26 @@ def test_numpy_back_end_has_the_same_parameter_jacobian(double):
 def test_unknown_parameter_and_metric_are_clear_errors(pendulum):
     with pytest.raises(MbsError, match="has no parameter 'q'"):
         sensitivities(pendulum, params=["q"])
-    with pytest.raises(MbsError, match="expected REDUCTION"):
+    with pytest.raises(MbsError, match="unknown function 'sum'"):
         sensitivities(pendulum, params=["l"], metrics=["sum(hinge.phi)"])
-    with pytest.raises(MbsError, match="no state or output 'hinge.psi'"):
+    with pytest.raises(MbsError, match="no output or coordinate 'hinge.psi'"):
         sensitivities(pendulum, params=["l"], metrics=["final(hinge.psi)"])
+
+
+@pytest.mark.parametrize("text, message", [
+    ("rms(hinge.phi - 1)", r"rms\(\) of one column as it is"),
+    ("abs(hinge.phi)", "is a signal, not a number"),
+    ("peak(hinge.phi) ** final(hinge.phi)", r"exponent of \*\* must be a number"),
+    ("__import__('os')", "unknown function '__import__'"),
+])
+def test_metrics_without_a_derivative_are_refused_by_the_shared_grammar(text, message):
+    """The sweep's grammar accepts these (or refuses them in its own words); a sensitivity also needs each
+    reduction to be of one column, so the chain rule reaches a derivative of a reduction."""
+    columns = ["hinge.phi", "der(hinge.phi)"]
+    with pytest.raises(MbsError, match=message):
+        parse_metric(text, columns)
+    assert evaluate_metric(parse_metric("2 * peak(hinge.phi) ** 2 - abs(final(der(hinge.phi)))", columns),
+                           lambda r, c: (3.0, np.array([1.0])))[1] == pytest.approx([12.0 - 1.0])
 
 
 def test_cli_prints_derivative_and_normalised_value(capsys, tmp_path):
