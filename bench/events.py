@@ -16,22 +16,14 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 from pathlib import Path
 
 import numpy as np
+from timing import median_time  # bench/timing.py (the scripts run from bench/)
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "library" / "examples"
 
-
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def main(argv=None) -> int:

@@ -11,11 +11,10 @@ while also resolving names, converting units and validating.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 from mbs.language.frontend import check_text
 from mbs.language.parser import _lark
+from timing import median_time  # bench/timing.py (the scripts run from bench/)
 
 TARGET_SECONDS = 2.0
 
@@ -38,21 +37,13 @@ def generate(n: int) -> str:
             f"    interact j{i} {{",
             f"        connect {'inertial' if i == 0 else f'b{i - 1}.tip'} -> b{i}",
             f"        joint {kinds[i % len(kinds)]}",
-            f"        force s = spring_damper(k = k, d = d, l0 = 0.1 m)",
+            "        force s = spring_damper(k = k, d = d, l0 = 0.1 m)",
             "        sensor p = position()",
             "    }",
         ]
     lines.append("}")
     return "\n".join(lines) + "\n"
 
-
-def median_time(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def main() -> None:

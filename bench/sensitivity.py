@@ -14,20 +14,11 @@ system is the cost of a first version without a C integrator for it (runtime/sen
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
 
 import mbs
 from mbs.sensitivity import sensitivities
+from timing import median_time  # bench/timing.py (the scripts run from bench/)
 
-
-def median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def main() -> None:
