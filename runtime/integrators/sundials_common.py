@@ -21,7 +21,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import EvaluationError, status_text
+from ..errors import EvaluationError, UsageError, status_text
 from .base import DenseOutput, OdeSolver
 
 
@@ -62,6 +62,10 @@ class SundialsSolver(OdeSolver):
             self._solver = self._make(settings)
         except EvaluationError as exc:
             self._fail(f"the model returned {status_text(exc.status)} at the initial state")
+        except ModuleNotFoundError as exc:  # a dependency of the package, but an install may have skipped it
+            raise UsageError(f"integrator '{self.name}' needs scikit-sundae (SUNDIALS), which is not installed "
+                             f"({exc}); pip install scikit-sundae, or choose dopri5, rodasp or a scipy method") \
+                from None
 
     # -- for the subclasses -----------------------------------------------------------------------------
 
