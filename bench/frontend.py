@@ -45,7 +45,6 @@ def generate(n: int) -> str:
     return "\n".join(lines) + "\n"
 
 
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--bodies", type=int, default=1000)

@@ -20,7 +20,6 @@ from mbs.sensitivity import sensitivities
 from timing import median_time  # bench/timing.py (the scripts run from bench/)
 
 
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--model", default="library/examples/double_pendulum.mbs")

@@ -55,7 +55,6 @@ def _print_assembly(assembly, generated) -> None:
         print(f"  assembly moved {name}: {given:.6g} -> {after:.6g}")
 
 
-
 class Equilibrium:
     help = "find the static equilibrium of a model (it settles on its springs) and report it"
 
@@ -81,7 +80,6 @@ class Equilibrium:
         for name, value in outputs.items():
             print(f"  {name:32s} {value: .9g} {units.get(name, '')}  (output)")
         return 0
-
 
 
 class Linearize:

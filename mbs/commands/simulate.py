@@ -86,8 +86,6 @@ class Simulate:
         return 0
 
 
-
-
 def _estimate_error(system, scene, params, res, args) -> None:
     """Second run at a tenth of the tolerances: the estimated global error per column, printed and stored."""
     from mbs.runtime.accuracy import global_error_estimate

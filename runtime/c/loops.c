@@ -236,6 +236,29 @@ static double mbs_loop_gmax(const mbs_loop_work *w)
     return amax;
 }
 
+/* Exchange rows k and pi of the factors w->G and their original indices rp. */
+static void mbs_loop_swap_rows(mbs_loop_work *w, int k, int pi)
+{
+    double *A = w->G, tmp;
+    int j;
+    for (j = 0; j < MBS_NV; j++) {
+        tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
+    }
+    tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+}
+
+/* One elimination step with pivot A[k][k]: rows k+1 .. rows-1 lose their column k (multipliers stored there). */
+static void mbs_loop_eliminate(double *A, int k, int rows)
+{
+    int i, j;
+    for (i = k + 1; i < rows; i++) {
+        double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
+        A[i * MBS_NV + k] = l;
+        if (l != 0.0)
+            for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+    }
+}
+
 /* Gaussian elimination with complete pivoting of G in place (rows and columns physically exchanged; rp, cp
  * record the original indices).  Returns the rank, or -1 if G is not finite; *minpivot: the smallest pivot
  * relative to max |G|. */
@@ -255,24 +278,14 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
                 if (fabs(A[i * MBS_NV + j]) > amax) { amax = fabs(A[i * MBS_NV + j]); pi = i; pj = j; }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) break;
         *minpivot = k == 0 ? amax / amax0 : fmin(*minpivot, amax / amax0);
-        if (pi != k) {
-            for (j = 0; j < MBS_NV; j++) {
-                tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
-            }
-            tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
-        }
+        if (pi != k) mbs_loop_swap_rows(w, k, pi);
         if (pj != k) {
             for (i = 0; i < MBS_NC; i++) {
                 tmp = A[i * MBS_NV + k]; A[i * MBS_NV + k] = A[i * MBS_NV + pj]; A[i * MBS_NV + pj] = tmp;
             }
             tmp = w->cp[k]; w->cp[k] = w->cp[pj]; w->cp[pj] = tmp;
         }
-        for (i = k + 1; i < MBS_NC; i++) {
-            double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
-            A[i * MBS_NV + k] = l;
-            if (l != 0.0)
-                for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
-        }
+        mbs_loop_eliminate(A, k, MBS_NC);
         r++;
     }
     return r;
@@ -335,23 +348,13 @@ static double mbs_loop_factor_kept(mbs_loop_work *w)
     }
     for (k = 0; k < r; k++) {
         int pi = k;
-        double amax = 0.0, tmp;
+        double amax = 0.0;
         for (i = k; i < r; i++)
             if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
         minpivot = fmin(minpivot, amax / amax0);
-        if (pi != k) {
-            for (j = 0; j < MBS_NV; j++) {
-                tmp = A[k * MBS_NV + j]; A[k * MBS_NV + j] = A[pi * MBS_NV + j]; A[pi * MBS_NV + j] = tmp;
-            }
-            tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
-        }
-        for (i = k + 1; i < r; i++) {
-            double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
-            A[i * MBS_NV + k] = l;
-            if (l != 0.0)
-                for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
-        }
+        if (pi != k) mbs_loop_swap_rows(w, k, pi);
+        mbs_loop_eliminate(A, k, r);
     }
     return minpivot;
 }

@@ -34,7 +34,6 @@ def calspan(fz, alpha, gamma):
     return fy, (AF1 * fz + AF2 * abs(fy)) * fy
 
 
-
 def fade(vx):
     return library_fade(vx, V_LOW)
 

@@ -42,7 +42,6 @@ def book(fz, kappa, alpha, gamma):
     return gx * fx0, gy * fy0, kx, ky, dy
 
 
-
 def fade(vx):
     return library_fade(vx, V_LOW)
 

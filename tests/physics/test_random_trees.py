@@ -127,7 +127,6 @@ model nearly_symmetric {
 """
 
 
-
 def test_inertia_the_checker_accepts_compiles_or_is_reported():
     system = mbs.loads(NEARLY_SYMMETRIC)     # the checker accepts it
     try:
