@@ -147,7 +147,7 @@ class CEmitter:
                                                  inline_max_chars=self.inline_max_chars))
                      for name, out, doc, shape, results, positive in self._routines()]
         tree = self.eqs.tree
-        functions += [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
+        functions += [name_table("mbs_state_name", "state i", [s.name for s in tree.x_symbols]),
                       name_table("mbs_parameter_name", "parameter i", [s.name for s in self.parameters])]
         if self.outputs:
             functions.append(name_table("mbs_output_name", "output i", [name for name, _ in self.outputs]))
@@ -182,7 +182,8 @@ class CEmitter:
                  "",
                  f"#define MBS_NQ {nq}   /* free position coordinates */",
                  f"#define MBS_NV {nv}   /* free velocity coordinates */",
-                 "#define MBS_NX (MBS_NQ+MBS_NV)",
+                 *([f"#define MBS_NZ {self.eqs.tree.nz}   /* extra differential states */",
+                    "#define MBS_NX (MBS_NQ+MBS_NV+MBS_NZ)"] if self.eqs.tree.nz else ["#define MBS_NX (MBS_NQ+MBS_NV)"]),
                  f"#define MBS_NP {len(self.parameters)}   /* parameters */",
                  f"#define MBS_NWORK {self._work()}   /* doubles of work memory the caller provides */"]
         if self.outputs:

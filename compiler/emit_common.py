@@ -92,7 +92,7 @@ class Naming:
         taken = set(RESERVED)
         self.names: dict = {t: "t"}
         self.inputs: list[tuple[sp.Symbol, str, str, int]] = []
-        for k, s in enumerate(tree.q_symbols + tree.v_symbols):
+        for k, s in enumerate(tree.x_symbols):
             self.inputs.append((s, _claim(identifier(s.name), taken), "x", k))
         for k, s in enumerate(parameters):
             self.inputs.append((s, _claim(identifier(s.name), taken), "p", k))
@@ -396,8 +396,9 @@ def equation_routines(equations, outputs, events=(), actions=()) -> list:
     eqs, nq, nv = equations, equations.tree.nq, equations.tree.nv
     mass = [(i * nv + j, eqs.mass_matrix[i][j] if j >= i else j * nv + i) for i in range(nv) for j in range(nv)]
     routines = [
-        ("mbs_rhs", "xdot", "x' = [qdot; vdot], vdot by the articulated-body algorithm", (nq + nv,),
-         list(enumerate(eqs.qdot + (eqs.vdot or ()))), False),
+        ("mbs_rhs", "xdot", "x' = [qdot; vdot], vdot by the articulated-body algorithm"
+         + ("; z' of the extra states" if eqs.zdot else ""), (nq + nv + len(eqs.zdot),),
+         list(enumerate(eqs.qdot + (eqs.vdot or ()) + eqs.zdot)), False),
         ("mbs_mass_matrix", "M", "mass matrix M (nv x nv, row-major) by the composite-rigid-body algorithm",
          (nv, nv), mass, True),
         ("mbs_forces", "f", "f = q - k (applied minus Coriolis/centrifugal/gyroscopic forces), M vdot = f",
@@ -424,7 +425,7 @@ def check_inputs(equations, parameters, outputs, tables, constraints=None, run_t
     if equations.vdot is None and constraints is None:
         raise CodegenError("the equations were derived without forward dynamics; mbs_rhs needs vdot")
     tree = equations.tree
-    states = set(tree.q_symbols) | set(tree.v_symbols) | {t} | {s for s, _, _ in run_time_inputs}
+    states = set(tree.x_symbols) | {t} | {s for s, _, _ in run_time_inputs}
     needed = set(equations.parameters()) | (equations.tape.free_symbols([e for _, e in outputs]) - states)
     if constraints is not None:
         needed |= set(constraints.parameters())
@@ -478,8 +479,9 @@ def describe(equations, parameters, outputs, tables, model_name: str, origin: st
               f"Tree of {len(tree.bodies)} rigid bod{'y' if len(tree.bodies) == 1 else 'ies'} in minimal "
               f"coordinates, nq = {nq}, nv = {nv}, np = {len(parameters)}:",
               "    qdot = G(q) v,    M(q, t) vdot = f(q, v, t) = q - k",
-              "State x = [q; v]:"]
-    lines += [f"  x[{k}]  {s.name}" for k, s in enumerate(tree.q_symbols + tree.v_symbols)]
+              *([f"    z' = h(q, v, z, t): {tree.nz} extra state(s)", "State x = [q; v; z]:"] if tree.nz
+                else ["State x = [q; v]:"])]
+    lines += [f"  x[{k}]  {s.name}" for k, s in enumerate(tree.x_symbols)]
     lines += ["Parameters p:"] + [f"  p[{k}]  {s.name}" for k, s in enumerate(parameters)]
     if not parameters:
         lines.append("  (none)")

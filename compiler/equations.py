@@ -29,6 +29,7 @@ class Equations:
     forces: f = q - k, length nv [N, N*m]; M vdot = f.
     qdot: time derivatives of the free coordinates, length nq.
     vdot: accelerations from the articulated-body algorithm, length nv (None if not derived).
+    zdot: right-hand sides of the extra states (tree.states), length nz.
     """
 
     kinematics: Kinematics
@@ -36,6 +37,7 @@ class Equations:
     forces: tuple
     qdot: tuple
     vdot: tuple | None
+    zdot: tuple = ()
 
     @property
     def tree(self) -> Tree:
@@ -47,30 +49,30 @@ class Equations:
 
     @property
     def rhs(self) -> tuple:
-        """xdot = [qdot; vdot]."""
-        return self.qdot + self.vdot
+        """xdot = [qdot; vdot; zdot]."""
+        return self.qdot + self.vdot + self.zdot
 
     def outputs(self) -> list:
         """Every result expression (for slicing the tape)."""
         out = [x for row in self.mass_matrix for x in row] + list(self.forces) + list(self.qdot)
-        return out + list(self.vdot or ())
+        return out + list(self.vdot or ()) + list(self.zdot)
 
     def parameters(self) -> tuple:
         """Symbols the results depend on other than the state and t, in `natural_key` order: the run-time
         parameters (a default order for the emitter)."""
-        states = set(self.tree.q_symbols) | set(self.tree.v_symbols) | {t}
+        states = set(self.tree.x_symbols) | {t}
         found = self.tape.free_symbols(self.outputs()) - states
         return tuple(sorted(found, key=natural_key))
 
 
-def derive_equations(kinematics: Kinematics, *, forward_dynamics: bool = True) -> Equations:
+def derive_equations(kinematics: Kinematics, *, forward_dynamics: bool = True, state_rates: tuple = ()) -> Equations:
     """Mass matrix, forces and kinematic map (and ABA accelerations unless `forward_dynamics` is False) of the tree
-    with the loads attached to `kinematics` so far."""
+    with the loads attached to `kinematics` so far; `state_rates` are the extra states' right-hand sides."""
     M = dynamics.mass_matrix(kinematics)
     tau = dynamics.inverse_dynamics(kinematics)
     forces = tuple(-x for x in tau)
     vdot = dynamics.forward_dynamics(kinematics) if forward_dynamics else None
-    return Equations(kinematics, M, forces, kinematics.qdot, vdot)
+    return Equations(kinematics, M, forces, kinematics.qdot, vdot, tuple(state_rates))
 
 
 def display_equations(kinematics: Kinematics, *, simplify: bool = True) -> tuple:

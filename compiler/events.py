@@ -117,6 +117,8 @@ def event_code(lowered_events, switches, state_names: tuple[str, ...], nq: int, 
         for kind, target, value in e.actions:
             if kind == "speed":
                 array, index = "x", state_names.index(f"der({target})", nq)
+            elif kind == "state":  # an extra differential state (language/states.py), after q and v
+                array, index = "x", state_names.index(target, nq)
             else:
                 array, index = "p", p_names.index(target)
             assignments.append((array, index, len(values)))

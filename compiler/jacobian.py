@@ -47,7 +47,7 @@ def parameter_jacobian_or_none(equations: Equations, parameters) -> tuple[Equati
 def jacobian_routine(equations: Equations) -> tuple[Equations, tuple]:
     """(equations on a tape that also holds the derivatives, the routine in emit_common's format)."""
     tree = equations.tree
-    states = tuple(tree.q_symbols + tree.v_symbols)
+    states = tree.x_symbols
     nx = len(states)
     fork, rows = forward_derivatives(equations.tape, equations.rhs, [*states, t],
                                      labels=[s.name for s in states] + ["t"])

@@ -42,6 +42,7 @@ class Lowered:
                                                # outputs read (reaction and acceleration sensors)
     events: tuple[LoweredEvent, ...] = ()      # the model's events (compiler/events.py)
     switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
+    state_rates: tuple = ()                    # z' of the extra states (tree.states), language/states.py
 
     @property
     def tree(self) -> Tree:
@@ -67,13 +68,14 @@ class _Lowering:
             self.body_of_part[part] = i
             self.body_of_interaction[joint.interaction.name] = i
         tree = Tree(tuple(self._tree_body(i) for i in range(len(self.topology.bodies))),
-                    tuple(self.geometry(g) for g in model.gravity))
+                    tuple(self.geometry(g) for g in model.gravity), tuple(state_symbols(model)))
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
         # comparisons and kinks of min/max/abs/sign in the motion become switches in a model with events or modes,
         # or with the setting `switches = true` (model.switches)
         self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
         self.state = ToSympy(self._state_symbol, self.tables, self.switches)
+        self.model_states = {s.name: s for s in model.states}
         self._sensor_cache: dict[str, sp.Expr] = {}
         self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
 
@@ -153,6 +155,10 @@ class _Lowering:
             return self.kin.joint_velocity(body, _speed_index(joint, local))
         if sym.kind == "sensor":
             return self.sensor_value(sym.name)
+        if sym.kind == "state":
+            return sp.Symbol(sym.name)
+        if sym.kind == "rate":  # der(z) of an extra state: the right-hand side of its equation
+            return self.state(self.model_states[sym.name].rate)
         raise _error(f"'{sym.name}' cannot be used here", self.model.span)
 
     def body(self, part: str) -> int:
@@ -368,9 +374,22 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     if lowering.switches is not None:
         lowering.switches.context = "events"
     events = lower_events(model.events, lowering.state)
+    if lowering.switches is not None:
+        lowering.switches.context = "state equations"
+    rates = tuple(lowering.state(s.rate) for s in model.states)
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
-                   lowering.acceleration_terms.inputs(), events, switches)
+                   lowering.acceleration_terms.inputs(), events, switches, rates)
+
+
+def state_symbols(model: M.Model) -> list[sp.Symbol]:
+    """The symbols of the extra states, named as the model names them; a name a parameter also has is refused
+    (both would be the same symbol)."""
+    params = {p.name for p in model.parameters}
+    for s in model.states:
+        if s.name in params:
+            raise _error(f"state '{s.name}' has the name of a parameter; rename one of them", s.span)
+    return [sp.Symbol(s.name) for s in model.states]
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

@@ -178,12 +178,13 @@ class PyEmitter:
         imports = [f"from math import {', '.join(sorted(n for n in MATH_NAMES if n in used))}"]
         if self.tables:
             imports.insert(0, "from bisect import bisect_right")
-        names = [s.name for s in tree.q_symbols + tree.v_symbols]
+        names = [s.name for s in tree.x_symbols]
         lines = [f'"""{doc}\n"""', "", *imports, "", "import numpy", "",
                  f"MBS_MODEL = {self.model_name!r}",
                  f"MBS_NQ = {tree.nq}  # free position coordinates",
                  f"MBS_NV = {tree.nv}  # free velocity coordinates",
-                 "MBS_NX = MBS_NQ + MBS_NV",
+                 *([f"MBS_NZ = {tree.nz}  # extra differential states", "MBS_NX = MBS_NQ + MBS_NV + MBS_NZ"]
+                   if tree.nz else ["MBS_NX = MBS_NQ + MBS_NV"]),
                  f"MBS_NP = {len(self.parameters)}  # parameters",
                  f"MBS_NWORK = {tree.nv * tree.nv}  # doubles of work memory (the C file's size; unused here)"]
         if self.outputs:

@@ -190,10 +190,12 @@ class Tree:
     gravity: 3-vector, acceleration of gravity in world components [m/s^2], e.g. (0, 0, -g).
     The state is x = [q; v]: the free coordinates (nq) then the free velocities (nv), each in body order and
     within a body in joint order.
+    states: symbols of the model's extra differential states (language/states.py), appended: x = [q; v; z].
     """
 
     bodies: tuple
     gravity: sp.ImmutableMatrix
+    states: tuple = ()
 
     def __post_init__(self):
         object.__setattr__(self, "bodies", tuple(self.bodies))
@@ -253,8 +255,17 @@ class Tree:
         return len(self.v_symbols)
 
     @property
+    def nz(self) -> int:
+        return len(self.states)
+
+    @property
     def nx(self) -> int:
-        return self.nq + self.nv
+        return self.nq + self.nv + self.nz
+
+    @property
+    def x_symbols(self) -> tuple[sp.Symbol, ...]:
+        """The state in order: coordinates, velocities, extra states."""
+        return self.q_symbols + self.v_symbols + tuple(self.states)
 
     @cached_property
     def parameters(self) -> tuple[sp.Symbol, ...]:

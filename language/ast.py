@@ -336,7 +336,28 @@ class Event:
     span: Span
 
 
-ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use, For, Event]
+@dataclass(frozen=True)
+class State:
+    """``state name = initial value``: an extra differential state (states.py)."""
+
+    name: Ident
+    value: Expr
+    description: str | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class Rate:
+    """``der(name) = value``: the differential equation of a declared state."""
+
+    target: Ref
+    value: Expr
+    description: str | None
+    span: Span
+
+
+ModelStatement = Union[Import, Param, Input, Output, Func, Setting, Part, Port, Interact, Use, For, Event, State,
+                       Rate]
 
 
 @dataclass(frozen=True)

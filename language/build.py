@@ -340,6 +340,12 @@ class _AstBuilder:
     def mode_decl(self, c):
         return ast.Param(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]), kind="mode")
 
+    def state_decl(self, c):
+        return ast.State(c[1], _node(c[3]), _description(c), self._span(c[0], c[-1]))
+
+    def rate_decl(self, c):
+        return ast.Rate(c[2], _node(c[5]), _description(c), self._span(c[0], c[-1]))
+
     def event_decl(self, c):
         description = c[4].value if len(c) > 4 and type(c[4]) is _Part else None
         actions = tuple(c[-2]) if type(c[-1]) is Token and c[-1].value == "}" and type(c[-2]) is not Token else ()

@@ -22,7 +22,7 @@ from .loader import Loader
 from .parameters import ParameterMixin
 from .placement import PlacementMixin
 from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, Module, OutputEntry,
-                    ParamEntry, PartEntry, PortEntry, Scope, did_you_mean)
+                    ParamEntry, PartEntry, PortEntry, Scope, StateEntry, did_you_mean)
 from .units import Dimension
 
 DEFAULT_GRAVITY = (0.0, 0.0, -9.81)  # m/s^2, standard gravity along -z of the inertial frame
@@ -70,11 +70,13 @@ class Elaborator(PlacementMixin, ParameterMixin):
         outputs = self.outputs(root)
         from .events import build_events
         events = tuple(build_events(self, root))
+        from .states import build_states
+        states = tuple(build_states(self, root))
         params = self.parameters()
         gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
                         gravity, tuple(parts), tuple(interactions), (), block.span, events,
-                        self.switches if self.switches is not None else bool(events or self.mode_names))
+                        self.switches if self.switches is not None else bool(events or self.mode_names), states)
         return built
 
     def module_scope(self, module: Module) -> Scope:
@@ -96,6 +98,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
                     self.mode_names.add(scope.full(st.name.text))
             elif isinstance(st, ast.Input):
                 self.add(scope, st.name, InputEntry(scope.full(st.name.text), st))
+            elif isinstance(st, ast.State):
+                self.add(scope, st.name, StateEntry(scope.full(st.name.text), st, scope))
             elif isinstance(st, ast.Func):
                 self.add(scope, st.name, FuncEntry(st, scope))
             elif isinstance(st, ast.Output):

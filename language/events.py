@@ -6,7 +6,8 @@ The condition is one scalar zero crossing, as Modelica's ``when`` and SUNDIALS' 
     event lift when contact.fz > 0 N        # ... rises through zero
     event any when crossing(arm.phi - 1)    # either direction; rising(g) and falling(g) name one
 
-Actions: ``reinit der(j.x) = value`` (a speed jumps: an impact; positions never jump), ``set name = value`` (a
+Actions: ``reinit der(j.x) = value`` (a speed jumps: an impact; positions never jump), ``reinit z = value`` (an
+extra state, states.py, jumps), ``set name = value`` (a
 ``mode`` or a ``param`` takes a new value) and ``terminate``.  Action values are evaluated with the state just
 before the event.  Events of component instances are prefixed like their outputs (``fl.lift``).
 """
@@ -94,6 +95,10 @@ def _action(elab, scope: Scope, action) -> M.Action:
     if isinstance(action, ast.Reinit):
         target = ast.Name(action.target, action.target.span)
         coordinate, dim = r.scalar(target)
+        if isinstance(coordinate, X.Sym) and coordinate.kind == "state" and not action.derivative:
+            value, vdim = r.scalar(action.value)  # an extra state (states.py) jumps to a new value
+            r.expect(vdim, dim, action.value.span, f"the new value of state '{action.target.dotted}'")
+            return M.Action("state", coordinate.name, value, scope.at(action.span))
         if not (isinstance(coordinate, X.Sym) and coordinate.kind == "coord"):
             raise r.error(f"'{action.target.dotted}' is not a joint coordinate; reinit takes der(joint.coordinate)",
                           action.target.span)

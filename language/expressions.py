@@ -18,7 +18,7 @@ from . import expr as X
 from . import tables
 from . import units as U
 from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, OutputEntry, ParamEntry,
-                    PartEntry, PortEntry, Scope, did_you_mean)
+                    PartEntry, PortEntry, Scope, StateEntry, did_you_mean)
 
 if TYPE_CHECKING:
     from .context import ElaborationContext
@@ -218,6 +218,11 @@ class ExprResolver:
             entry.used = True
             self.state_used(ref)
             return X.Sym("input", entry.full), self.elab.input_dimension(entry)
+        if isinstance(entry, StateEntry):
+            if rest:
+                raise self.error(f"'{head.text}' is a state and has no member '{rest[0].text}'", rest[0].span)
+            self.state_used(ref)
+            return X.Sym("state", entry.full), state_value(self.elab, entry)[1]
         if isinstance(entry, InteractEntry):
             return self.interaction_member(entry, head, rest, ref)
         if isinstance(entry, InstanceEntry):
@@ -351,8 +356,10 @@ class ExprResolver:
         if len(node.args) != 1 or not isinstance(node.args[0], ast.Name):
             raise self.error("der() takes one joint coordinate, e.g. der(hinge.phi)", node.span)
         value, dim = self.scalar(node.args[0])
+        if isinstance(value, X.Sym) and value.kind == "state":  # the right-hand side of its equation
+            return X.Sym("rate", value.name), (dim or U.DIMENSIONLESS) / U.TIME
         if not (isinstance(value, X.Sym) and value.kind == "coord"):
-            raise self.error("der() applies to joint coordinates only", node.args[0].span)
+            raise self.error("der() applies to joint coordinates and states only", node.args[0].span)
         return X.Sym("speed", value.name), (None if dim is None else dim / U.TIME)
 
     def lookup_table(self, node: ast.Call) -> tuple[X.E, Dim]:
@@ -472,6 +479,19 @@ class ExprResolver:
             dim = self.same(dim, d, item, "mix")
             comps.append(value)
         return tuple(comps), dim  # type: ignore[return-value]
+
+
+def state_value(elab, entry: StateEntry) -> tuple[X.E | None, Dim]:
+    """(initial value, dimension) of a declared state (states.py), resolved once: the initial value is an
+    expression of parameters and fixes the state's unit."""
+    if entry.resolved is None:
+        entry.resolved = (None, None)  # an initial value that names its own state stays unresolved
+        r = ExprResolver(elab, entry.scope, allow_state=False, what=f"the initial value of state '{entry.full}'")
+        try:
+            entry.resolved = r.scalar(entry.decl.value)
+        except Invalid:
+            pass
+    return entry.resolved
 
 
 def _number(text: str) -> float:

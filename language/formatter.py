@@ -95,6 +95,10 @@ class _Printer:
             self.emit(node, depth, f"import {node.path.dotted}" + (f" as {node.alias.text}" if node.alias else ""))
         elif isinstance(node, ast.Param):
             self.emit(node, depth, f"{node.kind} {node.name.text} = {expr(node.value)}{_desc(node.description)}")
+        elif isinstance(node, ast.State):
+            self.emit(node, depth, f"state {node.name.text} = {expr(node.value)}{_desc(node.description)}")
+        elif isinstance(node, ast.Rate):
+            self.emit(node, depth, f"der({node.target.dotted}) = {expr(node.value)}{_desc(node.description)}")
         elif isinstance(node, ast.Event):
             head = f"event {node.name.text} when {expr(node.condition)}{_desc(node.description)}"
             if self.source.text.find("{", node.condition.span.end, node.span.end) >= 0:

@@ -191,7 +191,8 @@ class Scene:
 
 @dataclass(frozen=True)
 class Action:
-    """What an event does: ``kind`` "speed" (reinit a joint speed; ``target`` names the coordinate) or "set"
+    """What an event does: ``kind`` "speed" (reinit a joint speed; ``target`` names the coordinate), "state"
+    (reinit an extra state) or "set"
     (a mode or parameter takes a new value); ``value`` is evaluated just before the event (Modelica's pre())."""
 
     kind: str
@@ -215,6 +216,19 @@ class Event:
 
 
 @dataclass(frozen=True)
+class State:
+    """An extra differential state ``name`` (actuator lag, controller integrator, bristle deflection): x' = rate,
+    x(0) = init; ``dimension`` from the initial value (None: a plain number), ``rate`` has dimension / time."""
+
+    name: str
+    init: E
+    dimension: Dimension | None
+    rate: E
+    description: str | None
+    span: Span = field(compare=False)
+
+
+@dataclass(frozen=True)
 class Model:
     name: str
     description: str | None
@@ -228,6 +242,7 @@ class Model:
     span: Span = field(compare=False)
     events: tuple[Event, ...] = ()
     switches: bool = False  # comparisons and kinks in the motion become events (compiler/events.py)
+    states: tuple[State, ...] = ()  # extra differential states, after the mechanical state (states.py)
 
     @cached_property
     def part_map(self) -> dict[str, Part]:

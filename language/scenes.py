@@ -30,6 +30,7 @@ def build_scene(elab: "ElaborationContext", root: Scope, model: M.Model, st: ast
     params, inputs, inits, outputs = [], [], [], []
     init_spans, param_spans = {}, {}
     coords = {c.name: c for c in model.coordinates}
+    coords.update({z.name: z for z in model.states})  # `init z = value` sets an extra state's initial value
     speeds = speed_table(model)
     param_names = model.parameter_map
     ok = True

@@ -92,6 +92,17 @@ class InteractEntry:
 
 
 @dataclass
+class StateEntry:
+    """``state name = value``: an extra differential state; its dimension is that of its initial value
+    (states.py resolves it on first use)."""
+
+    full: str
+    decl: ast.State
+    scope: "Scope"
+    resolved: tuple | None = None  # (initial value, dimension) once resolved; (None, None) when it failed
+
+
+@dataclass
 class InstanceEntry:
     scope: "Scope"
     decl: ast.Use
@@ -102,7 +113,8 @@ class ImportEntry:
     module: Module
 
 
-Entry = ParamEntry | InputEntry | OutputEntry | FuncEntry | PartEntry | PortEntry | InteractEntry | InstanceEntry | ImportEntry
+Entry = (ParamEntry | InputEntry | OutputEntry | FuncEntry | PartEntry | PortEntry | InteractEntry | InstanceEntry
+         | ImportEntry | StateEntry)
 
 
 @dataclass

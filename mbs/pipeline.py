@@ -55,6 +55,11 @@ class Generated:
     constraints: Constraints | None = None   # loop-closure constraints of the cut joints (None: a tree)
     events: tuple = ()   # per indicator of mbs_events: name, direction, terminal, assignments, switch (events.py)
 
+    @property
+    def z_names(self) -> tuple[str, ...]:
+        """Names of the extra differential states (language/states.py), after q and v in the state."""
+        return tuple(s.name for s in self.lowered.tree.states)
+
 
 def display_name(symbol_name: str) -> str:
     """'hinge.der(phi)' -> 'der(hinge.phi)', the language's own spelling of a speed."""
@@ -106,8 +111,12 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
+    if model.states and (constraints is not None or dynamics):
+        what = "a model with closed loops" if constraints is not None else "the dynamics functions"
+        raise MbsError([Diagnostic("error", f"extra states are not supported in {what} yet", model.states[0].span)])
     try:
-        equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None)
+        equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None,
+                                     state_rates=lowered.state_rates)
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
     clock("derived the equations of motion")
@@ -130,7 +139,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     # share one compiled library in the build cache (a scene's name here would give each its own)
     origin = f"{model.span.source.path}"
     tree = lowered.tree
-    state_names = tuple(display_name(s.name) for s in tree.q_symbols + tree.v_symbols)
+    state_names = tuple(display_name(s.name) for s in tree.x_symbols)
     p_names = tuple(s.name for s in parameters)
     indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names, tree.nq, p_names)
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
@@ -211,7 +220,9 @@ def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mappin
         else:  # quaternion joint: wx, wy, wz are stored as the speeds of qx, qy, qz
             head, local = name.rsplit(".", 1)
             v0.append(inits[(f"{head}.q{local[1]}", True)])
-    return _normalise_quaternions(np.array(q0 + v0, dtype=float), tree)
+    z0 = [inits.get((s.name, False), None) for s in model.states]
+    z0 = [X.evaluate(s.init, env) if z is None else z for s, z in zip(model.states, z0)]
+    return _normalise_quaternions(np.array(q0 + v0 + z0, dtype=float), tree)
 
 
 def fixed_state_names(generated: Generated) -> list[str]:
@@ -258,6 +269,9 @@ def units_of(generated: Generated) -> dict[str, str]:
         angle = c.dimension.is_dimensionless
         units[c.name] = U.unit_text(c.dimension, angle=angle)
         units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
+    for s in generated.model.states:
+        if s.dimension is not None:  # a bare-number initial value leaves the unit free
+            units[s.name] = U.unit_text(s.dimension)
     for p in generated.model.parameters:
         unit = p.unit or U.unit_text(p.dimension)
         if unit is not None:

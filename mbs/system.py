@@ -71,7 +71,8 @@ class System:
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                                 frames=frames)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
-            info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, p_names=gen.p_names,
+            info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, z_names=gen.z_names,
+                        p_names=gen.p_names,
                         y_names=gen.y_names, p_default=[params.get(n, 0.0) for n in gen.p_names],
                         events=gen.events,
                         x0=pipeline.initial_state(gen, params), units=pipeline.units_of(gen))
@@ -210,8 +211,12 @@ class System:
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
             if at == "equilibrium":  # at rest: the scene's initial speeds (a car cruising) are not kept
-                x = static_equilibrium(compiled, data, data.x, t).x
-                x[compiled.nq:] = 0.0
+                if compiled.nz:  # the extra states at rest too (their rates zero)
+                    from mbs.runtime.states_equilibrium import equilibrium_with_states
+                    x = equilibrium_with_states(compiled, data, data.x, t)
+                else:
+                    x = static_equilibrium(compiled, data, data.x, t).x
+                    x[compiled.nq:] = 0.0
             elif at == "initial":
                 x = data.x.copy()
             else:

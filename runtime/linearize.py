@@ -82,9 +82,10 @@ class Linearization:
     """The linear model about (t, x).
 
     A: (nx, nx) d(xdot)/dx of the right-hand side as it is (with the spurious directions of loops and
-    quaternions); A_reduced: (2 dof, 2 dof) in the manifold coordinates (a, b) of the module docstring;
+    quaternions); A_reduced: (2 dof + nz, 2 dof + nz) in the manifold coordinates (a, b) of the module docstring
+    and the extra differential states z (language/states.py) as they are;
     basis: (nv, dof) N; E: (nq, nv) qdot(q, v) = E v at x; modes: physical modes, oscillatory pairs once,
-    sorted by frequency; eigenvalues: all 2 dof eigenvalues of A_reduced; undamped_frequencies [Hz]: from
+    sorted by frequency; eigenvalues: all 2 dof + nz eigenvalues of A_reduced; undamped_frequencies [Hz]: from
     the stiffness part alone, sqrt(eig(-A_ab A_ba)) / (2 pi), ascending (NaN where negative: unstable)."""
 
     t: float
@@ -204,7 +205,7 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
     x = np.array(x, dtype=float)
     if x.shape != (model.nx,):
         raise UsageError(f"x needs shape ({model.nx},), got {x.shape}")
-    nq, nv = model.nq, model.nv
+    nq, nv, nz = model.nq, model.nv, model.nz
     if "normalize" in model.functions:
         x = data.normalize(t, x)
     if "project" in model.functions:
@@ -217,21 +218,23 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
     def chart(z: np.ndarray) -> np.ndarray:
         out = x.copy()
         out[:nq] += E @ (N @ z[:dof])
-        out[nq:] += N @ z[dof:]
+        out[nq:nq + nv] += N @ z[dof:2 * dof]
+        out[nq + nv:] += z[2 * dof:]  # the extra differential states as they are
         return data.normalize(t, out) if "normalize" in model.functions else out
 
     def reduced_rate(z: np.ndarray) -> np.ndarray:
         xdot = data.rhs(t, chart(z))
-        return np.concatenate([N.T @ (E_pinv @ xdot[:nq]), N.T @ xdot[nq:]])
+        return np.concatenate([N.T @ (E_pinv @ xdot[:nq]), N.T @ xdot[nq:nq + nv], xdot[nq + nv:]])
 
-    A_red = np.empty((2 * dof, 2 * dof))
-    for i in range(2 * dof):
-        z = np.zeros(2 * dof)
+    size = 2 * dof + nz
+    A_red = np.empty((size, size))
+    for i in range(size):
+        z = np.zeros(size)
         z[i] = step
         A_red[:, i] = (reduced_rate(z) - reduced_rate(-z)) / (2 * step)
     A = jacobian(data, t, x, step)
 
-    eigenvalues, vectors = np.linalg.eig(A_red) if dof else (np.zeros(0, complex), np.zeros((0, 0)))
+    eigenvalues, vectors = np.linalg.eig(A_red) if size else (np.zeros(0, complex), np.zeros((0, 0)))
     names = position_names(model.v_names)
     modes = []
     largest = np.max(np.abs(eigenvalues), initial=0.0)
@@ -242,12 +245,16 @@ def linearize(model: CompiledModel, data: Workspace, t: float, x, step: float = 
             continue  # the conjugate of a pair is reported once
         shape = N @ vec[:dof]
         if np.max(np.abs(shape), initial=0.0) == 0.0:
-            shape = N @ vec[dof:]
+            shape = N @ vec[dof:2 * dof]
+        mechanical = np.max(np.abs(shape), initial=0.0) > 0.0
+        shape = np.concatenate([shape, vec[2 * dof:]])  # with the extra states' amplitudes
         shape = shape / shape[np.argmax(np.abs(shape))]
-        shape_map = {n: complex(a) for n, a in zip(names, shape)}
+        shape_map = {n: complex(a) for n, a in zip(names + model.z_names, shape)}
         kinetic, potential, name = {}, {}, ""
-        if "mass_matrix" in model.functions and "forces" in model.functions:
-            kinetic, potential = energy_shares(data, t, x, E, shape, names, groups or {}, step)
+        if not mechanical:  # a mode of the extra states alone (an actuator lag's, an integrator's)
+            name = "state " + max(model.z_names, key=lambda n: abs(shape_map[n]))
+        elif "mass_matrix" in model.functions and "forces" in model.functions:
+            kinetic, potential = energy_shares(data, t, x, E, shape[:len(names)], names, groups or {}, step)
             name = "rigid-body motion" if rigid else mode_name(kinetic, potential, shape_map, groups or {})
         modes.append(Mode(complex(lam), 0.0 if rigid else magnitude / (2 * np.pi),
                           0.0 if rigid else -lam.real / magnitude + 0.0, bool(lam.imag > 0 and not rigid),

@@ -46,25 +46,26 @@ class CompiledModel:
     """A model ready to run.  Arrays are read-only; names follow the generated code's order.
 
     Sizes (properties): ``nq`` position coordinates, ``nv`` velocity coordinates (``nv != nq`` with
-    quaternions), ``nx = nq + nv`` states ``x = [q; v]``, ``np`` parameters, ``ny`` outputs, ``nwork``
+    quaternions), ``nz`` extra differential states, ``nx = nq + nv + nz`` states ``x = [q; v; z]``, ``np`` parameters, ``ny`` outputs, ``nwork``
     doubles of work memory per workspace.
     """
 
     name: str                       #: model name, as in the .mbs file
     backend: Backend                #: the loaded C library or NumPy module
     q_names: tuple[str, ...]        #: (nq,) position coordinate names, e.g. "hinge.phi" [unit in units]
-    v_names: tuple[str, ...]        #: (nv,) velocity coordinate names, e.g. "hinge.phi_dot"
+    v_names: tuple[str, ...]        #: (nv,) velocity coordinate names, e.g. "der(hinge.phi)"
     p_names: tuple[str, ...]        #: (np,) parameter names
     y_names: tuple[str, ...]        #: (ny,) output names
     p_default: np.ndarray           #: (np,) default parameter values, SI units
     x0: np.ndarray                  #: (nx,) default initial state [q0; v0], SI units
     units: Mapping[str, str] = field(default_factory=dict)  #: name -> unit text ("rad", "m/s")
     events: tuple = ()              #: per indicator of mbs_events: EventSpec (runtime/events.py)
+    z_names: tuple[str, ...] = ()   #: (nz,) extra differential states after q and v (language/states.py)
 
     @classmethod
     def from_backend(cls, backend: Backend, *, name: str = "model", q_names=None, v_names=None, p_names=None,
                      y_names=None, p_default=None, x0=None, units: Mapping[str, str] | None = None,
-                     events=()) -> "CompiledModel":
+                     events=(), z_names=None) -> "CompiledModel":
         """Wrap a back end with the metadata the compiler knows (names, defaults, units); missing names
         default to q0.., v0.., p0.., y0.. and missing values to zeros."""
         s = backend.sizes
@@ -78,19 +79,21 @@ class CompiledModel:
             x0=_frozen(np.zeros(s["NX"]) if x0 is None else x0, s["NX"], "x0"),
             units=MappingProxyType(dict(units or {})),
             events=tuple(EventSpec.of(e) for e in events),
+            z_names=_names(z_names, s["NX"] - s["NQ"] - s["NV"], "z", "z_names"),
         )
 
     nq = property(lambda self: self.backend.sizes["NQ"], doc="number of position coordinates")
     nv = property(lambda self: self.backend.sizes["NV"], doc="number of velocity coordinates")
-    nx = property(lambda self: self.backend.sizes["NX"], doc="number of states, nq + nv")
+    nx = property(lambda self: self.backend.sizes["NX"], doc="number of states, nq + nv + nz")
+    nz = property(lambda self: len(self.z_names), doc="number of extra differential states")
     np = property(lambda self: self.backend.sizes["NP"], doc="number of parameters")
     ny = property(lambda self: self.backend.sizes["NY"], doc="number of outputs (0 if none)")
     nwork = property(lambda self: self.backend.sizes["NWORK"], doc="doubles of work memory")
 
     @property
     def x_names(self) -> tuple[str, ...]:
-        """(nx,) state names, q names then v names."""
-        return self.q_names + self.v_names
+        """(nx,) state names, q names, v names, then the extra states."""
+        return self.q_names + self.v_names + self.z_names
 
     @property
     def functions(self) -> tuple[str, ...]:

@@ -49,7 +49,7 @@ class ModelPackage:
         from mbs import pipeline
         compiled = system.compile(scene)
         gen = system.generate(scene)
-        info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names,
+        info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names, z_names=compiled.z_names,
                     p_names=compiled.p_names, y_names=compiled.y_names, p_default=np.array(compiled.p_default),
                     x0=np.array(compiled.x0), units=dict(compiled.units))
         loops = dict(loops=gen.constraints is not None,

@@ -1,0 +1,52 @@
+"""The static equilibrium of a model with extra differential states (language/states.py).
+
+At rest the speeds vanish and neither the accelerations nor the extra states' rates may: an integrator state
+settles where its input is zero, a lag where it has caught up with its command. The unknowns are the
+coordinates and the extra states, (q, z), and the conditions vdot(q, 0, z) = 0 and zdot(q, 0, z) = 0: square
+for joints without quaternions, solved by MINPACK's hybrid Powell method (least squares otherwise). The relaxation
+of runtime/equilibrium.py (stop the parts at the kinetic energy's peak, start again) has no meaning for a state
+that is not a motion, so it is not used here.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import least_squares, root
+
+from mbs.language.diagnostics import Diagnostic, MbsError
+
+from .model import CompiledModel
+from .workspace import Workspace
+
+#: Residual (accelerations in m/s^2 or rad/s^2, state rates in their units per second) accepted as rest.
+TOLERANCE = 1e-8
+
+
+def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float = 0.0) -> np.ndarray:
+    """x = [q; 0; z] at rest with every acceleration and state rate zero, from the guess x0."""
+    nq, nv = model.nq, model.nv
+    x = np.array(x0, dtype=float)
+    x[nq:nq + nv] = 0.0
+
+    def state(u: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        out[:nq], out[nq + nv:] = u[:nq], u[nq:]
+        return data.normalize(t, out) if "normalize" in model.functions else out
+
+    def residual(u: np.ndarray) -> np.ndarray:
+        return data.rhs(t, state(u))[nq:]
+
+    u0 = np.concatenate([x[:nq], x[nq + nv:]])
+    if nq == nv:
+        sol = root(residual, u0, method="hybr", options={"xtol": 1e-13})
+        u = sol.x
+    else:
+        u = least_squares(residual, u0, xtol=1e-14, ftol=1e-14).x
+    worst = float(np.max(np.abs(residual(u)), initial=0.0))
+    if not worst <= TOLERANCE:
+        names = model.v_names + model.z_names
+        k = int(np.argmax(np.abs(residual(u))))
+        raise MbsError([Diagnostic("error", f"no static equilibrium with the extra states at rest: the rate of "
+                                            f"'{names[k]}' stays at {worst:.3g} (a state that integrates "
+                                            "without bound, or a part with nothing to hold it)", None)])
+    return state(u)
