@@ -64,6 +64,8 @@ def model_to_dict(model: M.Model) -> dict:
         "parts": [_part(p) for p in model.parts],
         "interactions": [_interaction(i) for i in model.interactions],
         "scenes": [_scene(s) for s in model.scenes],
+        **({"states": [{"name": s.name, "init": expr_json(s.init), "rate": expr_json(s.rate), "unit": _dim(s.dimension),
+                        "description": s.description} for s in model.states]} if model.states else {}),
     }
 
 

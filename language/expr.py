@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Callable, Mapping, Union
 
 # What a Sym denotes. 'local' is a variable bound by a force law (l, v) and replaced before lowering.
-SYMBOL_KINDS = ("param", "input", "time", "coord", "speed", "sensor", "local")
+SYMBOL_KINDS = ("param", "input", "time", "coord", "speed", "sensor", "local", "state", "rate")  # rate: der(state)
 
 
 @dataclass(frozen=True)

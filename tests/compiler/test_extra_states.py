@@ -29,9 +29,9 @@ def lag():
     return mbs.load(LAG)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "RK45", "Radau", "BDF", "LSODA", "cvode_bdf"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "RK45", "Radau", "BDF", "LSODA", "cvode_bdf", "cvode_adams", "ida"])
 def test_a_lag_follows_its_closed_form_with_every_integrator(lag, integrator):
-    if integrator.startswith("cvode"):
+    if integrator.startswith("cvode") or integrator == "ida":
         pytest.importorskip("sksundae")
     res = lag.simulate("step", integrator=integrator, rtol=1e-9, atol=1e-12)
     assert res.success, res.metadata.get("message")
