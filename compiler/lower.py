@@ -24,6 +24,7 @@ from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
 from .tyre import attach_tyre
+from .tyre_relaxation import relaxation_states
 from .tree import JointSpec, Tree, TreeBody, t
 
 
@@ -69,6 +70,7 @@ class _Lowering:
             self.body_of_interaction[joint.interaction.name] = i
         tree = Tree(tuple(self._tree_body(i) for i in range(len(self.topology.bodies))),
                     tuple(self.geometry(g) for g in model.gravity), tuple(state_symbols(model)))
+        self.element_rates: dict[sp.Symbol, sp.Expr] = {}  # rates of states force elements add (tyre relaxation)
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
         # comparisons and kinks of min/max/abs/sign in the motion become switches in a model with events or modes,
@@ -377,6 +379,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     if lowering.switches is not None:
         lowering.switches.context = "state equations"
     rates = tuple(lowering.state(s.rate) for s in model.states)
+    rates += tuple(lowering.element_rates[s] for s in lowering.kin.tree.states[len(rates):])
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs(), events, switches, rates)
@@ -389,7 +392,7 @@ def state_symbols(model: M.Model) -> list[sp.Symbol]:
     for s in model.states:
         if s.name in params:
             raise _error(f"state '{s.name}' has the name of a parameter; rename one of them", s.span)
-    return [sp.Symbol(s.name) for s in model.states]
+    return [sp.Symbol(s.name) for s in model.states] + [sp.Symbol(name) for name, _ in relaxation_states(model)]
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

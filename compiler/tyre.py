@@ -35,6 +35,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .spatial import cross, dot
 from .symbolic import ToSympy
+from .tyre_relaxation import relax
 
 SLOPE_STEP = 0.05  # m: half the base of the road slope's central difference
 
@@ -123,6 +124,7 @@ def attach_tyre(lowering, inter: M.Interaction, force: M.Force) -> dict[str, sp.
     values["fz"] = tape.temp(law("fz"), "tyfz")
     values.update(alpha=tape.temp(sp.atan(vsy / speed), "tyalpha"), kappa=tape.temp(-vsx / speed, "tykappa"),
                   vsx=vsx, vsy=vsy, omega=spin)
+    relax(lowering, force, values, speed)  # relaxation lengths (tyre_relaxation.py): relaxed slip states
     for arg in ("fx", "fy", "mz"):
         value = law(arg)
         values[arg] = sp.Integer(0) if value is None else tape.temp(value, "ty" + arg)

@@ -124,6 +124,11 @@ FORCES: dict[str, ElementKind] = {k.name: k for k in (
                          Arg("mz", "law", U.TORQUE, optional=True, doc="aligning torque about the road normal"),
                          Arg("v_low", "scalar", U.VELOCITY, default=0.5,
                              doc="speed added (in quadrature) to |vx| in the slip denominators: finite at standstill"),
+                         Arg("relax_y", "scalar", LENGTH, optional=True,
+                             doc="lateral relaxation length: the laws see the slip angle lagging by this rolled "
+                                 "distance (a tyre state, compiler/tyre_relaxation.py); default off"),
+                         Arg("relax_x", "scalar", LENGTH, optional=True,
+                             doc="longitudinal relaxation length, the same for the longitudinal slip"),
                          Arg("vertical", "flag", optional=True,
                              doc="the normal along frame a's z instead of the road's normal (a point contact that "
                                  "sees only the height, as the Iltis benchmark's tyre)")),

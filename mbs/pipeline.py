@@ -27,6 +27,7 @@ from mbs.compiler.equations import Equations, derive_equations
 from mbs.compiler.jacobian import JACOBIAN_INTEGRATORS
 from mbs.compiler.lower import Lowered, lower
 from mbs.compiler.pycode import generate_numpy
+from mbs.compiler.tyre_relaxation import relaxation_states
 from mbs.compiler.symbolic import parameter_symbol
 from mbs.language import binding
 from mbs.language import expr as X
@@ -111,9 +112,11 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
-    if model.states and (constraints is not None or dynamics):
+    if lowered.tree.states and (constraints is not None or dynamics):
         what = "a model with closed loops" if constraints is not None else "the dynamics functions"
-        raise MbsError([Diagnostic("error", f"extra states are not supported in {what} yet", model.states[0].span)])
+        where = model.states[0].span if model.states else model.span
+        raise MbsError([Diagnostic("error", f"extra states (declared, or a tyre's relaxation) are not supported in "
+                                            f"{what} yet", where)])
     try:
         equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None,
                                      state_rates=lowered.state_rates)
@@ -220,8 +223,9 @@ def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mappin
         else:  # quaternion joint: wx, wy, wz are stored as the speeds of qx, qy, qz
             head, local = name.rsplit(".", 1)
             v0.append(inits[(f"{head}.q{local[1]}", True)])
-    z0 = [inits.get((s.name, False), None) for s in model.states]
-    z0 = [X.evaluate(s.init, env) if z is None else z for s, z in zip(model.states, z0)]
+    declared = {s.name: s for s in model.states}  # the others are states of force elements (tyre relaxation)
+    z0 = [inits[(s.name, False)] if (s.name, False) in inits
+          else X.evaluate(declared[s.name].init, env) if s.name in declared else 0.0 for s in tree.states]
     return _normalise_quaternions(np.array(q0 + v0 + z0, dtype=float), tree)
 
 
@@ -269,6 +273,7 @@ def units_of(generated: Generated) -> dict[str, str]:
         angle = c.dimension.is_dimensionless
         units[c.name] = U.unit_text(c.dimension, angle=angle)
         units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
+    units.update(relaxation_states(generated.model))
     for s in generated.model.states:
         if s.dimension is not None:  # a bare-number initial value leaves the unit free
             units[s.name] = U.unit_text(s.dimension)

@@ -1,0 +1,51 @@
+"""First-order relaxation of a tyre's slip: the lag between a change of slip and the force it builds up.
+
+A real tyre's carcass deflects before its contact patch slides, so after a steering step the lateral force
+builds up over a rolled distance of the order of the relaxation length sigma (Pacejka, "Tyre and Vehicle
+Dynamics", ch. 7), not at once. With the element argument ``relax_y = sigma`` the tyre's laws see, instead
+of the kinematic slip angle alpha, the relaxed one alpha_r, an extra differential state of the model:
+
+    sigma * alpha_r' + V * alpha_r = V * alpha,      V = sqrt(vx^2 + v_low^2)
+
+(``relax_x`` does the same for the longitudinal slip kappa). V is the slip denominator of compiler/tyre.py:
+at speed it is |vx| (the textbook form, a distance constant sigma), and with alpha ~ vsy / V at low speed
+V * alpha ~ vsy: the deflection form, which stays finite and well damped at standstill, where the textbook
+form would freeze alpha_r. Without the arguments nothing changes: no state, the same code. The tyre
+sensor's alpha and kappa are then the relaxed values, the ones the laws see.
+"""
+
+from __future__ import annotations
+
+import sympy as sp
+
+from mbs.language import model as M
+
+#: element argument -> (slip quantity it relaxes, unit of the relaxed state)
+RELAXED = {"relax_y": ("alpha", "rad"), "relax_x": ("kappa", "1")}
+
+
+def relaxed_name(force_name: str, slip: str) -> str:
+    return f"{force_name}.{slip}_r"
+
+
+def relaxation_states(model: M.Model) -> list[tuple[str, str]]:
+    """(state name, unit) of every relaxed slip of the model's tyres, in element order."""
+    out = []
+    for inter in model.interactions:
+        for force in inter.forces:
+            if force.kind == "tyre":
+                out += [(relaxed_name(force.name, slip), unit) for arg, (slip, unit) in RELAXED.items()
+                        if force.arg(arg) is not None]
+    return out
+
+
+def relax(lowering, force: M.Force, values: dict, speed) -> None:
+    """Replace alpha and kappa in `values` by their relaxed states where the element asks for it, and register
+    the states' rates with the lowering."""
+    for arg, (slip, _) in RELAXED.items():
+        length = force.arg(arg)
+        if length is None:
+            continue
+        state = sp.Symbol(relaxed_name(force.name, slip))
+        lowering.element_rates[state] = speed * (values[slip] - state) / lowering.state(length)
+        values[slip] = state
