@@ -228,6 +228,7 @@ class Model:
     span: Span = field(compare=False)
     events: tuple[Event, ...] = ()
     switches: bool = False  # comparisons and kinks in the motion become events (compiler/events.py)
+    hooks: tuple = ()  # language.hooks.HookSpec: user routines supplied when running (runtime/hooks.py)
 
     @cached_property
     def part_map(self) -> dict[str, Part]:
