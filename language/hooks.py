@@ -70,6 +70,13 @@ def slots_of(children) -> tuple[HookSlot, ...]:
     return tuple(out)
 
 
+#: Names a hook cannot take: its C function would clash with C or the C library (the code generator's list).
+C_RESERVED = frozenset("""auto break case char const continue default do double else enum extern float for goto if
+inline int long register restrict return short signed sizeof static struct switch typedef union unsigned void
+volatile while sin cos tan asin acos atan atan2 sinh cosh tanh exp log log10 sqrt pow fabs fmin fmax floor ceil
+round trunc fmod hypot isfinite isnan nan abs exit free malloc time clock printf main errno""".split())
+
+
 # ------------------------------------------------------------------------------------------ data model
 @dataclass(frozen=True)
 class Slot:
@@ -109,7 +116,7 @@ def declare(elab, scope, decl: HookDecl) -> HookEntry:
     """The entry of a declaration; the validated spec is registered on the elaborator (one per name)."""
     spec = _validate(elab, scope, decl)
     specs = elab.__dict__.setdefault("hook_specs", {})
-    if spec is not None:
+    if spec is not None and decl.name.text not in scope.entries:  # a repeat in one block: "already declared"
         first = specs.get(spec.name)
         if first is None:
             specs[spec.name] = spec
@@ -131,6 +138,10 @@ def _validate(elab, scope, decl: HookDecl) -> HookSpec | None:
     if decl.name.text.lower().startswith("mbs_"):
         elab.diags.error("a hook name may not start with 'mbs_' (the generated code's own names)",
                          scope.at(decl.name.span))
+        ok = False
+    elif decl.name.text in C_RESERVED:
+        elab.diags.error(f"'{decl.name.text}' is a name of C or its math library, and a hook's name is the name of "
+                         "its C function: choose another", scope.at(decl.name.span))
         ok = False
     if not decl.results:
         elab.diags.error(f"hook '{decl.name.text}' needs at least one result: -> (name: unit)",
