@@ -51,6 +51,7 @@ from .emit_common import (  # noqa: F401
     table_slopes,
 )
 from .equations import Equations
+from .hooks import c_helpers as hook_helpers
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
@@ -155,7 +156,7 @@ class CEmitter:
             functions.append(name_table("mbs_frame_name", "frame i", list(self.frame_names)))
         if self.constraints is not None:
             functions.append(loop_functions(self.constraints))
-        return "\n".join([self._header(), *self._helpers(printer.used), *functions])
+        return "\n".join([self._header(), *self._helpers(printer.used, printer.hook_calls), *functions])
 
     def _routines(self) -> list:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
@@ -240,10 +241,11 @@ class CEmitter:
                   ""]
         return "\n".join(lines)
 
-    def _helpers(self, used: set) -> list[str]:
+    def _helpers(self, used: set, hook_calls: dict | None = None) -> list[str]:
         """The static helpers the functions call, then one array group and one function per lookup table."""
         parts = ["\n".join(HELPERS[name]) + "\n" for name in sorted(HELPERS) if name in used
                  or (name == "mbs_lookup" and self.tables)]
+        parts += hook_helpers(hook_calls or {})
         for k, table in enumerate(self.tables):
             n, smooth = len(table.xs), table.method == "smooth"
             lines = [f"/* Lookup table {k}: {'monotone cubic' if smooth else 'linear'} interpolation in {n} points, "
@@ -387,5 +389,6 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
              name_table("mbs_parameter_name", "parameter i", [s.name for s in emitter.parameters])]
     if emitter.outputs:
         names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
-    return "\n".join([header, loop_definitions(constraints), *emitter._helpers(printer.used), *functions, *names,
+    helpers = emitter._helpers(printer.used, printer.hook_calls)
+    return "\n".join([header, loop_definitions(constraints), *helpers, *functions, *names,
                       loop_functions(constraints)])

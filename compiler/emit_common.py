@@ -16,6 +16,7 @@ from importlib import metadata
 
 import sympy as sp
 
+from .hooks import HOOK_FUNCTION
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -128,6 +129,7 @@ class ExprPrinter:
     def __init__(self, names: dict, n_tables: int = 0):
         self.names, self.n_tables = names, n_tables
         self.used: set[str] = set()
+        self.hook_calls: dict[str, int] = {}  # helper of a user hook (compiler/hooks.py) -> its arguments after t
 
     def doprint(self, expr) -> str:
         return self._print(sp.sympify(expr))[0]
@@ -246,6 +248,9 @@ class ExprPrinter:
             if int(table.group(1)) >= self.n_tables or len(expr.args) != 1:
                 raise CodegenError(f"{expr} calls lookup table {table.group(1)}, but only {self.n_tables} "
                                    f"table(s) were given")
+            return self._call(name, expr.args)
+        if HOOK_FUNCTION.match(name):
+            self.hook_calls[name] = len(expr.args) - 1
             return self._call(name, expr.args)
         target = self.FUNCTIONS.get(name)
         if target is None:

@@ -17,6 +17,7 @@ import sympy as sp
 from mbs.language import expr as X
 
 from .exact import exact_number
+from .hooks import hook_function
 from .tree import t as T  # the one time symbol of the equations
 
 def safe_atan2(y, x):
@@ -85,6 +86,8 @@ class ToSympy:
             return self.resolve(e)
         if isinstance(e, X.Table):
             return self.tables.function(e)(self(e.x))
+        if isinstance(e, X.Hook):
+            return hook_function(e.name, e.result, e.results)(T, *(self(a) for a in e.args))
         args = [self(a) for a in e.args]
         op = e.op
         if op == "+":

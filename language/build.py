@@ -351,6 +351,24 @@ class _AstBuilder:
         actions = tuple(c[-2]) if type(c[-1]) is Token and c[-1].value == "}" and type(c[-2]) is not Token else ()
         return ast.Event(c[1], _node(c[3]), description, actions, self._span(c[0], c[-1]))
 
+    def hook_decl(self, c):
+        from .hooks import HookDecl, slots_of
+        args, results = slots_of([c[2]]), slots_of([c[4]])
+        last = c[-1] if _description(c) is not None or not results else results[-1]
+        return HookDecl(c[1], args, results, _description(c), self._span(c[0], last))
+
+    def hook_args(self, c):
+        from .hooks import slots_of
+        return slots_of(c)
+
+    hook_results = hook_args
+
+    def hook_slot(self, c):
+        from .hooks import HookSlot
+        unit = c[2] if len(c) > 2 else None
+        return HookSlot(c[0], str(unit) if unit is not None else None,
+                        self._tok_span(unit) if unit is not None else None, self._span(c[0], c[-1]))
+
     def reinit_stmt(self, c):
         ref, derivative = c[1].value
         return ast.Reinit(ref, derivative, _node(c[3]), self._span(c[0], c[-1]))

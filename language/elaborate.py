@@ -14,6 +14,7 @@ from pathlib import Path
 from . import ast, catalog
 from . import expr as X
 from . import geometry as G
+from . import hooks
 from . import model as M
 from . import units as U
 from .diagnostics import Diagnostics, Span
@@ -76,7 +77,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
         gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
                         gravity, tuple(parts), tuple(interactions), (), block.span, events,
-                        self.switches if self.switches is not None else bool(events or self.mode_names), states)
+                        self.switches if self.switches is not None else bool(events or self.mode_names), states,
+                        hooks.model_hooks(self))
         return built
 
     def module_scope(self, module: Module) -> Scope:
@@ -102,6 +104,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
                 self.add(scope, st.name, StateEntry(scope.full(st.name.text), st, scope))
             elif isinstance(st, ast.Func):
                 self.add(scope, st.name, FuncEntry(st, scope))
+            elif isinstance(st, hooks.HookDecl):
+                self.add(scope, st.name, hooks.declare(self, scope, st))
             elif isinstance(st, ast.Output):
                 if len(st.name.parts) == 1 and st.value is not None:
                     self.add(scope, st.name.parts[0], OutputEntry(scope.full(st.name.dotted), st, scope))

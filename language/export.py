@@ -24,6 +24,8 @@ def expr_json(e: X.E):
         return {"sym": e.kind, "name": e.name}
     if isinstance(e, X.Table):
         return {"table": {"x": expr_json(e.x), "xs": list(e.xs), "ys": list(e.ys), "method": e.method}}
+    if isinstance(e, X.Hook):
+        return {"hook": e.name, "result": e.result, "args": [expr_json(a) for a in e.args]}
     return {"op": e.op, "args": [expr_json(a) for a in e.args]}
 
 

@@ -46,7 +46,19 @@ class Table:
     method: str
 
 
-E = Union[Const, Sym, Op, Table]
+@dataclass(frozen=True)
+class Hook:
+    """Result ``result`` (of ``results``) of the user hook ``name`` at ``args`` (language/hooks.py), arguments
+    and result in the units the hook declares. Its value exists only while running, from the implementation
+    supplied then."""
+
+    name: str
+    result: int
+    results: int
+    args: tuple["E", ...]
+
+
+E = Union[Const, Sym, Op, Table, Hook]
 
 ZERO, ONE = Const(0.0), Const(1.0)
 TIME = Sym("time", "t")
@@ -99,6 +111,8 @@ def evaluate(e: E, env: Mapping[str, float]) -> float:
             raise EvaluationError(f"no value for '{e.name}'") from None
     if isinstance(e, Table):
         return interpolate(evaluate(e.x, env), e.xs, e.ys, e.method)
+    if isinstance(e, Hook):
+        raise EvaluationError(f"hook '{e.name}' has a value only while running")
     if e.op == "if":
         cond, a, b = e.args
         return evaluate(a, env) if evaluate(cond, env) else evaluate(b, env)
@@ -199,6 +213,8 @@ def substitute(e: E, mapping: Mapping[Sym, E]) -> E:
         return Op(e.op, tuple(substitute(a, mapping) for a in e.args))
     if isinstance(e, Table):
         return Table(substitute(e.x, mapping), e.xs, e.ys, e.method)
+    if isinstance(e, Hook):
+        return Hook(e.name, e.result, e.results, tuple(substitute(a, mapping) for a in e.args))
     return e
 
 
@@ -209,7 +225,7 @@ def symbols(e: E) -> set[Sym]:
         node = stack.pop()
         if isinstance(node, Sym):
             out.add(node)
-        elif isinstance(node, Op):
+        elif isinstance(node, (Op, Hook)):
             stack.extend(node.args)
         elif isinstance(node, Table):
             stack.append(node.x)
@@ -226,6 +242,8 @@ def to_text(e: E) -> str:
     if isinstance(e, Table):
         pairs = ", ".join(f"[{x!r}, {y!r}]" for x, y in zip(e.xs, e.ys))
         return f"lookup({to_text(e.x)}, [{pairs}], \"{e.method}\")"
+    if isinstance(e, Hook):
+        return f"{e.name}#{e.result}({', '.join(to_text(a) for a in e.args)})"
     if e.op == "neg":
         return f"(-{to_text(e.args[0])})"
     if e.op == "not":

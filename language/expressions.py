@@ -17,6 +17,8 @@ from . import catalog
 from . import expr as X
 from . import tables
 from . import units as U
+from .hooks import HookEntry
+from .hooks import call as hook_call
 from .scope import (FuncEntry, ImportEntry, InputEntry, InstanceEntry, InteractEntry, OutputEntry, ParamEntry,
                     PartEntry, PortEntry, Scope, StateEntry, did_you_mean)
 
@@ -309,6 +311,8 @@ class ExprResolver:
             func = (self.scope.module.funcs[fname], self.elab.module_scope(self.scope.module))
         if func is not None:
             return self.user_function(node, *func)
+        if isinstance(entry, HookEntry):
+            return hook_call(self, node, entry)
         if fname not in X.FUNCTIONS:
             candidates = list(X.FUNCTIONS) + ["der", "lookup"] + [n for n, e in self.scope.entries.items()
                                                                   if isinstance(e, FuncEntry)]

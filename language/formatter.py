@@ -8,6 +8,7 @@ formatted file changes nothing, and the result validates to the same data model 
 from __future__ import annotations
 
 from . import ast
+from .hooks import HookDecl
 from .diagnostics import Source
 from .parser import comments_of
 
@@ -120,6 +121,8 @@ class _Printer:
         elif isinstance(node, ast.Func):
             params = ", ".join(p.text for p in node.params)
             self.emit(node, depth, f"func {node.name.text}({params}) = {expr(node.body)}{_desc(node.description)}")
+        elif isinstance(node, HookDecl):
+            self.emit(node, depth, node.text())
         elif isinstance(node, ast.Setting):
             where = f" in {node.frame.dotted}" if node.frame else ""
             where += f" about {node.about.dotted}" if node.about else ""

@@ -243,6 +243,7 @@ class Model:
     events: tuple[Event, ...] = ()
     switches: bool = False  # comparisons and kinks in the motion become events (compiler/events.py)
     states: tuple[State, ...] = ()  # extra differential states, after the mechanical state (states.py)
+    hooks: tuple = ()  # language.hooks.HookSpec: user routines supplied when running (runtime/hooks.py)
 
     @cached_property
     def part_map(self) -> dict[str, Part]:

@@ -20,6 +20,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.frontend import load as load_model_file
 from mbs.language.frontend import load_text
 from mbs.runtime import build as _build
+from mbs.runtime import hooks as _hooks
 from mbs.runtime.assembly import assemble
 from mbs.runtime.equilibrium import static_equilibrium
 from mbs.runtime.model import CompiledModel, load_c, load_numpy
@@ -64,9 +65,13 @@ class System:
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
-                dynamics: bool = False, frames: tuple[str, ...] = ()) -> CompiledModel:
-        """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate."""
-        key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
+                dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None) -> CompiledModel:
+        """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate.
+        hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
+        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
+                                                                                    self.model.name)
+        key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
+               binding.key if binding is not None else None)
         if key not in self._compiled:
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                                 frames=frames)
@@ -80,8 +85,10 @@ class System:
                 raise MbsError([Diagnostic("error", f"model '{self.model.name}' has closed kinematic loops, which "
                                                     "need the C back end (no C compiler found)", None)])
             if self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler()):
-                self._compiled[key] = load_c(code=gen.c_source, cache_dir=self.cache_dir, **info)
+                code = gen.c_source + (binding.c_source() if binding is not None else "")
+                self._compiled[key] = load_c(code=code, cache_dir=self.cache_dir, **info)
             else:
+                _hooks.check_numpy(binding)
                 self._compiled[key] = load_numpy(_numpy_module(gen), **info)
         return self._compiled[key]
 
@@ -89,25 +96,30 @@ class System:
                  t_eval=None, params: Mapping[str, float | str] | None = None, x0=None, integrator: str | None = None,
                  rtol: float | None = None, atol: float | None = None,
                  progress: Callable[[float, float], bool | None] | None = None, inputs: Mapping | None = None,
-                 **options) -> Results:
+                 hooks: Mapping | None = None, **options) -> Results:
         """Run a scene (or the model with default settings); arguments given here override the scene's.
         inputs: {input: number, quantity ('2 N*m'), callable u(t) or u(t, x) in SI, or table (times, values)} replace
-        the model's input expressions (mbs.inputs: the model is compiled once more with switchable inputs)."""
+        the model's input expressions (mbs.inputs: the model is compiled once more with switchable inputs).
+        hooks: {hook: Python callable or 'file.c'}, the implementations of the model's user hooks (runtime/hooks.py);
+        a failing hook ends the run with its name, the time and its arguments, the samples up to it kept."""
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)  # checked before anything compiles
         if inputs:
             from .inputs import driven_run
             system, params, drive, integrator = driven_run(self, scene, inputs, params, integrator)
             return system.simulate(scene, t_end=t_end, sample=sample, t_eval=t_eval, params=params, x0=x0,
                                    integrator=integrator, rtol=rtol, atol=atol, progress=progress, _drive=drive,
-                                   **options)
+                                   hooks=hooks, **options)
         drive = options.pop("_drive", None)
         data, settings = self.start(scene, params=params, x0=x0, t_end=t_end, sample=sample,
-                                    integrator=integrator, rtol=rtol, atol=atol, drive=drive)
+                                    integrator=integrator, rtol=rtol, atol=atol, drive=drive, hooks=binding)
         compiled = data.model
         if t_eval is not None:
             settings.pop("sample", None)
         options.setdefault("owners", self.coordinate_owners(compiled))
         results = _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
                             **settings, **options)
+        if binding is not None:
+            _hooks.report(binding, compiled, results)
         warn_gimbal(self.model, results)
         return results
 
@@ -122,11 +134,11 @@ class System:
         return owners
 
     def start(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None, x0=None,
-              jacobian: bool | None = None, parameter_jacobian: bool = False, drive=None,
+              jacobian: bool | None = None, parameter_jacobian: bool = False, drive=None, hooks=None,
               **overrides) -> tuple[Workspace, dict]:
         """(workspace at the scene's start, run settings): what a run of the scene begins with. overrides:
         t_end, sample, integrator, rtol, atol as for simulate. jacobian, parameter_jacobian: as for compile.
-        drive: sets the run-time inputs on the workspace (mbs.inputs)."""
+        drive: sets the run-time inputs on the workspace (mbs.inputs). hooks: as for compile."""
         sc = self.scene(scene)
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
@@ -134,7 +146,11 @@ class System:
         # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
-        compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
+        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
+                                                                                    self.model.name)
+        compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
+        if binding is not None:
+            binding.attach(compiled)
         gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
         data = self._workspace(compiled, gen, values)
         if drive is not None:

@@ -14,7 +14,7 @@ RESULT_FORMATS = (".csv", ".npz", ".h5", ".hdf5")
 def write_results(res, path, system=None, scene: str | None = None) -> Path:
     """The results in the format of the suffix (CSV, NPZ, HDF5), atomically; a model with events also gets its
     event log beside CSV and NPZ samples (run.csv -> run.events.csv)."""
-    if system is not None and system.compile(scene).events and Path(path).suffix.lower() in (".csv", ".npz"):
+    if system is not None and system.generate(scene).events and Path(path).suffix.lower() in (".csv", ".npz"):
         res.to_events_csv(events_path(path))
     suffix = Path(path).suffix.lower()
     if suffix == ".npz":

@@ -8,6 +8,7 @@ from types import SimpleNamespace
 
 from .common import (ArgumentError, ProgressBar, check_integrator, check_scene, model_args, param_arg,
                      params_from_args)
+from .hook_args import hook_arg, hooks_from_args
 from .results_file import RESULT_FORMATS, write_results
 
 PLOT_FORMATS = (".png", ".pdf", ".svg")
@@ -40,6 +41,7 @@ class Simulate:
         p.add_argument("--max-wall-time", type=float, metavar="SECONDS",
                        help="stop a run after this much wall time, keeping (and writing) the samples so far")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -59,6 +61,7 @@ class Simulate:
         scenes = list(dict.fromkeys(args.scene))  # a scene named twice runs once
         for scene in scenes:
             check_scene(system, scene)  # every name checked before the first run
+        args.hook_functions = hooks_from_args(args)  # each Python hook file imported once
         if len(scenes) > 1:
             return _simulate_scenes(system, scenes, args)
         scene = scenes[0] if scenes else None
@@ -69,7 +72,7 @@ class Simulate:
         try:
             res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
                                   integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
-                                  max_wall_time=args.max_wall_time)
+                                  max_wall_time=args.max_wall_time, hooks=args.hook_functions)
         finally:
             progress.close()
         if args.error_estimate and res.success:
@@ -91,7 +94,8 @@ def _estimate_error(system, scene, params, res, args) -> None:
     from mbs.runtime.accuracy import global_error_estimate
     rtol, atol = res.metadata["rtol"], res.metadata["atol"]
     fine = system.simulate(scene, t_end=args.t_end, t_eval=res.t, params=params, integrator=args.integrator,
-                           rtol=rtol / 10, atol=(atol / 10 if isinstance(atol, float) else [a / 10 for a in atol]))
+                           rtol=rtol / 10, atol=(atol / 10 if isinstance(atol, float) else [a / 10 for a in atol]),
+                           hooks=args.hook_functions)
     if not fine.success:
         print(f"{args.file}: the error estimate's second run failed: {fine.message}", file=sys.stderr)
         return
@@ -99,7 +103,7 @@ def _estimate_error(system, scene, params, res, args) -> None:
     res.metadata["error_estimate"] = errors
     res.metadata["error_estimate_method"] = f"difference to a second run at rtol {rtol / 10:g}"
     units = res.metadata.get("units", {})
-    shown = list(system.compile(scene).y_names) or list(errors)
+    shown = list(system.generate(scene).y_names) or list(errors)
     print(f"estimated global error (largest over the samples; second run at rtol {rtol / 10:g}):")
     for name in shown:
         if name in errors:
@@ -123,7 +127,7 @@ def requested_outputs(system, scene, res) -> list[str]:
     sc = system.scene(scene)
     wanted = [o.name for o in sc.outputs] if sc is not None and sc.outputs else \
         [o.name for o in system.model.outputs]
-    compiled = system.compile(scene)
+    compiled = system.generate(scene)  # the names only: no build (and no hooks needed)
     names = [n for n in dict.fromkeys(wanted + list(compiled.y_names)) if n in res]
     return names or [n for n in compiled.q_names if n in res]
 
@@ -143,7 +147,7 @@ def _simulate_scenes(system, scenes: list[str], args) -> int:
         try:
             res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
                                   integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
-                                  max_wall_time=args.max_wall_time)
+                                  max_wall_time=args.max_wall_time, hooks=args.hook_functions)
         finally:
             progress.close()
         runs[scene] = res
@@ -178,7 +182,7 @@ def plot_scenes(system, runs: dict, path: str) -> list[Path]:
     loads = [n for n in outputs if _is_load(n)]
     motion = ["heave"] if "heave" in outputs else [n for n in outputs if not _is_load(n)]
     if not motion and not loads:
-        compiled = system.compile(next(iter(runs)))
+        compiled = system.generate(next(iter(runs)))
         motion = [n for n in compiled.q_names if n in names]
     labels = {scene: _scene_label(system, scene) for scene in runs}
     written = []
