@@ -259,6 +259,12 @@ class Kinematics:
         if slot is not None:
             self._generalized.setdefault(slot, []).append(sp.sympify(value))
 
+    def substitute_generalized(self, mapping) -> None:
+        """Replace placeholder symbols in the generalized forces: a friction force is known only once the
+        equations with its placeholder are derived (compiler/friction.py)."""
+        for slot, values in self._generalized.items():
+            self._generalized[slot] = [sp.sympify(v).xreplace(mapping) for v in values]
+
     def add_line_force(self, body_a: int | str, point_a, body_b: int | str, point_b,
                        tension: Callable[[sp.Expr, sp.Expr], sp.Expr]) -> tuple:
         """A force along the line between two points (spring, damper, rope, actuator).

@@ -18,6 +18,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .constraints import CutJoint
 from .events import LoweredEvent, SwitchRegistry, lower_events
+from .friction import FrictionLowering
 from .kinematics import Kinematics
 from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
@@ -76,6 +77,7 @@ class _Lowering:
         self.state = ToSympy(self._state_symbol, self.tables, self.switches)
         self._sensor_cache: dict[str, sp.Expr] = {}
         self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
+        self.friction = FrictionLowering(self)
 
     # ---------------------------------------------------------------------------------------- tree
     def _no_state(self, sym: X.Sym) -> sp.Expr:
@@ -244,6 +246,8 @@ class _Lowering:
         for inter in self.model.interactions:
             for force in inter.forces:
                 self._attach(inter, force)
+        forces, self.friction_events = self.friction.resolve()
+        self._force_values = {name: sp.sympify(v).xreplace(forces) for name, v in self._force_values.items()}
 
     def _attach(self, inter: M.Interaction, force: M.Force) -> None:
         if self.switches is not None:
@@ -251,6 +255,9 @@ class _Lowering:
         kind = force.kind
         if kind == "joint":
             self._joint_force(inter, force)
+            return
+        if kind == "coulomb":
+            self._force_values[force.name] = self.friction.attach(inter, force)
             return
         if kind == "tyre":
             self._tyre_values[force.name] = attach_tyre(self, inter, force)
@@ -367,7 +374,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     outputs = lowering.outputs()
     if lowering.switches is not None:
         lowering.switches.context = "events"
-    events = lower_events(model.events, lowering.state)
+    events = lower_events(model.events, lowering.state) + lowering.friction_events
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs(), events, switches)

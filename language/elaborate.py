@@ -75,7 +75,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
                         gravity, tuple(parts), tuple(interactions), (), block.span, events,
                         self.switches if self.switches is not None else bool(events or self.mode_names))
-        return built
+        from .friction import check_friction
+        return check_friction(built, self.diags)
 
     def module_scope(self, module: Module) -> Scope:
         if module.path not in self._module_scopes:
