@@ -135,7 +135,8 @@ class FrictionLowering:
         tape.section("friction: accelerations without friction and their response to the friction forces")
         zero, slope = affine_split(tape, targets, [e.placeholder for e in elements])
         if loaded:
-            forces, required, limits = _bearing(tape, elements[0], zero[0], slope[0][0], zero[1:], slope[1:])
+            forces, required, limits = _bearing(tape, elements[0], zero[0], slope[0][0], zero[1:],
+                                                [row[0] for row in slope[1:]])
         else:
             forces, required, limits = _locked(tape, elements, zero, slope)
         mapping = {e.placeholder: f for e, f in zip(elements, forces)}
