@@ -13,7 +13,7 @@ ratios of principal minors of the positive definite W, so no pivoting is needed)
 speed w, mu(w) = mu_k + (mu_s - mu_k) exp(-(w / stribeck_speed)^2) (Stribeck).
 
 **Bearing friction** (``normal = reaction``: the paper's "reibungsbehaftete Lagerstellen"): N = k |R| with R the
-force the joint carries, which depends on the accelerations and so on F itself.  R is affine in F as well
+force the joint carries across its axis (the radial load of a pin, the normal load of a slider), which depends on the accelerations and so on F itself.  R is affine in F as well
 (R = R0 + B F, from the Newton-Euler inward pass with the accelerations a0 + W F), so the kinetic law
 F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho = |R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B)
 rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c |B| < 1 (beyond that the law has no unique
@@ -131,7 +131,7 @@ class FrictionLowering:
         vdot = dynamics.forward_dynamics(kin)
         targets = [vdot[e.slot] for e in elements]
         if loaded:
-            targets += list(dynamics.transmitted_loads(kin, vdot)[loaded[0].body][3:])
+            targets += _across_axis(tape, kin, loaded[0].body, dynamics.transmitted_loads(kin, vdot))
         tape.section("friction: accelerations without friction and their response to the friction forces")
         zero, slope = affine_split(tape, targets, [e.placeholder for e in elements])
         if loaded:
@@ -177,6 +177,17 @@ def affine_split(tape, targets, symbols) -> tuple[list, list]:
         values.append(value)
         rows.append([d.get(i, sp.S.Zero) for i in range(len(symbols))])
     return values, rows
+
+
+def _across_axis(tape, kin, body: int, transmitted) -> list:
+    """The force the joint of `body` carries across its axis (body frame): the radial load of a pin, the normal
+    load of a slider.  Along the axis it carries a revolute joint's thrust (a collar's business, not the pin's)
+    and a prismatic joint's own friction force, so that part is left out."""
+    S = kin.bodies[body].S[0]
+    axis = S[:3] if any(c != 0 for c in S[:3]) else S[3:]
+    force = transmitted[body][3:]
+    along = tape.temp(dot(axis, force), "friction_axial")
+    return [tape.temp(f - along * a, f"friction_radial{c}") for c, (f, a) in enumerate(zip(force, axis))]
 
 
 def _sticks(e: _Element):
