@@ -17,7 +17,7 @@ force the joint carries across its axis (the radial load of a pin, the normal lo
 (R = R0 + B F, from the Newton-Euler inward pass with the accelerations a0 + W F), so the kinetic law
 F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho = |R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B)
 rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c |B| < 1 (beyond that the law has no unique
-solution, Painleve's paradox: the run stops with a failed pivot).  Such an element must be the model's only
+solution, Painleve's paradox: the right-hand side turns NaN and the run stops there).  Such an element must be the model's only
 switched friction element.
 
 **Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises
@@ -239,8 +239,11 @@ def _bearing(tape, e: _Element, a0, W, R0, B) -> tuple[list, list, list]:
     c = tape.temp(e.mu * e.load * e.lever, "friction_c")
     p, q, bb = (tape.temp(dot(x, y), name) for x, y, name in ((R0, B, "friction_RB"), (R0, R0, "friction_RR"),
                                                                   (B, B, "friction_BB")))
-    alpha = tape.temp(1 - c ** 2 * bb, "friction_alpha")
-    inv_alpha = tape.inverse(alpha, "friction_ialpha")  # alpha > 0: no Painleve paradox
+    # alpha > 0 unless the law has no unique solution (Painleve): then sqrt makes the right-hand side NaN, which
+    # the runtime reports with the time and the state (a guard would call it a singular mass matrix)
+    root_alpha = tape.temp(sp.sqrt(1 - (1 - _sticks(e)) * c ** 2 * bb), "friction_root_alpha")  # 1 in stick
+    alpha = tape.temp(root_alpha * root_alpha, "friction_alpha")
+    inv_alpha = tape.temp(1 / alpha, "friction_ialpha")
     sigma = -e.mode
     rho = tape.temp((sigma * c * p + sp.sqrt(c ** 2 * p ** 2 + alpha * q)) * inv_alpha, "friction_load")
     slip = sigma * c * rho
