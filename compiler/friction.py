@@ -29,6 +29,7 @@ is computed in every mode.  At the start of a run the runtime decides the mode f
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import sympy as sp
@@ -39,7 +40,8 @@ from mbs.language.friction import is_switched, mode_name
 
 from . import dynamics
 from .events import LoweredEvent
-from .spatial import add, dot, mul
+from .reactions import point_acceleration
+from .spatial import ZERO3, add, cross, dot, mul
 from .symbolic import ToSympy, parameter_symbol
 
 #: Stands for the local 'reaction' while the normal-force law is converted.
@@ -53,13 +55,13 @@ def _error(message: str, span) -> MbsError:
 @dataclass(frozen=True)
 class _Element:
     force: M.Force
-    body: int
-    coordinate: str          # the joint coordinate, 'contact.s'
-    slot: int                # its velocity's index in the state's speeds
+    body: int                # the tree body whose joint carries the load (bearing friction); -1 for a contact
+    coordinate: str | None   # the joint coordinate whose speed a grip sets to zero, 'contact.s'
+    locked: Callable         # vdot -> the relative acceleration a stick holds at zero
     placeholder: sp.Symbol   # the generalized force while the equations are split
     mode: sp.Symbol          # 0 sticks, +1/-1 slips
     speed: sp.Expr           # slip speed at the friction surface [m/s]
-    lever: sp.Expr           # 1 in a prismatic joint, the radius in a revolute one
+    lever: sp.Expr           # 1 in a prismatic joint or a contact, the radius in a revolute joint
     mu_k: sp.Expr
     mu_s: sp.Expr
     mu: sp.Expr              # kinetic coefficient at the slip speed (Stribeck)
@@ -79,7 +81,7 @@ class FrictionLowering:
         """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
         low = self.low
         body = low.body_of_interaction.get(inter.name)
-        if body is None:
+        if body is None and inter.joint is not None:
             raise _error(f"friction in joint '{inter.name}', which closes a kinematic loop, is not supported yet; "
                          "mark another joint of the loop with 'cut = true'", force.span)
         conv = ToSympy(lambda s: REACTION if s.kind == "local" else low._state_symbol(s), low.tables, low.switches)
@@ -87,7 +89,14 @@ class FrictionLowering:
         mu_k = arg("mu_k")
         mu_s = arg("mu_s") if force.arg("mu_s") is not None else mu_k
         lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
-        speed = lever * low.kin.joint_velocity(body, 0)
+        if force.arg("tangent") is not None:
+            contact = _Contact(low, inter, force.arg("tangent"))
+            speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
+        else:
+            slot = low.kin.tree.v_slots[body][0]
+            speed, coordinate = lever * low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            locked = lambda vdot: vdot[slot]  # noqa: E731
+            apply = lambda value: low.kin.add_generalized_force(body, 0, value)  # noqa: E731
         mu = mu_k
         if force.arg("stribeck_speed") is not None:
             mu = mu_k + (mu_s - mu_k) * sp.exp(-(speed / arg("stribeck_speed")) ** 2)
@@ -104,13 +113,13 @@ class FrictionLowering:
                 raise _error("the smoothed (tanh) friction law takes a normal force that does not depend on the "
                              "joint's reaction; use the switched element for bearing friction", force.span)
             value = -mu * normal * lever * sp.tanh(speed / arg("smoothing"))
-            low.kin.add_generalized_force(body, 0, value)
+            apply(value)
             return value
         placeholder = sp.Symbol(f"friction.{force.name}")
-        low.kin.add_generalized_force(body, 0, placeholder)
-        self.elements.append(_Element(force, body, inter.joint.coordinates[0].name, low.kin.tree.v_slots[body][0],
-                                      placeholder, parameter_symbol(mode_name(force.name)), speed, lever, mu_k,
-                                      mu_s, mu, normal, load))
+        apply(placeholder)
+        self.elements.append(_Element(force, body, coordinate, locked, placeholder,
+                                      parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
+                                      load))
         return placeholder
 
     def resolve(self) -> tuple[dict, tuple[LoweredEvent, ...]]:
@@ -129,7 +138,7 @@ class FrictionLowering:
         tape = kin.tape
         tape.section("friction: accelerations with the friction forces as placeholders")
         vdot = dynamics.forward_dynamics(kin)
-        targets = [vdot[e.slot] for e in elements]
+        targets = [e.locked(vdot) for e in elements]
         if loaded:
             targets += _across_axis(tape, kin, loaded[0].body, dynamics.transmitted_loads(kin, vdot))
         tape.section("friction: accelerations without friction and their response to the friction forces")
@@ -140,9 +149,44 @@ class FrictionLowering:
         else:
             forces, required, limits = _locked(tape, elements, zero, slope)
         mapping = {e.placeholder: f for e, f in zip(elements, forces)}
-        kin.substitute_generalized(mapping)
+        kin.substitute_loads(mapping)
         events = tuple(ev for e, req, lim in zip(elements, required, limits) for ev in _events(e, req, lim))
         return mapping, events
+
+
+class _Contact:
+    """A point contact: frame b's origin, a point of b's part, slides on a's part along `tangent` (an axis of
+    frame a).  The slip speed is the tangential velocity of that point relative to the point of a's part at the
+    same place; the friction force acts on both parts there."""
+
+    def __init__(self, low, inter: M.Interaction, tangent):
+        kin, tape = low.kin, low.kin.tape
+        self.kin = kin
+        self.ba, _, _, Ra = low.frame_world(inter.a)
+        self.bb, self.pb_local, pb, _ = low.frame_world(inter.b)
+        axis = [low.geometry(c) for c in tangent]
+        self.t = [tape.temp(dot(Ra[k], axis), "fric_t") for k in range(3)]
+        self.pa_local = ZERO3
+        if self.ba >= 0:  # the point of a's part where b's origin is
+            Rwa, rwa = kin.world_pose(self.ba)
+            self.pa_local = [tape.temp(dot([Rwa[k][c] for k in range(3)], [p - r for p, r in zip(pb, rwa)]),
+                                       "fric_pa") for c in range(3)]
+        self.dv = [y - x for x, y in zip(kin.frame_velocity(self.ba, self.pa_local),
+                                         kin.frame_velocity(self.bb, self.pb_local))]
+        self.speed = tape.temp(dot(self.t, self.dv), "fric_w")
+
+    def apply(self, value) -> None:
+        self.kin.add_force(self.bb, self.pb_local, self.t, scale=value)
+        self.kin.add_force(self.ba, self.pa_local, self.t, scale=-value)
+
+    def acceleration(self, vdot) -> sp.Expr:
+        """d(slip speed)/dt for the state accelerations vdot: t.(a_b - a_a) + (omega_a x t).(v_b - v_a)."""
+        kin = self.kin
+        acc = dynamics.body_accelerations(kin, vdot, gravity=False, tag="facc")
+        da = [y - x for x, y in zip(point_acceleration(kin, acc, self.ba, self.pa_local),
+                                    point_acceleration(kin, acc, self.bb, self.pb_local))]
+        turning = cross(kin.body_angular_velocity(self.ba), self.t)
+        return kin.tape.temp(add(dot(self.t, da), dot(turning, self.dv)), "fric_acc")
 
 
 def affine_split(tape, targets, symbols) -> tuple[list, list]:
@@ -260,9 +304,9 @@ def _events(e: _Element, required, limit) -> tuple[LoweredEvent, LoweredEvent]:
     slip = LoweredEvent(f"{e.force.name}.slip", stick * (sp.Abs(required) - limit) - e.mode ** 2, 1, False,
                         (("set", mode_name(e.force.name), start),), e.force.span)
     after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True))
+    reinit = (("speed", e.coordinate, sp.S.Zero),) if e.coordinate is not None else ()
     grip = LoweredEvent(f"{e.force.name}.grip", e.mode * e.speed + stick, -1, False,
-                        (("speed", e.coordinate, sp.S.Zero), ("set", mode_name(e.force.name), after)),
-                        e.force.span)
+                        reinit + (("set", mode_name(e.force.name), after),), e.force.span)
     return slip, grip
 
 

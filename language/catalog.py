@@ -112,6 +112,8 @@ FRICTION_ARGS = (
         doc="mu falls from mu_s to mu_k as exp(-(w / stribeck_speed)^2) with the slip speed w"),
     Arg("smoothing", "scalar", U.VELOCITY, optional=True,
         doc="no stick/slip switch: the smoothed law mu N tanh(w / smoothing) (for comparison)"),
+    Arg("tangent", "axis", optional=True,
+        doc="a point contact instead of a joint: sliding along this axis of frame a, at frame b's origin"),
 )
 
 FORCES: dict[str, ElementKind] = {k.name: k for k in (

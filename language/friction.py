@@ -43,20 +43,26 @@ def check_friction(model: M.Model, diags) -> M.Model:
             if force.kind != "coulomb":
                 continue
             joint = inter.joint
-            if joint is None or joint.kind not in FRICTION_JOINTS:
-                diags.error(f"a coulomb friction element acts in a prismatic or revolute joint; interaction "
+            if force.arg("tangent") is not None:
+                if joint is not None or force.arg("radius") is not None or uses_reaction(force):
+                    diags.error("a point contact (tangent = ..) is an interaction without a joint, and its normal "
+                                "force is given (no radius, no reaction)", force.span)
+                    continue
+            elif joint is None or joint.kind not in FRICTION_JOINTS:
+                diags.error(f"a coulomb friction element acts in a prismatic or revolute joint (or at a point contact: "
+                            f"tangent = ..); interaction "
                             f"'{inter.name}' has {'no joint' if joint is None else 'a ' + joint.kind + ' joint'}",
                             force.span)
                 continue
-            if joint.coordinates[0].prescribed is not None:
+            elif joint.coordinates[0].prescribed is not None:
                 diags.error(f"the motion of '{joint.coordinates[0].name}' is prescribed: friction in its joint "
                             "cannot change it (put the friction in the joint that slides)", force.span)
                 continue
-            if joint.kind == "revolute" and force.arg("radius") is None:
+            elif joint.kind == "revolute" and force.arg("radius") is None:
                 diags.error("friction in a revolute joint needs its radius: the torque is mu * normal * radius",
                             force.span)
                 continue
-            if joint.kind == "prismatic" and force.arg("radius") is not None:
+            elif joint.kind == "prismatic" and force.arg("radius") is not None:
                 diags.error("'radius' belongs to friction in a revolute joint; a prismatic joint's friction force "
                             "is mu * normal", force.span)
                 continue

@@ -90,3 +90,26 @@ def test_friction_needs_a_sliding_joint_and_a_revolute_joint_a_radius(tmp_path):
     path.write_text(bad)
     with pytest.raises(MbsError, match="needs its radius"):
         mbs.load(path, "wheel")
+
+
+def test_a_point_contact_sticks_and_slides_like_the_incline():
+    for degrees, moves in ((20, False), (30, True)):
+        theta = math.radians(degrees)
+        res = simulate("tipping_contact", theta=theta)
+        acceleration = G * (math.sin(theta) - 0.3 * math.cos(theta)) if moves else 0.0
+        np.testing.assert_allclose(res["rail.s"], -0.5 * acceleration * res.t ** 2, atol=1e-10)
+        held = 2 * G * math.sin(theta)
+        expected = 0.3 * 2 * G * math.cos(theta) if moves else held
+        np.testing.assert_allclose(res["friction_force"][1:], expected, rtol=1e-10)
+
+
+def test_a_point_contact_on_a_moving_body_is_solved_with_a_joint_element():
+    both = simulate("stack_contact", push=1.0)
+    np.testing.assert_allclose(both["guide.s"], 0.0, atol=1e-12)
+    np.testing.assert_allclose(both["layer_force"], -1.0, rtol=1e-12)
+    np.testing.assert_allclose(both["ground_force"], -1.0, rtol=1e-12)
+    top = simulate("stack_contact", push=3.0)
+    drag = 0.2 * 1.0 * G
+    np.testing.assert_allclose(top["ground.s"], 0.0, atol=1e-12)
+    np.testing.assert_allclose(top["guide.s"], 0.5 * (3.0 - drag) * top.t ** 2, atol=1e-10)
+    np.testing.assert_allclose(top["ground_force"], -drag, rtol=1e-10)
