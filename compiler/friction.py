@@ -1,30 +1,34 @@
-"""Dry friction in a joint as an exact stick/slip switch: the ``coulomb`` element lowered to a mode and two events.
+"""Dry friction as an exact stick/slip switch: the ``coulomb`` element lowered to a mode and two events.
 
-**Stick.** The joint's relative motion is locked: the friction force is exactly what the rest of the system needs
-for zero relative acceleration.  The right-hand side is linear in the friction forces F (the articulated-body
-algorithm is linear in the joint forces), so the compiler derives it once with F as placeholders and splits it
-on the tape into the accelerations without friction, a0, and their response to F, W = d vdot / dF (the columns
-M^-1 e_j: exact, by forward differentiation of the affine chain, no stiff spring and no finite difference).  The
-sticking element's force solves a0_i + sum_l W_il F_l = 0: the multiplier of the locking constraint.  Several
-elements are solved together (rows of slipping elements hold their kinetic force; the system's pivots are
-ratios of principal minors of the positive definite W, so no pivoting is needed).
+It acts in a prismatic or revolute joint (a generalized force on its coordinate) or at a point contact (a force
+along a tangent of frame a at frame b's origin, `_Contact`).
 
-**Slip.** F = -mode * mu(w) * N (times the radius in a revolute joint), mode = +1 or -1 the sign of the slip
-speed w, mu(w) = mu_k + (mu_s - mu_k) exp(-(w / stribeck_speed)^2) (Stribeck).
+**Stick.** The relative motion is locked: the friction force is exactly what the rest of the system needs for zero
+relative acceleration (of the joint coordinate, or of the contact point along the tangent). The right-hand side is
+linear in the friction forces F (the articulated-body algorithm is linear in the joint forces), so the compiler
+derives it once with F as placeholders and splits it on the tape into the accelerations without friction, a0, and
+their response to F, W = d vdot / dF (the columns M^-1 e_j: exact, by forward differentiation of the affine chain,
+no stiff spring and no finite difference). The sticking element's force solves a0_i + sum_l W_il F_l = 0: the
+multiplier of the locking constraint. Several elements are solved together (rows of slipping elements hold their
+kinetic force; the system's pivots are ratios of principal minors of the positive definite W, so no pivoting is
+needed).
+
+**Slip.** F = -mode * mu(w) * N (times the radius in a revolute joint), mode = +1 or -1 the sign of the slip speed
+w, mu(w) = mu_k + (mu_s - mu_k) exp(-(w / stribeck_speed)^2) (Stribeck).
 
 **Bearing friction** (``normal = reaction``: the paper's "reibungsbehaftete Lagerstellen"): N = k |R| with R the
-force the joint carries across its axis (the radial load of a pin, the normal load of a slider), which depends on the accelerations and so on F itself.  R is affine in F as well
-(R = R0 + B F, from the Newton-Euler inward pass with the accelerations a0 + W F), so the kinetic law
-F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho = |R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B)
-rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c |B| < 1 (beyond that the law has no unique
-solution, Painleve's paradox: the right-hand side turns NaN and the run stops there).  Such an element must be the model's only
-switched friction element.
+force the joint carries across its axis (the radial load of a pin, the normal load of a slider), which depends on
+the accelerations and so on F itself. R is affine in F as well (R = R0 + B F, from the Newton-Euler inward pass with
+the accelerations a0 + W F), so the kinetic law F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho =
+|R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B) rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c
+|B| < 1 (beyond that the law has no unique solution, Painleve's paradox: the right-hand side turns NaN and the run
+stops there). Such an element must be the model's only switched friction element.
 
-**Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises
-through the static limit mu_s N while sticking (the new mode is the direction the system then accelerates in);
-grip when the slip speed falls through zero while slipping: the speed is set to exactly zero and the element
-sticks if |F_req| <= mu_s N, else slips on in the other direction.  F_req (the force that would hold the joint)
-is computed in every mode.  At the start of a run the runtime decides the mode from the state (runtime/friction.py).
+**Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises through
+the static limit mu_s N while sticking (the new mode is the direction the system then accelerates in); grip when the
+slip speed falls through zero while slipping: the speed is set to exactly zero and the element sticks if |F_req| <=
+mu_s N, else slips on in the other direction. F_req (the force that would hold the joint) is computed in every mode.
+At the start of a run the runtime decides the mode from the state (runtime/friction.py).
 """
 
 from __future__ import annotations
@@ -33,7 +37,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import sympy as sp
-
 from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.friction import is_switched, mode_name
@@ -85,7 +88,7 @@ class FrictionLowering:
             raise _error(f"friction in joint '{inter.name}', which closes a kinematic loop, is not supported yet; "
                          "mark another joint of the loop with 'cut = true'", force.span)
         conv = ToSympy(lambda s: REACTION if s.kind == "local" else low._state_symbol(s), low.tables, low.switches)
-        arg = lambda name: None if force.arg(name) is None else conv(force.arg(name))  # noqa: E731
+        arg = lambda name: None if force.arg(name) is None else conv(force.arg(name))
         mu_k = arg("mu_k")
         mu_s = arg("mu_s") if force.arg("mu_s") is not None else mu_k
         lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
@@ -95,8 +98,8 @@ class FrictionLowering:
         else:
             slot = low.kin.tree.v_slots[body][0]
             speed, coordinate = lever * low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
-            locked = lambda vdot: vdot[slot]  # noqa: E731
-            apply = lambda value: low.kin.add_generalized_force(body, 0, value)  # noqa: E731
+            locked = lambda vdot: vdot[slot]
+            apply = lambda value: low.kin.add_generalized_force(body, 0, value)
         mu = mu_k
         if force.arg("stribeck_speed") is not None:
             mu = mu_k + (mu_s - mu_k) * sp.exp(-(speed / arg("stribeck_speed")) ** 2)
@@ -310,4 +313,4 @@ def _events(e: _Element, required, limit) -> tuple[LoweredEvent, LoweredEvent]:
     return slip, grip
 
 
-__all__ = ["FrictionLowering", "affine_split", "REACTION"]
+__all__ = ["REACTION", "FrictionLowering", "affine_split"]

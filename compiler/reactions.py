@@ -155,4 +155,5 @@ def in_frame(tape, R_in, vector, name: str) -> tuple:
     return tuple(tape.temp(dot([R_in[k][c] for k in range(3)], vector), name) for c in range(3))
 
 
-__all__ = ["AccelerationTerms", "acceleration_symbol", "in_frame", "point_acceleration", "ACCELERATION_ARRAY", "MULTIPLIER_ARRAY"]
+__all__ = ["AccelerationTerms", "acceleration_symbol", "in_frame", "point_acceleration", "ACCELERATION_ARRAY",
+           "MULTIPLIER_ARRAY"]

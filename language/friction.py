@@ -1,11 +1,11 @@
-"""Dry friction elements of a model: ``force f = coulomb(mu_k = .., mu_s = .., normal = .., ...)`` -> checked, and
-one discrete ``mode`` per element that the compiler's stick/slip events switch (compiler/friction.py).
+"""Dry friction elements of a model: ``force f = coulomb(mu_k = .., mu_s = .., normal = .., ...)`` -> checked, and one
+discrete ``mode`` per element that the compiler's stick/slip events switch (compiler/friction.py).
 
-The element sits in an interaction whose joint has one free coordinate, prismatic or revolute, and acts on it as
-a generalized force.  Its mode is an ordinary run-time mode named ``<force>.mode``: 0 while the joint sticks,
-+1 or -1 while it slips (the sign of the slip speed); the event log shows its changes, and
-``--param inter.friction.mode=1`` starts a run sliding.  A tanh-smoothed element (``smoothing = ..``) has no
-mode: it is one expression of the slip speed.
+The element sits in an interaction whose joint has one free coordinate, prismatic or revolute, and acts on it as a
+generalized force; or, with ``tangent = axis``, in an interaction without a joint: a point contact. Its mode is an
+ordinary run-time mode named ``<force>.mode``: 0 while the joint sticks, +1 or -1 while it slips (the sign of the
+slip speed); the event log shows its changes, and ``--param inter.friction.mode=1`` starts a run sliding. A
+tanh-smoothed element (``smoothing = ..``) has no mode: it is one expression of the slip speed.
 """
 
 from __future__ import annotations
@@ -75,4 +75,4 @@ def check_friction(model: M.Model, diags) -> M.Model:
     return replace(model, parameters=model.parameters + tuple(modes))
 
 
-__all__ = ["check_friction", "is_switched", "uses_reaction", "mode_name", "MODE_SUFFIX", "FRICTION_JOINTS"]
+__all__ = ["FRICTION_JOINTS", "MODE_SUFFIX", "check_friction", "is_switched", "mode_name", "uses_reaction"]

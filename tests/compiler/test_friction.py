@@ -11,10 +11,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from mbs.language.diagnostics import MbsError
 from scipy.integrate import quad
 
 import mbs
-from mbs.language.diagnostics import MbsError
 
 MODELS = Path(__file__).parent / "models" / "friction.mbs"
 G = 9.81
@@ -65,7 +65,7 @@ def test_two_elements_stick_together_and_one_slides_on_the_other():
 
 
 def test_a_stribeck_curve_sets_the_stopping_time_and_distance():
-    mu = lambda v: 0.3 + (0.6 - 0.3) * math.exp(-(v / 0.1) ** 2)  # noqa: E731
+    mu = lambda v: 0.3 + (0.6 - 0.3) * math.exp(-(v / 0.1) ** 2)
     t_stop = quad(lambda v: 1 / (G * mu(v)), 0, 0.5, epsabs=1e-14, epsrel=1e-13)[0]
     distance = quad(lambda v: v / (G * mu(v)), 0, 0.5, epsabs=1e-14, epsrel=1e-13)[0]
     res = simulate("stribeck", t_end=0.3)

@@ -43,9 +43,10 @@ def reference(t_end, t_eval):
     t0, y0, direction = 0.0, [PHI0, 0.0], -1.0  # released at rest, it swings towards negative phi
     out = np.empty_like(t_eval)
     while t0 < t_end:
-        turn = lambda t, y: y[1] if t > t0 else direction  # noqa: E731
+        def turn(t, y, t0=t0, direction=direction):
+            return y[1] if t > t0 else direction
         turn.terminal, turn.direction = True, -direction
-        piece = solve_ivp(lambda t, y: [y[1], acceleration(y[0], y[1], direction)], (t0, t_end), y0,
+        piece = solve_ivp(lambda t, y, d=direction: [y[1], acceleration(y[0], y[1], d)], (t0, t_end), y0,
                           method="DOP853", rtol=1e-12, atol=1e-13, dense_output=True, events=turn)
         inside = (t_eval >= t0) & (t_eval <= piece.t[-1])
         out[inside] = piece.sol(t_eval[inside])[0]
