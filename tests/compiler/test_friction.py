@@ -1,8 +1,9 @@
-"""The coulomb friction element (compiler/friction.py) against closed forms: a block on an incline that sticks
+"""The coulomb friction element (compiler/friction.py, language/friction.py) against closed forms: a block on an incline that sticks
 below the friction angle and slides above it with g (sin theta - mu_k cos theta), with the normal force given or
 taken from the slider's reaction; a disc driven in a bearing with friction (revolute); two stacked blocks whose
 friction forces are solved together; a block sliding to rest through a Stribeck curve (stopping time by
-quadrature); the tanh-smoothed law, which creeps where the switch holds."""
+quadrature); the tanh-smoothed law, which creeps where the switch holds; point contacts; and the errors for
+elements the compiler cannot lower."""
 
 from __future__ import annotations
 
@@ -113,3 +114,43 @@ def test_a_point_contact_on_a_moving_body_is_solved_with_a_joint_element():
     np.testing.assert_allclose(top["ground.s"], 0.0, atol=1e-12)
     np.testing.assert_allclose(top["guide.s"], 0.5 * (3.0 - drag) * top.t ** 2, atol=1e-10)
     np.testing.assert_allclose(top["ground_force"], -drag, rtol=1e-10)
+
+
+def edited(tmp_path, old, new, source=MODELS):
+    text = source.read_text()
+    assert old in text
+    path = tmp_path / "edited.mbs"
+    path.write_text(text.replace(old, new))
+    return path
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("joint revolute(axis = z)\n        force drive", "joint spherical\n        force drive",
+     "acts in a prismatic or revolute joint"),
+    ("normal = m * 9.81 m/s^2 * cos(theta), tangent = x)",
+     "normal = reaction, tangent = x)", "a point contact"),
+])
+def test_an_element_where_it_cannot_act_is_an_error_at_its_line(tmp_path, old, new, message):
+    with pytest.raises(MbsError, match=message) as caught:
+        mbs.load(edited(tmp_path, old, new))
+    assert "coulomb" in str(caught.value)  # the source line with the caret
+
+
+@pytest.mark.parametrize("model, old, new, message", [
+    ("incline_reaction", "normal = reaction)", "normal = reaction * reaction / (1 N))", "a constant times it"),
+    ("incline_tanh", "normal = m * 9.81 m/s^2 * cos(theta), smoothing", "normal = reaction, smoothing",
+     "smoothed"),
+])
+def test_a_normal_force_the_compiler_cannot_solve_is_an_error(tmp_path, model, old, new, message):
+    system = mbs.load(edited(tmp_path, old, new), model)
+    with pytest.raises(MbsError, match=message):
+        system.simulate(t_end=0.1)
+
+
+def test_switched_friction_in_a_closed_loop_is_refused_with_the_way_out(tmp_path):
+    example = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
+    path = edited(tmp_path, "interact guide {\n        connect inertial -> slider\n",
+                  "interact guide {\n        connect inertial -> slider\n"
+                  "        force friction = coulomb(mu_k = 0.1, normal = 10 N)\n", source=example)
+    with pytest.raises(MbsError, match="closed kinematic loop"):
+        mbs.load(path).simulate(t_end=0.1)
