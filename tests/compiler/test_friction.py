@@ -1,8 +1,8 @@
-"""The coulomb friction element (compiler/friction.py, language/friction.py) against closed forms: a block on an incline that sticks
-below the friction angle and slides above it with g (sin theta - mu_k cos theta), with the normal force given or
-taken from the slider's reaction; a disc driven in a bearing with friction (revolute); two stacked blocks whose
-friction forces are solved together; a block sliding to rest through a Stribeck curve (stopping time by
-quadrature); the tanh-smoothed law, which creeps where the switch holds; point contacts; and the errors for
+"""The coulomb friction element (compiler/friction.py, language/friction.py) against closed forms: a block on an
+incline that sticks below the friction angle and slides above it with g (sin theta - mu_k cos theta), with the
+normal force given or taken from the slider's reaction; a disc driven in a bearing with friction (revolute); two
+stacked blocks whose friction forces are solved together; a block sliding to rest through a Stribeck curve (stopping
+time by quadrature); the tanh-smoothed law, which creeps where the switch holds; point contacts; and the errors for
 elements the compiler cannot lower."""
 
 from __future__ import annotations
