@@ -235,13 +235,14 @@ class Kinematics:
 
     # ---- applied loads ------------------------------------------------------------------------------------------
 
-    def add_force(self, body: int | str, point, force) -> None:
-        """A force (world components) [N] acting at the point with body coordinates `point` [m]."""
+    def add_force(self, body: int | str, point, force, scale=1) -> None:
+        """A force (world components) [N] acting at the point with body coordinates `point` [m], times `scale`
+        (kept out of the tape, so that a placeholder there can be substituted later: `substitute_loads`)."""
         i = self.tree.body_index(body)
         if i < 0:
             return  # the ground takes any load
         f = matTvec(self.tape, self.world_pose(i)[0], _sym(force), f"fb{i + 1}")
-        self._wrenches.setdefault(i, []).append(tuple(cross(_sym(point), f)) + f)
+        self._wrenches.setdefault(i, []).append(tuple(mul(scale, c) for c in tuple(cross(_sym(point), f)) + f))
 
     def add_torque(self, body: int | str, torque) -> None:
         """A torque (world components) [N*m] acting on the body."""
@@ -258,6 +259,14 @@ class Kinematics:
         slot = self.tree.v_slots[i][k]
         if slot is not None:
             self._generalized.setdefault(slot, []).append(sp.sympify(value))
+
+    def substitute_loads(self, mapping) -> None:
+        """Replace placeholder symbols in the applied loads: a friction force is known only once the equations
+        with its placeholder are derived (compiler/friction.py)."""
+        for slot, values in self._generalized.items():
+            self._generalized[slot] = [sp.sympify(v).xreplace(mapping) for v in values]
+        for body, wrenches in self._wrenches.items():
+            self._wrenches[body] = [tuple(sp.sympify(c).xreplace(mapping) for c in w) for w in wrenches]
 
     def add_line_force(self, body_a: int | str, point_a, body_b: int | str, point_b,
                        tension: Callable[[sp.Expr, sp.Expr], sp.Expr]) -> tuple:

@@ -18,6 +18,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .constraints import CutJoint
 from .events import LoweredEvent, SwitchRegistry, lower_events
+from .friction import FrictionLowering
 from .kinematics import Kinematics
 from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
@@ -80,6 +81,7 @@ class _Lowering:
         self.model_states = {s.name: s for s in model.states}
         self._sensor_cache: dict[str, sp.Expr] = {}
         self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
+        self.friction = FrictionLowering(self)
 
     # ---------------------------------------------------------------------------------------- tree
     def _no_state(self, sym: X.Sym) -> sp.Expr:
@@ -252,6 +254,8 @@ class _Lowering:
         for inter in self.model.interactions:
             for force in inter.forces:
                 self._attach(inter, force)
+        forces, self.friction_events = self.friction.resolve()
+        self._force_values = {name: sp.sympify(v).xreplace(forces) for name, v in self._force_values.items()}
 
     def _attach(self, inter: M.Interaction, force: M.Force) -> None:
         if self.switches is not None:
@@ -259,6 +263,9 @@ class _Lowering:
         kind = force.kind
         if kind == "joint":
             self._joint_force(inter, force)
+            return
+        if kind == "coulomb":
+            self._force_values[force.name] = self.friction.attach(inter, force)
             return
         if kind == "tyre":
             self._tyre_values[force.name] = attach_tyre(self, inter, force)
@@ -375,7 +382,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     outputs = lowering.outputs()
     if lowering.switches is not None:
         lowering.switches.context = "events"
-    events = lower_events(model.events, lowering.state)
+    events = lower_events(model.events, lowering.state) + lowering.friction_events
     if lowering.switches is not None:
         lowering.switches.context = "state equations"
     rates = tuple(lowering.state(s.rate) for s in model.states)

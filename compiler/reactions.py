@@ -134,12 +134,20 @@ class AccelerationTerms:
         if body < 0:
             return ZERO3
         self.used = True
-        vel, acc = self.kin.bodies[body].vel, self._accelerations[body]
-        r = tuple(sp.sympify(c) for c in r_local)
-        w = vel[:3]
-        v_point = [add(x, y) for x, y in zip(vel[3:], cross(w, r))]
-        local = [add(x, y, z) for x, y, z in zip(acc[3:], cross(acc[:3], r), cross(w, v_point))]
-        return matvec(self.kin.tape, self.kin.world_pose(body)[0], local, "pacc")
+        return point_acceleration(self.kin, self._accelerations, body, r_local)
+
+
+def point_acceleration(kin: Kinematics, accelerations, body: int, r_local) -> tuple:
+    """World acceleration of the point with body coordinates `r_local` [m/s^2], from the bodies' spatial
+    accelerations (`dynamics.body_accelerations` without gravity); zero on the ground."""
+    if body < 0:
+        return ZERO3
+    vel, acc = kin.bodies[body].vel, accelerations[body]
+    r = tuple(sp.sympify(c) for c in r_local)
+    w = vel[:3]
+    v_point = [add(x, y) for x, y in zip(vel[3:], cross(w, r))]
+    local = [add(x, y, z) for x, y, z in zip(acc[3:], cross(acc[:3], r), cross(w, v_point))]
+    return matvec(kin.tape, kin.world_pose(body)[0], local, "pacc")
 
 
 def in_frame(tape, R_in, vector, name: str) -> tuple:
@@ -147,4 +155,5 @@ def in_frame(tape, R_in, vector, name: str) -> tuple:
     return tuple(tape.temp(dot([R_in[k][c] for k in range(3)], vector), name) for c in range(3))
 
 
-__all__ = ["AccelerationTerms", "acceleration_symbol", "in_frame", "ACCELERATION_ARRAY", "MULTIPLIER_ARRAY"]
+__all__ = ["AccelerationTerms", "acceleration_symbol", "in_frame", "point_acceleration", "ACCELERATION_ARRAY",
+           "MULTIPLIER_ARRAY"]

@@ -101,6 +101,21 @@ TYRE_LOCALS = (("x", LENGTH), ("y", LENGTH), ("rho", LENGTH), ("rho_dot", U.VELO
 TYRE_OUTPUTS = {"fx": U.FORCE, "fy": U.FORCE, "fz": U.FORCE, "mz": U.TORQUE, "alpha": ANGLE,
                 "kappa": U.DIMENSIONLESS, "gamma": ANGLE, "rho": LENGTH, "vx": U.VELOCITY}
 
+# Dry friction (language/friction.py, compiler/friction.py). 'normal' may read the local 'reaction': the
+# magnitude of the force the joint carries (bearing friction that grows with the load).
+FRICTION_ARGS = (
+    Arg("mu_k", "scalar", U.DIMENSIONLESS, doc="kinetic (sliding) friction coefficient"),
+    Arg("mu_s", "scalar", U.DIMENSIONLESS, optional=True, doc="static coefficient (default: mu_k)"),
+    Arg("normal", "law", U.FORCE, doc="normal force pressing the surfaces together; 'reaction': the joint's load"),
+    Arg("radius", "scalar", LENGTH, optional=True, doc="friction radius of a revolute joint (torque = force * radius)"),
+    Arg("stribeck_speed", "scalar", U.VELOCITY, optional=True,
+        doc="mu falls from mu_s to mu_k as exp(-(w / stribeck_speed)^2) with the slip speed w"),
+    Arg("smoothing", "scalar", U.VELOCITY, optional=True,
+        doc="no stick/slip switch: the smoothed law mu N tanh(w / smoothing) (for comparison)"),
+    Arg("tangent", "axis", optional=True,
+        doc="a point contact instead of a joint: sliding along this axis of frame a, at frame b's origin"),
+)
+
 FORCES: dict[str, ElementKind] = {k.name: k for k in (
     ElementKind("spring", (Arg("k", "scalar", U.STIFFNESS), Arg("l0", "scalar", LENGTH, default=0.0), _ALONG),
                 doc="linear spring, tension k (l - l0)"),
@@ -135,6 +150,9 @@ FORCES: dict[str, ElementKind] = {k.name: k for k in (
                 TYRE_LOCALS,
                 doc="wheel (frame b, spin axis y) on a road (frame a, height along z): contact kinematics and "
                     "force laws of the slip quantities (compiler/tyre.py)"),
+    ElementKind("coulomb", FRICTION_ARGS, (("reaction", U.FORCE),),
+                doc="dry friction in the interaction's prismatic or revolute joint: an exact stick/slip switch "
+                    "(compiler/friction.py), or tanh-smoothed with 'smoothing'"),
 )}
 
 SENSORS: dict[str, ElementKind] = {k.name: k for k in (

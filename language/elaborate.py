@@ -79,7 +79,8 @@ class Elaborator(PlacementMixin, ParameterMixin):
                         gravity, tuple(parts), tuple(interactions), (), block.span, events,
                         self.switches if self.switches is not None else bool(events or self.mode_names), states,
                         hooks.model_hooks(self))
-        return built
+        from .friction import check_friction
+        return check_friction(built, self.diags)
 
     def module_scope(self, module: Module) -> Scope:
         if module.path not in self._module_scopes:

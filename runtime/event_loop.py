@@ -15,6 +15,7 @@ import numpy as np
 
 from .errors import EvaluationError
 from .events import DEPARTURE_STEP, EventRecord, apply_events, crossings, init_switches, is_zeno, zeno_message
+from .friction import start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
 
@@ -53,6 +54,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     names = model.x_names
     t, x = float(data.t), data.x.copy()
     frozen = init_switches(model, data, t, x)
+    start_friction_modes(model, data, t, x)  # stick or slip from the start state (runtime/friction.py)
     segments, records, fired_times = Segments(), [], []
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""

@@ -1,0 +1,316 @@
+"""Dry friction as an exact stick/slip switch: the ``coulomb`` element lowered to a mode and two events.
+
+It acts in a prismatic or revolute joint (a generalized force on its coordinate) or at a point contact (a force
+along a tangent of frame a at frame b's origin, `_Contact`).
+
+**Stick.** The relative motion is locked: the friction force is exactly what the rest of the system needs for zero
+relative acceleration (of the joint coordinate, or of the contact point along the tangent). The right-hand side is
+linear in the friction forces F (the articulated-body algorithm is linear in the joint forces), so the compiler
+derives it once with F as placeholders and splits it on the tape into the accelerations without friction, a0, and
+their response to F, W = d vdot / dF (the columns M^-1 e_j: exact, by forward differentiation of the affine chain,
+no stiff spring and no finite difference). The sticking element's force solves a0_i + sum_l W_il F_l = 0: the
+multiplier of the locking constraint. Several elements are solved together (rows of slipping elements hold their
+kinetic force; the system's pivots are ratios of principal minors of the positive definite W, so no pivoting is
+needed).
+
+**Slip.** F = -mode * mu(w) * N (times the radius in a revolute joint), mode = +1 or -1 the sign of the slip speed
+w, mu(w) = mu_k + (mu_s - mu_k) exp(-(w / stribeck_speed)^2) (Stribeck).
+
+**Bearing friction** (``normal = reaction``: the paper's "reibungsbehaftete Lagerstellen"): N = k |R| with R the
+force the joint carries across its axis (the radial load of a pin, the normal load of a slider), which depends on
+the accelerations and so on F itself. R is affine in F as well (R = R0 + B F, from the Newton-Euler inward pass with
+the accelerations a0 + W F), so the kinetic law F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho =
+|R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B) rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c
+|B| < 1 (beyond that the law has no unique solution, Painleve's paradox: the right-hand side turns NaN and the run
+stops there). Such an element must be the model's only switched friction element.
+
+**Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises through
+the static limit mu_s N while sticking (the new mode is the direction the system then accelerates in); grip when the
+slip speed falls through zero while slipping: the speed is set to exactly zero and the element sticks if |F_req| <=
+mu_s N, else slips on in the other direction. F_req (the force that would hold the joint) is computed in every mode.
+At the start of a run the runtime decides the mode from the state (runtime/friction.py).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import sympy as sp
+from mbs.language import model as M
+from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.language.friction import is_switched, mode_name
+
+from . import dynamics
+from .events import LoweredEvent
+from .reactions import point_acceleration
+from .spatial import ZERO3, add, cross, dot, mul
+from .symbolic import ToSympy, parameter_symbol
+
+#: Stands for the local 'reaction' while the normal-force law is converted.
+REACTION = sp.Symbol("friction.reaction")
+
+
+def _error(message: str, span) -> MbsError:
+    return MbsError([Diagnostic("error", message, span)])
+
+
+@dataclass(frozen=True)
+class _Element:
+    force: M.Force
+    body: int                # the tree body whose joint carries the load (bearing friction); -1 for a contact
+    coordinate: str | None   # the joint coordinate whose speed a grip sets to zero, 'contact.s'
+    locked: Callable         # vdot -> the relative acceleration a stick holds at zero
+    placeholder: sp.Symbol   # the generalized force while the equations are split
+    mode: sp.Symbol          # 0 sticks, +1/-1 slips
+    speed: sp.Expr           # slip speed at the friction surface [m/s]
+    lever: sp.Expr           # 1 in a prismatic joint or a contact, the radius in a revolute joint
+    mu_k: sp.Expr
+    mu_s: sp.Expr
+    mu: sp.Expr              # kinetic coefficient at the slip speed (Stribeck)
+    normal: sp.Expr | None   # normal force, None when it is load * |reaction|
+    load: sp.Expr | None     # k of normal = k * reaction
+
+
+class FrictionLowering:
+    """Collects the friction elements while forces are attached (`attach`), then derives their forces and events
+    (`resolve`) once every other load is on the kinematics."""
+
+    def __init__(self, lowering):
+        self.low = lowering
+        self.elements: list[_Element] = []
+
+    def attach(self, inter: M.Interaction, force: M.Force) -> sp.Expr:
+        """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
+        low = self.low
+        body = low.body_of_interaction.get(inter.name)
+        if body is None and inter.joint is not None:
+            raise _error(f"friction in joint '{inter.name}', which closes a kinematic loop, is not supported yet; "
+                         "mark another joint of the loop with 'cut = true'", force.span)
+        conv = ToSympy(lambda s: REACTION if s.kind == "local" else low._state_symbol(s), low.tables, low.switches)
+        arg = lambda name: None if force.arg(name) is None else conv(force.arg(name))
+        mu_k = arg("mu_k")
+        mu_s = arg("mu_s") if force.arg("mu_s") is not None else mu_k
+        lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
+        if force.arg("tangent") is not None:
+            contact = _Contact(low, inter, force.arg("tangent"))
+            speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
+        else:
+            slot = low.kin.tree.v_slots[body][0]
+            speed, coordinate = lever * low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            locked = lambda vdot: vdot[slot]
+            apply = lambda value: low.kin.add_generalized_force(body, 0, value)
+        mu = mu_k
+        if force.arg("stribeck_speed") is not None:
+            mu = mu_k + (mu_s - mu_k) * sp.exp(-(speed / arg("stribeck_speed")) ** 2)
+        normal, load = conv(force.arg("normal")), None
+        if normal.has(REACTION):
+            load = sp.diff(normal, REACTION)
+            states = set(low.kin.tree.q_symbols) | set(low.kin.tree.v_symbols)
+            if load.has(REACTION) or sp.expand(normal - load * REACTION) != 0 or load.free_symbols & states:
+                raise _error("a load-dependent normal force is 'normal = reaction' or a constant times it",
+                             force.span)
+            normal = None
+        if not is_switched(force):
+            if normal is None:
+                raise _error("the smoothed (tanh) friction law takes a normal force that does not depend on the "
+                             "joint's reaction; use the switched element for bearing friction", force.span)
+            value = -mu * normal * lever * sp.tanh(speed / arg("smoothing"))
+            apply(value)
+            return value
+        placeholder = sp.Symbol(f"friction.{force.name}")
+        apply(placeholder)
+        self.elements.append(_Element(force, body, coordinate, locked, placeholder,
+                                      parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
+                                      load))
+        return placeholder
+
+    def resolve(self) -> tuple[dict, tuple[LoweredEvent, ...]]:
+        """({placeholder: friction force}, events): the forces replace the placeholders on the kinematics."""
+        if not self.elements:
+            return {}, ()
+        low, elements = self.low, self.elements
+        if low.cuts:
+            raise _error("switched friction in a model with a closed kinematic loop is not supported yet (the "
+                         "locking force needs the loop's multipliers); use 'smoothing = ..'", elements[0].force.span)
+        loaded = [e for e in elements if e.load is not None]
+        if loaded and len(elements) > 1:
+            raise _error("a friction element whose normal force is the joint's reaction must be the model's only "
+                         "switched friction element (for now)", loaded[0].force.span)
+        kin = low.kin
+        tape = kin.tape
+        tape.section("friction: accelerations with the friction forces as placeholders")
+        vdot = dynamics.forward_dynamics(kin)
+        targets = [e.locked(vdot) for e in elements]
+        if loaded:
+            targets += _across_axis(tape, kin, loaded[0].body, dynamics.transmitted_loads(kin, vdot))
+        tape.section("friction: accelerations without friction and their response to the friction forces")
+        zero, slope = affine_split(tape, targets, [e.placeholder for e in elements])
+        if loaded:
+            forces, required, limits = _bearing(tape, elements[0], zero[0], slope[0][0], zero[1:],
+                                                [row[0] for row in slope[1:]])
+        else:
+            forces, required, limits = _locked(tape, elements, zero, slope)
+        mapping = {e.placeholder: f for e, f in zip(elements, forces)}
+        kin.substitute_loads(mapping)
+        events = tuple(ev for e, req, lim in zip(elements, required, limits) for ev in _events(e, req, lim))
+        return mapping, events
+
+
+class _Contact:
+    """A point contact: frame b's origin, a point of b's part, slides on a's part along `tangent` (an axis of
+    frame a).  The slip speed is the tangential velocity of that point relative to the point of a's part at the
+    same place; the friction force acts on both parts there."""
+
+    def __init__(self, low, inter: M.Interaction, tangent):
+        kin, tape = low.kin, low.kin.tape
+        self.kin = kin
+        self.ba, _, _, Ra = low.frame_world(inter.a)
+        self.bb, self.pb_local, pb, _ = low.frame_world(inter.b)
+        axis = [low.geometry(c) for c in tangent]
+        self.t = [tape.temp(dot(Ra[k], axis), "fric_t") for k in range(3)]
+        self.pa_local = ZERO3
+        if self.ba >= 0:  # the point of a's part where b's origin is
+            Rwa, rwa = kin.world_pose(self.ba)
+            self.pa_local = [tape.temp(dot([Rwa[k][c] for k in range(3)], [p - r for p, r in zip(pb, rwa)]),
+                                       "fric_pa") for c in range(3)]
+        self.dv = [y - x for x, y in zip(kin.frame_velocity(self.ba, self.pa_local),
+                                         kin.frame_velocity(self.bb, self.pb_local))]
+        self.speed = tape.temp(dot(self.t, self.dv), "fric_w")
+
+    def apply(self, value) -> None:
+        self.kin.add_force(self.bb, self.pb_local, self.t, scale=value)
+        self.kin.add_force(self.ba, self.pa_local, self.t, scale=-value)
+
+    def acceleration(self, vdot) -> sp.Expr:
+        """d(slip speed)/dt for the state accelerations vdot: t.(a_b - a_a) + (omega_a x t).(v_b - v_a)."""
+        kin = self.kin
+        acc = dynamics.body_accelerations(kin, vdot, gravity=False, tag="facc")
+        da = [y - x for x, y in zip(point_acceleration(kin, acc, self.ba, self.pa_local),
+                                    point_acceleration(kin, acc, self.bb, self.pb_local))]
+        turning = cross(kin.body_angular_velocity(self.ba), self.t)
+        return kin.tape.temp(add(dot(self.t, da), dot(turning, self.dv)), "fric_acc")
+
+
+def affine_split(tape, targets, symbols) -> tuple[list, list]:
+    """(values at symbols = 0, d value / d symbols) of `targets`, expressions on `tape` that are affine in `symbols`
+    (the friction forces: the dynamics is linear in the joint forces).  One walk over the tape: every temporary
+    that reads a symbol gets a copy at zero and its derivatives (partials taken at zero: exact for affine
+    chains), so nothing is expanded and the cost is the length of the chain times the number of symbols."""
+    seeds = {s: k for k, s in enumerate(symbols)}
+    at_zero = {s: sp.S.Zero for s in symbols}
+    slopes = {s: {seeds[s]: sp.S.One} for s in symbols}
+    entries = tape.entries_for(targets)
+
+    def split(expr, name):
+        read = [a for a in expr.free_symbols if a in at_zero]
+        if not read:
+            return expr, {}
+        value = tape.temp(expr.xreplace(at_zero), f"{name}_f0")
+        d: dict = {}
+        for a in read:
+            partial = sp.diff(expr, a).xreplace(at_zero)
+            for k, da in slopes[a].items():
+                d[k] = d.get(k, sp.S.Zero) + partial * da
+        return value, {k: tape.temp(v, f"{name}_dF{k}") for k, v in d.items() if v != 0}
+
+    for entry in entries:
+        value, d = split(entry.expr, entry.name)
+        if d or value is not entry.expr:
+            at_zero[entry.symbol], slopes[entry.symbol] = value, d
+    values, rows = [], []
+    for k, target in enumerate(targets):
+        value, d = split(sp.sympify(target), f"friction_target{k}")
+        values.append(value)
+        rows.append([d.get(i, sp.S.Zero) for i in range(len(symbols))])
+    return values, rows
+
+
+def _across_axis(tape, kin, body: int, transmitted) -> list:
+    """The force the joint of `body` carries across its axis (body frame): the radial load of a pin, the normal
+    load of a slider.  Along the axis it carries a revolute joint's thrust (a collar's business, not the pin's)
+    and a prismatic joint's own friction force, so that part is left out."""
+    S = kin.bodies[body].S[0]
+    axis = S[:3] if any(c != 0 for c in S[:3]) else S[3:]
+    force = transmitted[body][3:]
+    along = tape.temp(dot(axis, force), "friction_axial")
+    return [tape.temp(f - along * a, f"friction_radial{c}") for c, (f, a) in enumerate(zip(force, axis))]
+
+
+def _sticks(e: _Element):
+    """1 while the element sticks (mode 0), 0 while it slips (mode +-1): no branch in the generated code."""
+    return 1 - e.mode ** 2
+
+
+def _locked(tape, elements, a0, W) -> tuple[list, list, list]:
+    """Forces, holding forces F_req and static limits of elements with given normal forces: rows of sticking
+    elements lock their joint (a0_i + W_i. F = 0), rows of slipping ones hold the kinetic force."""
+    n = len(elements)
+    kinetic = [-e.mode * e.mu * e.normal * e.lever for e in elements]
+    A = [[add(mul(_sticks(e), W[i][j]), (1 - _sticks(e)) if i == j else 0) for j in range(n)]
+         for i, e in enumerate(elements)]
+    b = [add(-_sticks(e) * a0[i], (1 - _sticks(e)) * kinetic[i]) for i, e in enumerate(elements)]
+    forces = _solve(tape, A, b)
+    required = []
+    for i in range(n):
+        others = add(a0[i], *(mul(W[i][j], forces[j]) for j in range(n) if j != i))
+        required.append(tape.temp(-others * tape.inverse(W[i][i], f"friction_iW{i}"), f"friction_required{i}"))
+    limits = [tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}") for i, e in enumerate(elements)]
+    return forces, required, limits
+
+
+def _solve(tape, A, b) -> list:
+    """A x = b by Gaussian elimination on the tape (pivots positive: see the module docstring)."""
+    n = len(b)
+    A = [list(row) for row in A]
+    b = list(b)
+    for k in range(n):
+        inv = tape.inverse(A[k][k], f"friction_pivot{k}")
+        for i in range(k + 1, n):
+            factor = tape.temp(mul(A[i][k], inv), f"friction_l{i}{k}")
+            A[i] = [tape.temp(add(A[i][j], -mul(factor, A[k][j])), f"friction_a{i}{j}") if j > k else 0
+                    for j in range(n)]
+            b[i] = tape.temp(add(b[i], -mul(factor, b[k])), f"friction_b{i}")
+    x = [None] * n
+    for k in reversed(range(n)):
+        inv = tape.inverse(A[k][k], f"friction_pivot{k}")
+        x[k] = tape.temp(mul(add(b[k], *(-mul(A[k][j], x[j]) for j in range(k + 1, n))), inv), f"friction_force{k}")
+    return x
+
+
+def _bearing(tape, e: _Element, a0, W, R0, B) -> tuple[list, list, list]:
+    """Force, holding force and static limit of one element with normal = load * |R|, R = R0 + B F (exact)."""
+    required = tape.temp(-a0 * tape.inverse(W, "friction_iW"), "friction_required")
+    held = [add(r, mul(bk, required)) for r, bk in zip(R0, B)]
+    limit = tape.temp(e.mu_s * e.load * sp.sqrt(dot(held, held)) * e.lever, "friction_limit")
+    c = tape.temp(e.mu * e.load * e.lever, "friction_c")
+    p, q, bb = (tape.temp(dot(x, y), name) for x, y, name in ((R0, B, "friction_RB"), (R0, R0, "friction_RR"),
+                                                                  (B, B, "friction_BB")))
+    # alpha > 0 unless the law has no unique solution (Painleve): then sqrt makes the right-hand side NaN, which
+    # the runtime reports with the time and the state (a guard would call it a singular mass matrix)
+    root_alpha = tape.temp(sp.sqrt(1 - (1 - _sticks(e)) * c ** 2 * bb), "friction_root_alpha")  # 1 in stick
+    alpha = tape.temp(root_alpha * root_alpha, "friction_alpha")
+    inv_alpha = tape.temp(1 / alpha, "friction_ialpha")
+    sigma = -e.mode
+    rho = tape.temp((sigma * c * p + sp.sqrt(c ** 2 * p ** 2 + alpha * q)) * inv_alpha, "friction_load")
+    slip = sigma * c * rho
+    force = tape.temp(_sticks(e) * required + (1 - _sticks(e)) * slip, "friction_force")
+    return [force], [required], [limit]
+
+
+def _events(e: _Element, required, limit) -> tuple[LoweredEvent, LoweredEvent]:
+    """slip: |F_req| rises through the limit while sticking; grip: the slip speed falls through zero while
+    slipping."""
+    stick = _sticks(e)
+    direction_held = sp.Piecewise((-1, required > 0), (1, True))  # where the system accelerates when let go
+    start = sp.Piecewise((1, e.speed > 0), (-1, e.speed < 0), (direction_held, True))
+    slip = LoweredEvent(f"{e.force.name}.slip", stick * (sp.Abs(required) - limit) - e.mode ** 2, 1, False,
+                        (("set", mode_name(e.force.name), start),), e.force.span)
+    after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True))
+    reinit = (("speed", e.coordinate, sp.S.Zero),) if e.coordinate is not None else ()
+    grip = LoweredEvent(f"{e.force.name}.grip", e.mode * e.speed + stick, -1, False,
+                        reinit + (("set", mode_name(e.force.name), after),), e.force.span)
+    return slip, grip
+
+
+__all__ = ["REACTION", "FrictionLowering", "affine_split"]

@@ -1,0 +1,38 @@
+"""The start of a run with switched friction elements (compiler/friction.py): each element's mode from the state.
+
+An element's events only see transitions (the static limit exceeded, the slip speed through zero), so a run that
+starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever.  Before the
+first step every element still in its default stick mode is therefore let go as its slip event would do it,
+when it moves relative to its joint or its holding force exceeds the limit; the new mode is that event's own
+action value (the sign of the slip speed, or the direction the system accelerates in).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Names the compiler gives an element's events and mode (compiler/friction.py, language/friction.py).
+SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
+
+
+def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[str]:
+    """Set data.p's friction modes for the state (t, x); returns the names of the elements let go."""
+    index = {spec.name: k for k, spec in enumerate(model.events)}
+    starting, g = [], None
+    for k, spec in enumerate(model.events):
+        base = spec.name[:-len(SLIP)] if spec.name.endswith(SLIP) else None
+        if base is None or base + GRIP not in index or base + MODE_SUFFIX not in model.p_names:
+            continue
+        if data.p[model.p_names.index(base + MODE_SUFFIX)] != 0:
+            continue  # the user started it sliding
+        speed = [i for array, i, _ in model.events[index[base + GRIP]].assignments if array == "x"]
+        g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
+        if g[k] > 0 or (speed and x[speed[0]] != 0):
+            starting.append(k)
+    if starting:
+        values = data.function("event_actions")(t, x)
+        for k in starting:
+            for array, i, slot in model.events[k].assignments:
+                if array == "p":
+                    data.p[i] = values[slot]
+    return [model.events[k].name[:-len(SLIP)] for k in starting]
