@@ -21,10 +21,8 @@ import dataclasses
 
 from .differentiate import NotDifferentiable, forward_derivatives
 from .equations import Equations
+from .integrator_names import JACOBIAN_INTEGRATORS  # noqa: F401  (where it was defined before)
 from .tree import t
-
-#: Integrators that use a Jacobian: a scene naming one of them gets mbs_jacobian generated.
-JACOBIAN_INTEGRATORS = frozenset({"rodasp", "radau", "bdf", "lsoda", "cvode_bdf", "ida", "auto"})
 
 
 def jacobian_or_none(equations: Equations) -> tuple[Equations, tuple | None]:

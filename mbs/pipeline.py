@@ -13,22 +13,14 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass
-from typing import Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
-import sympy as sp
 
-from mbs.compiler.ccode import generate_c
-from mbs.compiler.constraints import Constraints, derive_constraints
-from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
-from mbs.compiler.events import FROZEN, event_code
-from mbs.compiler.equations import Equations, derive_equations
-from mbs.compiler.jacobian import JACOBIAN_INTEGRATORS
-from mbs.compiler.lower import Lowered, lower
-from mbs.compiler.pycode import generate_numpy
+from mbs.compiler.integrator_names import JACOBIAN_INTEGRATORS
 from mbs.compiler.tyre_relaxation import relaxation_states
-from mbs.compiler.symbolic import parameter_symbol
 from mbs.language import binding
 from mbs.language import expr as X
 from mbs.language import model as M
@@ -36,30 +28,83 @@ from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.quaternions import norm_problem
 
+if TYPE_CHECKING:  # the symbolic stages (sympy) load only when something is derived: a cached run needs none
+    from mbs.compiler.constraints import Constraints
+    from mbs.compiler.equations import Equations
+    from mbs.compiler.lower import Lowered
+
 _log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
+class StateLayout:
+    """What the start of a run needs to know of the tree (plain names and numbers, so that the derivation cache,
+    mbs/derivation_cache.py, can keep it without the symbolic stages)."""
+
+    q_symbols: tuple[str, ...]   # the tree's coordinate symbols in state order ("body.phi")
+    v_symbols: tuple[str, ...]   # its velocity symbols ("body.der(phi)", "body.wx")
+    quaternions: tuple[tuple[str, tuple[int, ...]], ...] = ()   # (body, indices of qw, qx, qy, qz in x)
+    cuts: tuple[str, ...] = ()   # the interactions that close loops
+    constraint_rows: tuple[str, ...] | None = None   # loop-closure rows (None: a tree)
+    z_symbols: tuple[str, ...] = ()   # the extra differential states after q and v (language/states.py)
+
+    @classmethod
+    def of(cls, tree, cuts=(), constraints: Constraints | None = None) -> "StateLayout":
+        quaternions = tuple((body.name, tuple(tree.q_slots[i][-4:])) for i, body in enumerate(tree.bodies)
+                            if body.joint.uses_quaternion)
+        return cls(tuple(s.name for s in tree.q_symbols), tuple(s.name for s in tree.v_symbols), quaternions,
+                   tuple(c.name for c in cuts), tuple(constraints.names) if constraints is not None else None,
+                   tuple(s.name for s in tree.states))
+
+
+@dataclass(frozen=True)
+class Symbolic:
+    """The symbolic stages behind generated code."""
+
+    lowered: Lowered
+    equations: Equations
+    constraints: Constraints | None   # loop-closure constraints of the cut joints (None: a tree)
+
+
+@dataclass(frozen=True)
 class Generated:
-    """The code generator's output and what the runtime needs to know about it."""
+    """The code generator's output and what the runtime needs to know about it.
+
+    The symbolic stages (lowered, equations, constraints) come from `derive` when first asked for: code taken
+    from the derivation cache runs without them, and derives them again only for a caller that needs them."""
 
     model: M.Model
     scene: M.Scene | None
-    lowered: Lowered
-    equations: Equations
     c_source: str
     numpy_source: str   # the same functions for machines without a C compiler
     q_names: tuple[str, ...]
     v_names: tuple[str, ...]
     p_names: tuple[str, ...]
     y_names: tuple[str, ...]
-    constraints: Constraints | None = None   # loop-closure constraints of the cut joints (None: a tree)
+    layout: StateLayout
     events: tuple = ()   # per indicator of mbs_events: name, direction, terminal, assignments, switch (events.py)
+    derive: Callable[[], Symbolic] | None = field(default=None, compare=False, repr=False)
+
+    @cached_property
+    def symbolic(self) -> Symbolic:
+        return self.derive()
+
+    @property
+    def lowered(self) -> Lowered:
+        return self.symbolic.lowered
+
+    @property
+    def equations(self) -> Equations:
+        return self.symbolic.equations
+
+    @property
+    def constraints(self) -> Constraints | None:
+        return self.symbolic.constraints if self.layout.constraint_rows is not None else None
 
     @property
     def z_names(self) -> tuple[str, ...]:
         """Names of the extra differential states (language/states.py), after q and v in the state."""
-        return tuple(s.name for s in self.lowered.tree.states)
+        return self.layout.z_symbols
 
 
 def display_name(symbol_name: str) -> str:
@@ -104,6 +149,14 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
+    from mbs.compiler.ccode import generate_c
+    from mbs.compiler.constraints import derive_constraints
+    from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
+    from mbs.compiler.equations import derive_equations
+    from mbs.compiler.events import FROZEN, event_code
+    from mbs.compiler.lower import lower
+    from mbs.compiler.pycode import generate_numpy
+    from mbs.compiler.symbolic import parameter_symbol
     what = model.name + (f", scene {scene.name}" if scene is not None else "")
     clock = _Phases(what)
     lowered = lower(model, scene)
@@ -155,10 +208,12 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
     clock("generated C and NumPy code")
-    return Generated(model, scene, lowered, equations, c_source, numpy_source,
+    symbolic = Symbolic(lowered, equations, constraints)
+    return Generated(model, scene, c_source, numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     p_names, tuple(name for name, _ in outputs), constraints, event_table)
+                     p_names, tuple(name for name, _ in outputs), StateLayout.of(tree, lowered.cuts, constraints),
+                     event_table, lambda: symbolic)
 
 
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by
@@ -199,11 +254,17 @@ def scene_overrides(scene: M.Scene | None) -> dict[str, X.E]:
 # ------------------------------------------------------------------------------------------ initial state
 def initial_state(generated: Generated, params: Mapping[str, float]) -> np.ndarray:
     """x0 = [q0; v0] in state order: joint init values, then the scene's init statements."""
-    return initial_state_of(generated.model, generated.scene, generated.lowered.tree, params)
+    return initial_state_in(generated.model, generated.scene, generated.layout, params)
 
 
 def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mapping[str, float]) -> np.ndarray:
     """initial_state for a model, a scene (or None) and the tree of their lowering."""
+    return initial_state_in(model, scene, StateLayout.of(tree), params)
+
+
+def initial_state_in(model: M.Model, scene: M.Scene | None, layout: StateLayout,
+                     params: Mapping[str, float]) -> np.ndarray:
+    """initial_state for a model, a scene (or None) and the state layout of their lowering."""
     env = dict(params)
     coords = {c.name: c for c in model.coordinates}
     inits: dict[tuple[str, bool], float] = {}
@@ -213,10 +274,9 @@ def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mappin
     if scene is not None:
         for name, is_speed, value in scene.inits:
             inits[(name, is_speed)] = X.evaluate(value, env)
-    q0 = [inits[(s.name, False)] for s in tree.q_symbols]
+    q0 = [inits[(name, False)] for name in layout.q_symbols]
     v0 = []
-    for s in tree.v_symbols:
-        name = s.name
+    for name in layout.v_symbols:
         if name.endswith(")") and ".der(" in name:
             head, local = name[:-1].split(".der(")
             v0.append(inits[(f"{head}.{local}", True)])
@@ -224,9 +284,9 @@ def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mappin
             head, local = name.rsplit(".", 1)
             v0.append(inits[(f"{head}.q{local[1]}", True)])
     declared = {s.name: s for s in model.states}  # the others are states of force elements (tyre relaxation)
-    z0 = [inits[(s.name, False)] if (s.name, False) in inits
-          else X.evaluate(declared[s.name].init, env) if s.name in declared else 0.0 for s in tree.states]
-    return _normalise_quaternions(np.array(q0 + v0 + z0, dtype=float), tree)
+    z0 = [inits[(name, False)] if (name, False) in inits
+          else X.evaluate(declared[name].init, env) if name in declared else 0.0 for name in layout.z_symbols]
+    return _normalise_quaternions(np.array(q0 + v0 + z0, dtype=float), layout)
 
 
 def fixed_state_names(generated: Generated) -> list[str]:
@@ -247,16 +307,14 @@ def fixed_state_names(generated: Generated) -> list[str]:
     return names
 
 
-def _normalise_quaternions(x: np.ndarray, tree) -> np.ndarray:
-    for i, body in enumerate(tree.bodies):
-        if body.joint.uses_quaternion:
-            slots = [s for s in tree.q_slots[i][-4:]]
-            q = x[slots]
-            norm = math.sqrt(float(q @ q))
-            problem = norm_problem(norm, body.name)
-            if problem is not None and problem[0] == "error":
-                raise MbsError([Diagnostic("error", problem[1], None)])
-            x[slots] = q / norm
+def _normalise_quaternions(x: np.ndarray, layout: StateLayout) -> np.ndarray:
+    for body, slots in layout.quaternions:
+        q = x[list(slots)]
+        norm = math.sqrt(float(q @ q))
+        problem = norm_problem(norm, body)
+        if problem is not None and problem[0] == "error":
+            raise MbsError([Diagnostic("error", problem[1], None)])
+        x[list(slots)] = q / norm
     return x
 
 
@@ -288,4 +346,4 @@ def units_of(generated: Generated) -> dict[str, str]:
     return units
 
 
-__all__ = ["Generated", "generate", "parameter_values", "initial_state", "display_name", "units_of", "sp"]
+__all__ = ["Generated", "generate", "parameter_values", "initial_state", "display_name", "units_of"]

@@ -24,7 +24,7 @@ FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-Wextra"]
 def standalone_source(gen: Generated) -> str:
     """The generated C; with closed loops the run-time loop solver (runtime/c/loops.c) appended, which defines
     the mbs_loop_rhs that mbs_rhs calls, mbs_project, mbs_loop_multipliers, ..."""
-    if gen.constraints is None:
+    if gen.layout.constraint_rows is None:
         return gen.c_source
     return gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
 

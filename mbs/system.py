@@ -28,7 +28,7 @@ from mbs.runtime.results import Results
 from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
 
-from . import pipeline
+from . import derivation_cache, pipeline
 from .quantities import parameter_overrides
 from .gimbal import warn_gimbal
 
@@ -59,9 +59,9 @@ class System:
         and the kinematics of the named frames (mbs.dynamics)."""
         key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
-            self._compiled[key] = pipeline.generate(self.model, self.scene(scene), jacobian=jacobian,
-                                                    parameter_jacobian=parameter_jacobian, dynamics=dynamics,
-                                                    frames=tuple(frames))
+            self._compiled[key] = derivation_cache.generate(
+                self.model, self.scene(scene), cache_dir=self.cache_dir, jacobian=jacobian,
+                parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames))
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
@@ -81,7 +81,7 @@ class System:
                         y_names=gen.y_names, p_default=[params.get(n, 0.0) for n in gen.p_names],
                         events=gen.events,
                         x0=pipeline.initial_state(gen, params), units=pipeline.units_of(gen))
-            if gen.constraints is not None and not (self.backend != "numpy" and _build.have_c_compiler()):
+            if gen.layout.constraint_rows is not None and not (self.backend != "numpy" and _build.have_c_compiler()):
                 raise MbsError([Diagnostic("error", f"model '{self.model.name}' has closed kinematic loops, which "
                                                     "need the C back end (no C compiler found)", None)])
             if self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler()):
@@ -183,11 +183,11 @@ class System:
         data = Workspace(compiled)
         data.p = [values.get(n, 0.0) for n in compiled.p_names]  # switch flags (compiler/events.py) start at 0
         data.x = pipeline.initial_state(gen, values)
-        if gen.constraints is None:
+        rows = gen.layout.constraint_rows
+        if rows is None:
             return data, None
-        spans = {c.name: c.span for c in gen.lowered.topology.cuts}
-        assembly = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen), row_names=gen.constraints.names,
-                            spans=spans)
+        spans = {name: gen.model.interaction_map[name].span for name in gen.layout.cuts}
+        assembly = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen), row_names=rows, spans=spans)
         data.x = assembly.x
         return data, assembly
 

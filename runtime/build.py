@@ -1,8 +1,9 @@
 """Compile a generated model to a CPython extension module, cache it, and load it.
 
-One translation unit is compiled per model: ``<Python.h>``, the generated C source, then the glue
-template ``c/mbs_glue.c`` (which includes the integrators in ``c/``).  One unit lets the compiler inline
-the model into the integrators' inner loops, and keeps every run-time symbol static.
+A small model is compiled as one translation unit: ``<Python.h>``, the generated C source, then the glue
+template ``c/mbs_glue.c`` (which includes the integrators in ``c/``).  A large one (runtime/units.py) is split
+into the glue unit and a few units of the model's functions, compiled at once (as many jobs as cores, the
+biggest first) and linked; only the module's init function is exported (-fvisibility=hidden).
 
 The result is cached under a hash of everything that can change the binary: the model source, the
 run-time C files, the flags, the compiler's version, the Python and NumPy versions.  A fresh build is
@@ -25,6 +26,7 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -33,18 +35,24 @@ import numpy as np
 
 from mbs.base.cachedir import default_cache_dir as _default_cache_dir
 from . import cache as _cache
+from . import units as _units
 from .errors import BuildError, EvaluationError
 
 #: Bump when the layout of the build unit changes in a way the hashed inputs do not show.
-BUILD_FORMAT = 1
+BUILD_FORMAT = 2
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The run-time C files compiled into every model (all hashed).
 RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c", "loops.c", "mbs_glue.c")
 #: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
 FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
+#: Appended to the flags of the model's units in a split build (runtime/units.py), chosen from what
+#: bench/optlevels.py measures: the glue unit (integrators, loop solver) keeps FLAGS.
+MODEL_UNIT_FLAGS: tuple[str, ...] = ()
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
 PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
 CACHE_ENV = "MBS_CACHE_DIR"
+#: How many compiler processes a split build runs at once (default: the cores this process may use).
+JOBS_ENV = "MBS_BUILD_JOBS"
 
 _LOADED: dict[str, ModuleType] = {}
 
@@ -125,6 +133,68 @@ def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
     return h.hexdigest()
 
 
+def _build_files(code: str, filename: str) -> dict[str, str]:
+    """{file name: text} to compile: one unit, or the split model (runtime/units.py) and the glue unit."""
+    split = _units.split_sources(code, filename)
+    if split is None:
+        return {"unit.c": _unit_source(code, filename)}
+    glue = ("/* glue unit written by mbs.runtime.build: do not edit */\n"
+            "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n#include \"model.h\"\n"
+            "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
+    return {**split, _units.GLUE_UNIT: glue}
+
+
+def _joined(files: dict[str, str]) -> str:
+    """All files as one text (the cache key's input and the inspection copy beside the module)."""
+    if list(files) == ["unit.c"]:
+        return files["unit.c"]
+    return "\n".join(f"/* ==== {name} ==== */\n{text}" for name, text in files.items())
+
+
+def build_jobs() -> int:
+    """Compiler processes at once: $MBS_BUILD_JOBS, else the cores this process may run on."""
+    try:
+        return max(1, int(os.environ[JOBS_ENV]))
+    except (KeyError, ValueError):
+        pass
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...],
+             module_name: str, tmp: Path, filename: str) -> str:
+    """Compile the files in `tmp` into tmp/module.so; the compiler's messages. Raises BuildError."""
+    for name, text in files.items():
+        (tmp / name).write_text(text, encoding="utf-8")
+    includes = (f"-DMBS_MODULE_NAME={module_name}", f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}",
+                f"-I{np.get_include()}")
+    if list(files) == ["unit.c"]:
+        command = (*cc, *flags, *includes, "unit.c", "-o", "module.so", "-lm")
+        return _run(command, tmp, filename)
+    compile_flags = tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
+    sources = sorted((n for n in files if n.endswith(".c")), key=lambda n: -len(files[n]))  # biggest first
+    commands = [(*cc, *compile_flags, *(() if name == _units.GLUE_UNIT else model_flags), *includes, "-c", name,
+                 "-o", name[:-2] + ".o") for name in sources]
+    with ThreadPoolExecutor(max_workers=build_jobs()) as pool:
+        outputs = list(pool.map(lambda command: _run(command, tmp, filename), commands))
+    objects = [name[:-2] + ".o" for name in sources]
+    link = (*cc, *flags, "-fvisibility=hidden", *objects, "-o", "module.so", "-lm")
+    return "".join(outputs) + _run(link, tmp, filename)
+
+
+def _run(command: tuple[str, ...], cwd: Path, filename: str) -> str:
+    try:
+        proc = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
+    except OSError as exc:
+        raise BuildError(f"cannot run the C compiler {shlex.join(command[:1])}: {exc}", "", command) from None
+    output = proc.stderr + proc.stdout
+    if proc.returncode != 0:
+        raise BuildError(f"compiling {filename} failed", output, command)
+    return output
+
+
 def build_file(path: str | os.PathLike, **options) -> BuildResult:
     """:func:`build` the generated C file at ``path``.  Compiler messages name the file by its base name,
     which keeps the cache key independent of where the file lies."""
@@ -133,16 +203,19 @@ def build_file(path: str | os.PathLike, **options) -> BuildResult:
 
 
 def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
-          extra_flags: tuple[str, ...] = ()) -> BuildResult:
+          extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> BuildResult:
     """Compile generated C source text into a cached extension module.
 
-    ``filename`` is the name compiler messages use for the model.  Raises BuildError with the
-    compiler's messages when compilation fails.
+    ``filename`` is the name compiler messages use for the model.  extra_flags: appended to every compiler
+    call; model_flags: appended to those of the model's units of a split build (default MODEL_UNIT_FLAGS).
+    Raises BuildError with the compiler's messages when compilation fails.
     """
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    unit = _unit_source(code, filename)
-    key = _hash(unit, flags, cc)
+    model_flags = MODEL_UNIT_FLAGS if model_flags is None else tuple(model_flags)
+    files = _build_files(code, filename)
+    unit = _joined(files)
+    key = _hash(unit, flags + (("model units:", *model_flags) if len(files) > 1 else ()), cc)
     module_name = f"mbs_model_{key[:24]}"
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
@@ -160,18 +233,9 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
         raise BuildError(f"the build cache {cache} cannot be used ({why}): set {CACHE_ENV} to a writable "
                          "folder") from None
     try:
+        output = _compile(files, flags, model_flags, cc, module_name, tmp, filename)
+        # keep the sources beside the module for inspection (one file); both appear atomically
         (tmp / "unit.c").write_text(unit, encoding="utf-8")
-        command = (*cc, *flags, f"-DMBS_MODULE_NAME={module_name}", f"-I{C_DIR}",
-                   f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}",
-                   "unit.c", "-o", "module.so", "-lm")
-        try:
-            proc = subprocess.run(command, cwd=tmp, capture_output=True, text=True)
-        except OSError as exc:
-            raise BuildError(f"cannot run the C compiler {shlex.join(cc)}: {exc}", "", command) from None
-        output = proc.stderr + proc.stdout
-        if proc.returncode != 0:
-            raise BuildError(f"compiling {filename} failed", output, command)
-        # keep the unit beside the module for inspection; both appear atomically
         os.replace(tmp / "unit.c", cache / (module_name + ".c"))
         os.replace(tmp / "module.so", target)
         _cache.record(target, key, unit)

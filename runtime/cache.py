@@ -22,16 +22,22 @@ from mbs.base.atomic import write_text_atomic
 
 EXT_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 PREFIX = "mbs_model_"
+DERIVED_PREFIX = "mbs_derived_"
 
 
 @dataclass(frozen=True)
 class Entry:
     """One cached model: its module, record and the unit's C source (any may be missing)."""
 
-    name: str               #: the module name, mbs_model_<key prefix>
-    module: Path
+    name: str               #: the module name, mbs_model_<key prefix> (mbs_derived_<key prefix>: a derivation)
+    module: Path            #: the compiled module (a derivation: its one file)
     record: dict | None     #: the JSON record (None: missing or unreadable)
     files: tuple[Path, ...]  #: every file of the entry (module, record, C unit)
+
+    @property
+    def kind(self) -> str:
+        """'build' (a compiled model) or 'derivation' (derived equations and generated code)."""
+        return "derivation" if self.name.startswith(DERIVED_PREFIX) else "build"
 
     @property
     def size(self) -> int:
@@ -109,18 +115,85 @@ def problem(module: Path) -> str | None:
 
 
 def entries(cache: Path) -> list[Entry]:
-    """Every cached model in `cache`, oldest first."""
+    """Every cached model and derivation in `cache`, oldest first."""
     if not cache.is_dir():
         return []
     groups: dict[str, list[Path]] = {}
+    derived = []
     for path in cache.iterdir():
+        if path.name.startswith(DERIVED_PREFIX) and path.name.endswith(".json") and path.is_file():
+            derived.append(Entry(path.name[:-5], path, read_derived_record(path), (path,)))
+            continue
         if not path.name.startswith(PREFIX) or not path.is_file():
             continue
         stem = path.name[: -len(EXT_SUFFIX)] if path.name.endswith(EXT_SUFFIX) else path.name.rsplit(".", 1)[0]
         groups.setdefault(stem, []).append(path)
     out = [Entry(stem, cache / (stem + EXT_SUFFIX), read_record(cache / (stem + EXT_SUFFIX)), tuple(sorted(files)))
            for stem, files in groups.items()]
-    return sorted(out, key=lambda e: e.built)
+    return sorted(out + derived, key=lambda e: e.built)
+
+
+def entry_problem(entry: Entry) -> str | None:
+    """Why an entry of either kind must not be loaded (None: it is what was written)."""
+    if entry.kind == "derivation":
+        return read_derived(entry.module)[1]
+    return problem(entry.module) if entry.module.exists() else "the compiled module is missing"
+
+
+# ------------------------------------------------------------------------------------------ derivations
+def write_derived(path: Path, payload: dict, model: str) -> None:
+    """Write a derivation entry atomically: the record line, then the payload as JSON."""
+    body = json.dumps(payload, separators=(",", ":")).encode()
+    head = {"size": len(body), "sha256": hashlib.sha256(body).hexdigest(), "built": time.time(), "model": model}
+    write_text_atomic(path, json.dumps(head) + "\n" + body.decode())
+
+
+def read_derived_record(path: Path) -> dict | None:
+    """The record line of a derivation entry (None: missing or unreadable)."""
+    try:
+        with open(path, "rb") as f:
+            data = json.loads(f.readline())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def read_derived(path: Path) -> tuple[dict | None, str | None]:
+    """(payload, None) of an intact derivation entry that only its owner can write, else (None, why not)."""
+    try:
+        owner_problem = _foreign(path)
+        if owner_problem:
+            return None, owner_problem
+        raw = path.read_bytes()
+    except OSError as exc:
+        return None, f"it cannot be read ({exc.strerror})"
+    head, _, body = raw.partition(b"\n")
+    try:
+        record = json.loads(head)
+    except ValueError:
+        return None, "it has no valid record"
+    if not isinstance(record, dict) or len(body) != record.get("size"):
+        return None, f"its size is {len(body)} bytes, {record.get('size') if isinstance(record, dict) else '?'} " \
+                     "when it was written"
+    if hashlib.sha256(body).hexdigest() != record.get("sha256"):
+        return None, "its content differs from what was written (SHA-256 mismatch)"
+    try:
+        payload = json.loads(body)
+    except ValueError:
+        return None, "its content is not valid JSON"
+    return (payload, None) if isinstance(payload, dict) else (None, "its content is not a derivation")
+
+
+def _foreign(path: Path) -> str | None:
+    """Why another user could have written the file (None: only its owner, who runs this, can)."""
+    if not hasattr(os, "getuid"):  # no POSIX owners (Windows): the cache folder is in the user's profile
+        return None
+    st = path.stat()
+    if st.st_uid != os.getuid():
+        return "it belongs to another user"
+    if st.st_mode & 0o022:
+        return "others can write it"
+    return None
 
 
 def remove(entry: Entry) -> int:

@@ -1,4 +1,4 @@
-"""cache: list, clean and verify the build cache of compiled models."""
+"""cache: list, clean and verify the build cache of compiled models and derived equations."""
 
 from __future__ import annotations
 
@@ -7,12 +7,13 @@ import time
 
 
 class Cache:
-    help = "the build cache of compiled models: list entries, clean them (all or older than N days), verify them"
+    help = ("the build cache of compiled models and derived equations: list entries, clean them (all or older than "
+            "N days), verify them")
 
     @staticmethod
     def arguments(p):
         sub = p.add_subparsers(dest="action", metavar="ACTION", required=True)
-        sub.add_parser("list", help="every cached model: size, age, the model it was built from")
+        sub.add_parser("list", help="every cached model and derivation: size, age, the model it came from")
         clean = sub.add_parser("clean", help="delete cached models (all of them, or those older than --older-than)")
         clean.add_argument("--older-than", type=float, metavar="DAYS", help="only entries built more than DAYS ago")
         verify = sub.add_parser("verify", help="check every entry against its build record; exit 1 if one is "
@@ -51,7 +52,8 @@ def _list(folder, args) -> int:
     entries = cache.entries(folder)
     now = time.time()
     for e in entries:
-        print(f"{e.name}  {_size(e.size):>9}  {_age(now - e.built):>8} old  {e.model}")
+        kind = "  (derived equations)" if e.kind == "derivation" else ""
+        print(f"{e.name}  {_size(e.size):>9}  {_age(now - e.built):>8} old  {e.model}{kind}")
     total = sum(e.size for e in entries)
     print(f"{len(entries)} entr{'y' if len(entries) == 1 else 'ies'}, {_size(total)} in {folder}")
     return 0
@@ -82,7 +84,7 @@ def _verify(folder, args) -> int:
     entries = cache.entries(folder)
     damaged = 0
     for e in entries:
-        why = cache.problem(e.module) if e.module.exists() else "the compiled module is missing"
+        why = cache.entry_problem(e)
         if why is None:
             continue
         damaged += 1

@@ -52,9 +52,9 @@ class ModelPackage:
         info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names, z_names=compiled.z_names,
                     p_names=compiled.p_names, y_names=compiled.y_names, p_default=np.array(compiled.p_default),
                     x0=np.array(compiled.x0), units=dict(compiled.units))
-        loops = dict(loops=gen.constraints is not None,
-                     fixed=tuple(pipeline.fixed_state_names(gen)) if gen.constraints is not None else (),
-                     rows=tuple(gen.constraints.names) if gen.constraints is not None else ())
+        rows = gen.layout.constraint_rows
+        loops = dict(loops=rows is not None, fixed=tuple(pipeline.fixed_state_names(gen)) if rows is not None else (),
+                     rows=tuple(rows or ()))
         if compiled.backend.kind == "c":
             module = compiled.backend.module
             return cls(key=module.__name__, kind="c", module_name=module.__name__,

@@ -2,6 +2,7 @@
 
 The adapter drives one scipy OdeSolver with the model's right-hand side (a C function called from
 Python, or the NumPy back end) and translates its status into ours.  Each method is one line of data.
+scipy.integrate (a third of a second to import) loads when a scipy method first runs, not with the registry.
 """
 
 from __future__ import annotations
@@ -9,7 +10,6 @@ from __future__ import annotations
 from typing import ClassVar
 
 import numpy as np
-from scipy import integrate
 
 from ..errors import EvaluationError, status_text
 from .base import DenseOutput, OdeSolver
@@ -28,12 +28,14 @@ class _ScipyDense(DenseOutput):
 
 
 class ScipyMethod(OdeSolver):
-    """Adapter for one scipy.integrate OdeSolver class (``scipy_class``)."""
+    """Adapter for one scipy.integrate OdeSolver class (named ``scipy_name``; ``scipy_class`` once running)."""
 
-    scipy_class: ClassVar[type]
+    scipy_name: ClassVar[str]
 
     def __init__(self, fun, t0, y0, t_bound, **options):
+        from scipy import integrate
         super().__init__(fun, t0, y0, t_bound, **options)
+        self.scipy_class = getattr(integrate, self.scipy_name)
         kwargs = {"rtol": self.rtol, "atol": self.atol, "max_step": self.max_step}
         if self.first_step is not None:
             kwargs["first_step"] = min(self.first_step, max(t_bound - t0, 1e-300))
@@ -79,15 +81,15 @@ def _step_size(s) -> float:
     return float(np.abs(h))
 
 
-def _adapter(scipy_class: type, name: str, description: str) -> type[ScipyMethod]:
-    cls = type(name, (ScipyMethod,), {"scipy_class": scipy_class, "name": name, "description": description,
+def _adapter(scipy_name: str, name: str, description: str) -> type[ScipyMethod]:
+    cls = type(name, (ScipyMethod,), {"scipy_name": scipy_name, "name": name, "description": description,
                                       "__doc__": f"scipy's {name} through the common interface: {description}."})
     cls.__module__ = __name__
     return register(cls)
 
 
-RK45 = _adapter(integrate.RK45, "RK45", "explicit Runge-Kutta 5(4), Python loop")
-DOP853 = _adapter(integrate.DOP853, "DOP853", "explicit Runge-Kutta 8(5,3), Python loop")
-Radau = _adapter(integrate.Radau, "Radau", "implicit Runge-Kutta Radau IIA order 5, stiff")
-BDF = _adapter(integrate.BDF, "BDF", "backward differentiation formulas, stiff")
-LSODA = _adapter(integrate.LSODA, "LSODA", "Adams/BDF with automatic stiffness switching")
+RK45 = _adapter("RK45", "RK45", "explicit Runge-Kutta 5(4), Python loop")
+DOP853 = _adapter("DOP853", "DOP853", "explicit Runge-Kutta 8(5,3), Python loop")
+Radau = _adapter("Radau", "Radau", "implicit Runge-Kutta Radau IIA order 5, stiff")
+BDF = _adapter("BDF", "BDF", "backward differentiation formulas, stiff")
+LSODA = _adapter("LSODA", "LSODA", "Adams/BDF with automatic stiffness switching")

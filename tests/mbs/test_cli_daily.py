@@ -78,11 +78,12 @@ def test_help_and_check_do_not_load_sympy_or_scipy():
     assert proc.stdout.strip().splitlines()[-1] == "[]"
 
 
-def test_slow_compile_phases_are_noted_without_verbose(capsys, monkeypatch):
+def test_slow_compile_phases_are_noted_without_verbose(capsys, monkeypatch, tmp_path):
     """A compile phase over SLOW_PHASE seconds is shown by default (a long compile in a CI log is not silent);
-    here every phase counts as slow."""
+    here every phase counts as slow. A fresh cache: a derivation cached before would run no phase at all."""
     from mbs import pipeline
     monkeypatch.setattr(pipeline, "SLOW_PHASE", -1.0)
+    monkeypatch.setenv("MBS_CACHE_DIR", str(tmp_path))
     assert main(["simulate", PENDULUM, "--t-end", "0.1"]) == 0
     err = capsys.readouterr().err
     assert "derived the equations of motion in" in err and "compiling pendulum" not in err  # start line: -v

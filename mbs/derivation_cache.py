@@ -1,0 +1,142 @@
+"""Derived equations kept by the model's content, so that a second run of a model does not derive them again.
+
+Deriving the Iltis (lowering, the symbolic Newton-Euler equations, code generation) takes about 2 s; everything
+after it (the compiled library in the build cache, equilibrium, integration) takes less. The generated code and
+what the run needs besides it (state, parameter and output names, the start's layout, the event table) are kept
+under a key of everything that can change them:
+
+* the validated model with its scenes left out: every imported file's content is in it (the spans' positions too,
+  so an edit anywhere gives a new key), and the path the model was read from (the C's header comment names it);
+* of the scene only what the derivation reads: its inputs and outputs. Scenes that differ in parameters, initial
+  values or settings share one entry (and one compiled library);
+* the options that change the code (Jacobian, parameter Jacobian, dynamics functions, frames);
+* the derivation's own source (every file of mbs.language, mbs.compiler, this module and mbs.pipeline) and the
+  versions of sympy and Python.
+
+Entries are JSON files in the build cache (runtime/cache.py: checked against their record, read only when the
+user alone can write them, listed, cleaned and verified by `mbs cache`); a damaged one is derived again with a
+note. A model whose content has no stable text (an object without a value representation) is never cached.
+What the symbolic stages themselves hold (Generated.lowered, .equations, .constraints) is not kept: a caller that
+asks for them gets them derived again, once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import hashlib
+import importlib.metadata
+import logging
+import sys
+from pathlib import Path
+
+from mbs.base.cachedir import default_cache_dir
+from mbs.language import model as M
+from mbs.runtime import cache as _cache
+
+from . import pipeline
+
+#: Bump when what is kept, or how it is read back, changes in a way the hashed sources do not show.
+FORMAT = 1
+_log = logging.getLogger("mbs.cache")
+_PACKAGE = Path(__file__).resolve().parent.parent
+
+
+@functools.lru_cache(maxsize=1)
+def derivation_fingerprint() -> str:
+    """SHA-256 of the code that derives: the language and compiler packages, this module, the pipeline, and the
+    versions of sympy (its simplifications shape the generated text) and Python."""
+    import mbs.compiler
+    import mbs.language
+    h = hashlib.sha256()
+    files = [Path(__file__), Path(pipeline.__file__)]
+    for package in (mbs.language, mbs.compiler):
+        folder = Path(package.__file__).parent
+        files += sorted(p for p in folder.rglob("*") if p.suffix in (".py", ".lark") and p.is_file())
+    for path in files:
+        data = path.read_bytes()
+        h.update(f"{path.name}:{len(data)}:".encode())
+        h.update(data)
+    h.update(f"sympy {_version('sympy')}, python {sys.version}".encode())
+    return h.hexdigest()
+
+
+def _version(distribution: str) -> str:
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def derivation_key(model: M.Model, scene: M.Scene | None, options: dict) -> str | None:
+    """The hex SHA-256 of everything the derivation reads (None: the model has no stable text to key on)."""
+    content = repr(dataclasses.replace(model, scenes=()))
+    # a scene's outputs without their spans: scenes asking for the same outputs in other lines share an entry
+    wanted = repr((scene.inputs, [(o.name, o.value, o.unit) for o in scene.outputs])) if scene is not None \
+        else "no scene"
+    if " at 0x" in content or " at 0x" in wanted:  # an object's address: the text differs in every process
+        return None
+    h = hashlib.sha256()
+    for label, text in (("format", str(FORMAT)), ("code", derivation_fingerprint()),
+                        ("path", model.span.source.path), ("model", content), ("scene", wanted),
+                        ("options", repr(sorted(options.items())))):
+        h.update(f"{label}:{len(text)}:".encode())
+        h.update(text.encode())
+    return h.hexdigest()
+
+
+def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,
+             parameter_jacobian: bool = False, dynamics: bool = False,
+             frames: tuple[str, ...] = ()) -> pipeline.Generated:
+    """pipeline.generate, taken from the derivation cache when the same content was derived before."""
+    if jacobian is None:  # the scene's integrator decides; resolved here so the key holds what the code holds
+        jacobian = pipeline.needs_jacobian(scene)
+    options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
+                   frames=tuple(frames))
+    key = derivation_key(model, scene, options)
+    if key is None:
+        return pipeline.generate(model, scene, **options)
+    path = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    path = path / f"{_cache.DERIVED_PREFIX}{key[:32]}.json"
+    derive = functools.partial(_derive_symbolic, model, scene, options)
+    if path.exists():
+        payload, damage = _cache.read_derived(path)
+        if payload is not None and payload.get("key") == key:
+            _log.info("derivation of %s: cache hit (%s)", model.name, path.name)
+            return _from_payload(model, scene, payload, derive)
+        _log.warning(f"note: the cached derivation {path.name} is not used ({damage or 'its key differs'}); "
+                     "deriving the equations again")
+    generated = pipeline.generate(model, scene, **options)
+    try:
+        _cache.write_derived(path, _payload(generated, key), _label(model, scene))
+    except OSError as exc:  # a read-only cache still runs, only slower next time
+        _log.warning(f"note: the derivation of {model.name} is not cached ({exc.strerror or exc})")
+    return generated
+
+
+def _derive_symbolic(model, scene, options) -> pipeline.Symbolic:
+    return pipeline.generate(model, scene, **options).symbolic
+
+
+def _label(model: M.Model, scene: M.Scene | None) -> str:
+    where = Path(model.span.source.path).name
+    return f"{model.name} ({where}{', scene ' + scene.name if scene is not None else ''})"
+
+
+def _payload(gen: pipeline.Generated, key: str) -> dict:
+    return {"key": key, "c_source": gen.c_source, "numpy_source": gen.numpy_source, "q_names": gen.q_names,
+            "v_names": gen.v_names, "p_names": gen.p_names, "y_names": gen.y_names,
+            "layout": dataclasses.asdict(gen.layout), "events": [dict(e) for e in gen.events]}
+
+
+def _from_payload(model, scene, payload: dict, derive) -> pipeline.Generated:
+    layout = payload["layout"]
+    rows = layout["constraint_rows"]
+    state = pipeline.StateLayout(tuple(layout["q_symbols"]), tuple(layout["v_symbols"]),
+                                 tuple((body, tuple(slots)) for body, slots in layout["quaternions"]),
+                                 tuple(layout["cuts"]), tuple(rows) if rows is not None else None,
+                                 tuple(layout.get("z_symbols", ())))
+    events = tuple({**e, "assignments": tuple(tuple(a) for a in e["assignments"])} for e in payload["events"])
+    return pipeline.Generated(model, scene, payload["c_source"], payload["numpy_source"],
+                              tuple(payload["q_names"]), tuple(payload["v_names"]), tuple(payload["p_names"]),
+                              tuple(payload["y_names"]), state, events, derive)

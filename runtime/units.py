@@ -1,0 +1,171 @@
+"""Split a generated model into translation units that the C compiler builds in parallel.
+
+A large model (the Iltis: 850 kB of C, seven big straight-line functions) compiles for many seconds as one unit,
+on one core. The generated file (compiler/ccode.py) has a fixed layout, which this module reads:
+
+    header comment, #include, #define sizes, static const arrays      -> model.h, shared by every unit
+    static helper functions (mbs_all_finite, mbs_lookup, tables ...)  -> copied into the units that call them
+    the contract's functions (int mbs_rhs(...) { ... }, name tables)  -> model_1.c .. model_n.c, by size
+
+model.h ends with the prototype of every contract function, so the units may call each other, and the glue unit
+(<Python.h>, model.h, c/mbs_glue.c with the integrators) sees them all. Static helpers go only where they are
+called, so no unit defines a function it does not use (-Wall stays quiet). Each function keeps its place in
+the generated file for the compiler's messages (#line). A text not in this layout (a hand-written model) is
+built as one unit, as before.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+#: Below this much generated C one unit compiles faster than several (each unit parses the header again).
+SPLIT_MIN_CHARS = 96_000
+#: The size a model unit aims for; the number of units follows from the text alone (never from the machine's
+#: cores), so the cache key of a model is the same everywhere.
+UNIT_CHARS = 120_000
+MAX_MODEL_UNITS = 8
+GLUE_UNIT = "glue.c"
+
+_DEFINITION = re.compile(r"^(?:int|double|void|const char \*)\s*(mbs_\w+)\(([^;{}]*)\)$")
+_STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
+
+
+@dataclass(frozen=True)
+class Block:
+    """A top-level function of the generated file: its name, text (leading comment to closing brace), the
+    line of the file where that text starts, and its prototype."""
+
+    name: str
+    text: str
+    line: int
+    prototype: str
+
+
+@dataclass(frozen=True)
+class Layout:
+    """The generated file read as shared header, static helpers and contract functions."""
+
+    header: str
+    helpers: tuple[Block, ...]
+    functions: tuple[Block, ...]
+
+
+def read_layout(code: str) -> Layout | None:
+    """The layout of a generated file; None when the text is not laid out as compiler/ccode.py writes it."""
+    lines = code.split("\n")
+    header: list[str] = []
+    helpers: list[Block] = []
+    functions: list[Block] = []
+    pending: list[str] = []  # lines since the last function: header text, then maybe the next one's comment
+    i = 0
+    while i < len(lines):
+        line = lines[i]
+        match = _DEFINITION.match(line) or _STATIC_FUNCTION.match(line)
+        if match is None:
+            pending.append(line)
+            i += 1
+            continue
+        end = _closing_brace(lines, i + 1)
+        if end is None:
+            return None
+        comment = _trailing_comment(pending)
+        rest = pending[:len(pending) - comment]
+        if functions and any(text.strip() for text in rest):
+            return None  # something else between the contract functions: not the layout we know
+        header += rest
+        first = i - comment
+        block = Block(match.group(1), "\n".join(lines[first:end + 1]), first + 1, f"{line};")
+        if line.startswith("static"):
+            if functions:
+                return None  # a helper after the contract functions: not the layout we know
+            helpers.append(block)
+        else:
+            functions.append(block)
+        pending = []
+        i = end + 1
+    if not functions or any(text.strip() for text in pending):
+        return None
+    return Layout("\n".join(header), tuple(helpers), tuple(functions))
+
+
+def _trailing_comment(lines: list[str]) -> int:
+    """How many of the last lines form the block comment right above a function (0: none)."""
+    if not lines or not lines[-1].rstrip().endswith("*/"):
+        return 0
+    for k in range(len(lines) - 1, -1, -1):
+        if lines[k].startswith("/*"):
+            return len(lines) - k
+        if not lines[k].startswith(" *"):
+            return 0
+    return 0
+
+
+def _closing_brace(lines: list[str], i: int) -> int | None:
+    """The line of the function's closing brace: its body opens with '{' on line i and ends at the first line
+    that is exactly '}' (the generator indents everything inside a function)."""
+    if i >= len(lines) or lines[i] != "{":
+        return None
+    for k in range(i + 1, len(lines)):
+        if lines[k] == "}":
+            return k
+    return None
+
+
+def split_sources(code: str, filename: str) -> dict[str, str] | None:
+    """{file name: text} of model.h and model_1.c .. model_n.c (without the glue unit); None: build one unit."""
+    if len(code) < SPLIT_MIN_CHARS:
+        return None
+    layout = read_layout(code)
+    if layout is None:
+        return None
+    where = _c_string(filename)
+    prototypes = "\n".join(b.prototype for b in layout.functions)
+    files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.units: do not edit */\n"
+                         f"#line 1 \"{where}\"\n{layout.header}\n"
+                         "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
+                         f"{prototypes}\n")}
+    for k, group in enumerate(_balanced(layout.functions), start=1):
+        texts = [f"/* Unit {k} of {filename} (mbs.runtime.units): do not edit */", '#include "model.h"']
+        body = "\n".join(b.text for b in group)
+        for helper in _helpers_for(body, layout.helpers):
+            texts += [f"#line {helper.line} \"{where}\"", helper.text]
+        for block in group:
+            texts += [f"#line {block.line} \"{where}\"", block.text]
+        files[f"model_{k}.c"] = "\n".join(texts) + "\n"
+    return files
+
+
+def _balanced(functions: tuple[Block, ...]) -> list[list[Block]]:
+    """The functions in groups of about UNIT_CHARS (largest first onto the lightest group), in file order."""
+    total = sum(len(b.text) for b in functions)
+    n = max(1, min(MAX_MODEL_UNITS, len(functions), round(total / UNIT_CHARS)))
+    loads = [0] * n
+    member: dict[str, int] = {}
+    for block in sorted(functions, key=lambda b: -len(b.text)):
+        k = loads.index(min(loads))
+        member[block.name] = k
+        loads[k] += len(block.text)
+    groups: list[list[Block]] = [[] for _ in range(n)]
+    for block in functions:
+        groups[member[block.name]].append(block)
+    return [g for g in groups if g]
+
+
+def _helpers_for(body: str, helpers: tuple[Block, ...]) -> list[Block]:
+    """The static helpers `body` calls, with those they call in turn, in file order."""
+    wanted: set[str] = set()
+    text = body
+    changed = True
+    while changed:
+        changed = False
+        for h in helpers:
+            if h.name not in wanted and re.search(rf"\b{h.name}\b", text):
+                wanted.add(h.name)
+                text += "\n" + h.text
+                changed = True
+    return [h for h in helpers if h.name in wanted]
+
+
+def _c_string(text: str) -> str:
+    return text.replace("\\", "\\\\").replace('"', '\\"')

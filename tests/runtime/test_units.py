@@ -1,0 +1,111 @@
+"""Split builds (runtime/units.py): the generated file read as header, helpers and functions; every function in
+exactly one unit, helpers only where called; the split library computes what the one-unit library computes."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbs
+from mbs.runtime import build, units
+
+ROOT = Path(__file__).resolve().parents[2]
+SLIDER_CRANK = ROOT / "library" / "examples" / "slider_crank.mbs"
+TABLES = ROOT / "library" / "examples" / "two_mass_quarter_car.mbs"
+
+
+@pytest.fixture(scope="module")
+def generated():
+    """The generated C of a closed-loop model and of a tree with outputs."""
+    return {"slider_crank": mbs.load(SLIDER_CRANK).generate().c_source,
+            "quarter_car": mbs.load(TABLES).generate().c_source}
+
+
+def test_the_generated_layout_is_read_back_whole(generated):
+    for code in generated.values():
+        layout = units.read_layout(code)
+        assert layout is not None
+        names = [b.name for b in layout.functions]
+        assert {"mbs_rhs", "mbs_mass_matrix", "mbs_forces", "mbs_qdot", "mbs_state_name"} <= set(names)
+        assert all(h.name in ("mbs_all_finite", "mbs_positive_definite", "mbs_sign", "mbs_lookup")
+                   or re.fullmatch(r"mbs_table_\d+", h.name) for h in layout.helpers)
+        assert "#define MBS_NWORK" in layout.header and "mbs_rhs(" not in layout.header
+        # nothing lost, nothing twice: every line of the file (but trailing blank ones) is in the header or in
+        # exactly one block
+        pieces = [layout.header, *(b.text for b in layout.helpers + layout.functions)]
+        assert sum(p.count("\n") + 1 for p in pieces) == code.rstrip("\n").count("\n") + 1
+        for block in layout.helpers + layout.functions:
+            assert code.split("\n")[block.line - 1:block.line - 1 + block.text.count("\n") + 1] == \
+                   block.text.split("\n")
+
+
+def test_a_hand_written_text_is_built_as_one_unit():
+    text = (ROOT / "tests" / "runtime" / "fixtures" / "pendulum.c").read_text()
+    assert units.split_sources(text * 40, "pendulum.c") is None  # duplicate definitions: not the layout
+    assert units.split_sources("int mbs_rhs(void);\n" * 10_000, "x.c") is None
+
+
+def test_every_function_lands_in_one_unit_with_the_helpers_it_calls(generated, monkeypatch):
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 2_000)
+    files = units.split_sources(generated["slider_crank"], "slider_crank.c")
+    layout = units.read_layout(generated["slider_crank"])
+    bodies = {name: text for name, text in files.items() if name.startswith("model_")}
+    assert len(bodies) > 2
+    for block in layout.functions:
+        assert sum(block.text in text for text in bodies.values()) == 1
+        assert block.prototype in files["model.h"]
+    for text in bodies.values():
+        for helper in layout.helpers:
+            defined = helper.text in text
+            called = re.search(rf"\b{helper.name}\(", text.replace(helper.text, "")) is not None
+            assert defined == called, helper.name
+
+
+@pytest.mark.parametrize("path", [SLIDER_CRANK, TABLES], ids=lambda p: p.stem)
+def test_a_split_build_computes_what_one_unit_computes(path, tmp_path, monkeypatch):
+    """Both libraries built from the same text, without a compiler warning; rhs, outputs and the loop solver's
+    results agree to the last bit at a few states."""
+    system = mbs.load(path)
+    gen = system.generate()
+    single = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path / "one")
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    split = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path / "split")
+    assert split.key != single.key and split.warnings == "" and single.warnings == ""
+    assert "/* ==== glue.c ==== */" in (split.path.parent / (split.module_name + ".c")).read_text()
+    a, b = build.load(single), build.load(split)
+    assert (a.NQ, a.NV, a.NWORK) == (b.NQ, b.NV, b.NWORK)
+    compiled = system.compile()
+    rng = np.random.default_rng(1)
+    p = np.zeros(a.NP)  # the parameters, then the switch flags at 0
+    p[:len(compiled.p_default)] = compiled.p_default
+    names = [name for name, _ in a.FUNCTIONS]
+    assert names == [name for name, _ in b.FUNCTIONS] and "rhs" in names
+    for _ in range(3):
+        x = np.asarray(compiled.x0) + 0.01 * rng.standard_normal(a.NX)
+        for name in names:
+            if name in ("inverse_dynamics",):
+                continue
+            fa = a.Function(name, p, np.zeros(a.NWORK))
+            fb = b.Function(name, p, np.zeros(b.NWORK))
+            try:
+                ya = fa(0.1, x)
+            except Exception as exc:  # the same status from both
+                with pytest.raises(type(exc)):
+                    fb(0.1, x)
+                continue
+            assert np.array_equal(ya, fb(0.1, x), equal_nan=True), name
+
+
+def test_compiler_messages_name_the_line_of_the_generated_file(generated, tmp_path, monkeypatch):
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    code = generated["quarter_car"]
+    lines = code.split("\n")
+    at = lines.index(next(line for line in lines if line.startswith("int mbs_qdot("))) + 2
+    lines.insert(at, "    int unused_here;")
+    result = build.build("\n".join(lines), filename="qc.c", cache_dir=tmp_path)
+    assert f"qc.c:{at + 1}:" in result.warnings and "unused_here" in result.warnings
