@@ -1,7 +1,7 @@
 """Compile a generated model to a CPython extension module, cache it, and load it.
 
 A small model is compiled as one translation unit: ``<Python.h>``, the generated C source, then the glue
-template ``c/mbs_glue.c`` (which includes the integrators in ``c/``).  A large one (runtime/units.py) is split
+template ``c/mbs_glue.c`` (which includes the integrators in ``c/``).  A large one (runtime/translation_units.py) is split
 into the glue unit and a few units of the model's functions, compiled at once (as many jobs as cores, the
 biggest first) and linked; only the module's init function is exported (-fvisibility=hidden).
 
@@ -35,7 +35,7 @@ import numpy as np
 
 from mbs.base.cachedir import default_cache_dir as _default_cache_dir
 from . import cache as _cache
-from . import units as _units
+from . import translation_units as _units
 from .errors import BuildError, EvaluationError
 
 #: Bump when the layout of the build unit changes in a way the hashed inputs do not show.
@@ -45,7 +45,7 @@ C_DIR = Path(__file__).resolve().parent / "c"
 RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c", "loops.c", "mbs_glue.c")
 #: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
 FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
-#: Appended to the flags of the model's units in a split build (runtime/units.py), chosen from what
+#: Appended to the flags of the model's units in a split build (runtime/translation_units.py), chosen from what
 #: bench/optlevels.py measures: the glue unit (integrators, loop solver) keeps FLAGS.
 MODEL_UNIT_FLAGS: tuple[str, ...] = ()
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
@@ -134,7 +134,7 @@ def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
 
 
 def _build_files(code: str, filename: str) -> dict[str, str]:
-    """{file name: text} to compile: one unit, or the split model (runtime/units.py) and the glue unit."""
+    """{file name: text} to compile: one unit, or the split model (runtime/translation_units.py) and the glue unit."""
     split = _units.split_sources(code, filename)
     if split is None:
         return {"unit.c": _unit_source(code, filename)}

@@ -1,4 +1,4 @@
-"""Split builds (runtime/units.py): the generated file read as header, helpers and functions; every function in
+"""Split builds (runtime/translation_units.py): the generated file read as header, helpers and functions; every function in
 exactly one unit, helpers only where called; the split library computes what the one-unit library computes."""
 
 from __future__ import annotations
@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import mbs
-from mbs.runtime import build, units
+from mbs.runtime import build
+from mbs.runtime import translation_units as units
 
 ROOT = Path(__file__).resolve().parents[2]
 SLIDER_CRANK = ROOT / "library" / "examples" / "slider_crank.mbs"

@@ -121,12 +121,12 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
         return None
     where = _c_string(filename)
     prototypes = "\n".join(b.prototype for b in layout.functions)
-    files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.units: do not edit */\n"
+    files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.translation_units: do not edit */\n"
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
                          f"{prototypes}\n")}
     for k, group in enumerate(_balanced(layout.functions), start=1):
-        texts = [f"/* Unit {k} of {filename} (mbs.runtime.units): do not edit */", '#include "model.h"']
+        texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
         body = "\n".join(b.text for b in group)
         for helper in _helpers_for(body, layout.helpers):
             texts += [f"#line {helper.line} \"{where}\"", helper.text]
