@@ -33,7 +33,8 @@ from pathlib import Path
 import sympy as sp
 
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
-from .ccode_loops import loop_definitions, loop_functions, loop_routines, loop_work_size
+from .ccode_loops import (constraint_matrix_routine, loop_definitions, loop_functions, loop_routines, loop_work_size,
+                          unchecked_mass_matrix)
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -129,6 +130,9 @@ class CEmitter:
         self.dynamics_routines, dynamics_inputs, *frames = dynamics if dynamics is not None else ([], ())
         self.frame_names = tuple(frames[0]) if frames else ()
         self.constraints = constraints if constraints is not None and constraints.nc else None
+        self.constraint_matrix = None
+        if self.constraints is not None:
+            self.eqs, self.constraint_matrix = constraint_matrix_routine(self.eqs, self.constraints)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.events = tuple((str(name), sp.sympify(e)) for name, e in events)
@@ -163,7 +167,8 @@ class CEmitter:
         routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
-        return [r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
+        return ([r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
+                + [r for r in (self.constraint_matrix,) if r])
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -203,7 +208,7 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
-                      loop_definitions(self.constraints)]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None)]
         lines += ["",
                   "/* Leave with status 1 (not positive) or 2 (not a number) unless the pivot d is positive. */",
                   "#define MBS_PIVOT(d) do { if (!((d) > 0.0)) return (d) <= 0.0 ? 1 : 2; } while (0)",
@@ -290,6 +295,9 @@ class CEmitter:
 
     def _function(self, r: Routine) -> str:
         out, size = r.out, _SIZE_MACROS.get(r.out) or str(math.prod(r.shape))
+        if r.check_positive and self.constraints is not None:
+            return unchecked_mass_matrix(self._function(replace(r, name=f"{r.name}_unchecked",
+                                                               check_positive=False)), r.name, out)
         lines = [f"/* {_comment(r.doc)} */",
                  f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{"]
         prologue = self._run_time_prologue(r)

@@ -25,8 +25,13 @@ the rest of the text; `ccode.generate_loop_c` assembles a whole file from them a
 
 from __future__ import annotations
 
+import copy
+import dataclasses
+
 from .c_text import name_table
 from .constraints import Constraints
+from .differentiate import NotDifferentiable, forward_derivatives
+from .equations import Equations
 from .jacobian_colours import constraint_colours
 
 #: Doubles of scalar scratch in the loop solver's work area (runtime/c/loops.c, MBS_LOOP_NWORK_NEEDED).
@@ -54,8 +59,32 @@ def loop_routines(constraints: Constraints) -> list:
     ]
 
 
-def loop_definitions(constraints: Constraints) -> str:
-    """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header)."""
+def constraint_matrix_routine(equations: Equations, constraints: Constraints) -> tuple[Equations, tuple | None]:
+    """(equations on a tape that also holds G = d gdot / d v, the routine `mbs_constraint_matrix` writing G,
+    nc rows of nv, row-major), or (equations, None) when a row has no printable derivative: the loop solver then
+    takes G from evaluations of gdot (one per colour of compiler/jacobian_colours.py). gdot is affine in v, so
+    its derivative is G itself, a function of q and t: one call instead of 1 + MBS_NCOLOUR (Iltis: 13) calls of
+    mbs_constraint_velocity per evaluation of the right-hand side."""
+    tree = constraints.tree
+    if equations.tape is not constraints.tape:
+        return equations, None
+    try:
+        fork, rows = forward_derivatives(equations.tape, constraints.velocity, tree.v_symbols,
+                                         labels=[s.name for s in tree.v_symbols])
+    except NotDifferentiable:
+        return equations, None
+    nv = tree.nv
+    results = [(i * nv + k, d) for i, row in enumerate(rows) for k, d in enumerate(row)]
+    kinematics = copy.copy(equations.kinematics)
+    kinematics.tape = fork
+    routine = ("mbs_constraint_matrix", "out", "G = d gdot / d v, the constraint Jacobian (nc rows, nv columns, "
+               "row-major) by forward differentiation of the tape", (constraints.nc, nv), results, False)
+    return dataclasses.replace(equations, kinematics=kinematics), routine
+
+
+def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) -> str:
+    """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
+    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
     work = loop_work_size(tree.nq, tree.nv, constraints.nc)
@@ -76,6 +105,9 @@ def loop_definitions(constraints: Constraints) -> str:
         f"static const int mbs_column_colour[{tree.nv}] = {{{', '.join(map(str, colours.colour))}}};",
         "/* Row i, colour c: the column of that colour row i depends on, -1 when none. */",
         f"static const int mbs_colour_column[{len(table)}] = {{{', '.join(map(str, table))}}};",
+        *(["#define MBS_CONSTRAINT_MATRIX 1   /* mbs_constraint_matrix gives G (the colours are not used) */",
+           "int mbs_constraint_matrix(double t, const double *x, const double *p, double *out, double *work);"]
+          if constraint_matrix else []),
         "",
         "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",
         " * after this file. */",
@@ -93,3 +125,17 @@ def loop_functions(constraints: Constraints) -> str:
         " * null-space method (runtime/c/loops.c). */",
         "int mbs_rhs(double t, const double *x, const double *p, double *xdot, double *work)", "{",
         "    return mbs_loop_rhs(t, x, p, xdot, work);", "}", ""])
+
+
+def unchecked_mass_matrix(body: str, name: str, out: str) -> str:
+    """The text of the mass matrix function `body` (called `<name>_unchecked`, no check that M is positive
+    definite) followed by `name`, the contract's function with that check. The loop solver calls the unchecked
+    one at every evaluation: it needs T^T M T definite, not M (massless parts are allowed), and the Cholesky
+    check of the full nv x nv matrix cost more than the matrix itself (Iltis: 3.1 of 5.4 us)."""
+    return "\n".join([
+        body.rstrip("\n"), "",
+        "#define MBS_MASS_MATRIX_UNCHECKED 1   /* runtime/c/loops.c calls it */", "",
+        f"/* {out} as {name}_unchecked, status 1 unless it is positive definite (the contract's mass matrix). */",
+        f"int {name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
+        f"    const int status = {name}_unchecked(t, x, p, {out}, work);",
+        f"    return status != 0 ? status : mbs_positive_definite({out}, MBS_NV, work) ? 0 : 1;", "}", ""])

@@ -6,8 +6,9 @@ written as position residuals g(q, t) = 0, nc rows in all. For each row the deri
 derivative gdot = G(q) v + g_t(q, t) (linear in the free velocities v) and its second derivative with every state
 acceleration set to zero, gddot0(q, v, t), so that the accelerations satisfy G vdot + gddot0 = 0.
 
-Rows per cut-joint kind (d = p_b - p_a in world components; n the joint axis, u, w two unit vectors
-perpendicular to it; subscripts say in which frame a direction is fixed):
+Rows per cut-joint kind (d = p_b - p_a in the frame of the nearest body above both of the joint's bodies, world
+components when the loop closes through the ground; n the joint axis, u, w two unit vectors perpendicular to it;
+subscripts say in which frame a direction is fixed):
 
     spherical    3: d                                     revolute     5: d, n_a.u_b, n_a.w_b
     universal    4: d, n1_a.n2_b                          prismatic    5: 3 rotation rows, u_a.d, w_a.d
@@ -16,8 +17,12 @@ perpendicular to it; subscripts say in which frame a direction is fixed):
 
 The 3 rotation rows are the small-angle rotation of b relative to a in frame-a components,
 (R_a^T R_b - R_b^T R_a)^vee / 2; translation rows are in metres, the others dimensionless. The reaction of a row
-is its Lagrange multiplier: M vdot = f + G^T lambda, so lambda of the rows d is the force on B (world components,
-on A the opposite) [N].
+is its Lagrange multiplier: M vdot = f + G^T lambda, so lambda of the rows d is the force on B (components in the
+frame d is written in, on A the opposite) [N]; `RowLoad` gives every row's load in world components.
+
+Rows of a loop that closes below a body (a car's suspension below the car body) are built relative to that body
+(compiler/relative_motion.py): they read only the coordinates below it, so G has exact zeros in the columns of
+the body and of every other loop, and the loop solver's factors and null-space basis stay block sparse.
 
 Units: m, rad, s.
 """
@@ -25,10 +30,12 @@ Units: m, rad, s.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import sympy as sp
 
 from .kinematics import Kinematics
+from .relative_motion import RelativeMotion, common_ancestor
 from .spatial import ZERO3, add, cross, dot, mul
 from .tape import Tape
 from .tree import JointSpec, Tree, TreeError, natural_key, t
@@ -199,19 +206,41 @@ def perpendiculars(n) -> tuple:
 
 
 class _CutRows:
-    """Builds the rows of one cut joint from jets of its frames."""
+    """Builds the rows of one cut joint from jets of its frames: relative to the nearest body above both of its
+    bodies when there is one (`relative`; compiler/relative_motion.py: the rows then read only the coordinates
+    below that body), else in world components. Scalar rows are the same either way; the translation rows d are
+    the components in that body's frame. `loads` are in world components in both cases."""
 
-    def __init__(self, kin: Kinematics, cut: CutJoint):
+    def __init__(self, kin: Kinematics, cut: CutJoint, relative: bool = True):
         self.kin, self.cut = kin, cut
-        (self.Ra, ra), (self.Rb, rb) = (_local(X) for X in (cut.X_a, cut.X_b))
-        self.pa, self.pb = _point(kin, cut.body_a, ra), _point(kin, cut.body_b, rb)
+        (self.Ra, self.ra), (self.Rb, self.rb) = (_local(X) for X in (cut.X_a, cut.X_b))
+        self.ancestor = common_ancestor(kin, cut.body_a, cut.body_b)
+        self.relative = RelativeMotion(kin, self.ancestor) if relative and self.ancestor >= 0 else None
+
+    @cached_property
+    def pa(self) -> _Jet:
+        return self._point(self.cut.body_a, self.ra)
+
+    @cached_property
+    def pb(self) -> _Jet:
+        return self._point(self.cut.body_b, self.rb)
+
+    def _point(self, body: int, r_local) -> _Jet:
+        if self.relative is None:
+            return _point(self.kin, body, r_local)
+        return _Jet(*self.relative.point(body, r_local))
+
+    def _direction(self, body: int, e_local) -> _Jet:
+        if self.relative is None:
+            return _direction(self.kin, body, e_local)
+        return _Jet(*self.relative.direction(body, e_local))
 
     def axis_a(self, e) -> _Jet:
         """A direction given in frame-a components, fixed in body A."""
-        return _direction(self.kin, self.cut.body_a, [dot(row, e) for row in self.Ra])
+        return self._direction(self.cut.body_a, [dot(row, e) for row in self.Ra])
 
     def axis_b(self, e) -> _Jet:
-        return _direction(self.kin, self.cut.body_b, [dot(row, e) for row in self.Rb])
+        return self._direction(self.cut.body_b, [dot(row, e) for row in self.Rb])
 
     def rows(self) -> list[tuple]:
         kind, axes = self.cut.joint.kind, self.cut.joint.axes
@@ -244,10 +273,11 @@ class _CutRows:
         torque e_b x n_a on B; for u_a.d it is u_a.(v_b - v_a) + w_a.(u_a x d): the force u_a on B at p_b and its
         opposite on A at the same point in space; for d itself the force on B at p_b, on A at p_a."""
         kind, axes = self.cut.joint.kind, self.cut.joint.axes
-        eye = sp.eye(3)
         if kind == "free":
             return []
-        translation = [RowLoad(tuple(eye[:, k]), ZERO3, False) for k in range(3)]
+        # the translation rows are the components of d in the frame of the body above both (world without one)
+        R = self.kin.world_pose(self.ancestor)[0]
+        translation = [RowLoad(tuple(R[i][k] for i in range(3)), ZERO3, False) for k in range(3)]
         if kind == "spherical":
             return translation
         if kind == "fixed":
@@ -300,7 +330,7 @@ def _local(X) -> tuple:
 def cut_loads(kinematics: Kinematics, cut: CutJoint) -> tuple:
     """(loads, p_a, p_b): the `RowLoad` of each row of `cut` and the world positions of its frames a and b, on
     the tape of `kinematics` (for reaction forces: the multipliers times these are the loads of the joint)."""
-    rows = _CutRows(kinematics, cut)
+    rows = _CutRows(kinematics, cut, relative=False)
     return tuple(rows.loads()), rows.pa.value, rows.pb.value
 
 

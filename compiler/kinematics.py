@@ -36,6 +36,8 @@ class BodyKinematics:
     vJ: joint velocity S v; vel: the body's spatial velocity.
     bias: acceleration terms that do not depend on the state accelerations: c_J + S_p vdot_p + vel x vJ
         (velocity products and prescribed accelerations).
+    joint_bias: the joint's own part of bias, c_J + S_p vdot_p (expressions, not on the tape): the bias relative
+        to an ancestor body is joint_bias + vel_rel x vJ (compiler/relative_motion.py).
     """
 
     X: tuple
@@ -47,6 +49,7 @@ class BodyKinematics:
     vJ: tuple
     vel: tuple
     bias: tuple
+    joint_bias: tuple = ()
 
 
 class Kinematics:
@@ -104,7 +107,7 @@ class Kinematics:
         cross_term = motion_cross(tape, vel, vJ, f"vx{n}")
         bias = tape.vector([add(x, y, z) for x, y, z in zip(cJ, a_presc, cross_term)], f"cv{n}")
         return BodyKinematics((R, r), tuple(q), tuple(v), motion.qdot, S, tuple(body.free_velocities), vJ, vel,
-                              bias)
+                              bias, tuple(add(x, y) for x, y in zip(cJ, a_presc)))
 
     # ---- body-frame quantities used by the dynamics -------------------------------------------------------------
 

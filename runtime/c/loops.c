@@ -203,6 +203,12 @@ static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mb
     int i, j, c, s;
     if (x != w->xt) memcpy(w->xt, x, MBS_NQ * sizeof(double));
     memset(w->xt + MBS_NQ, 0, MBS_NV * sizeof(double));
+#ifdef MBS_CONSTRAINT_MATRIX  /* G generated (d gdot / d v on the tape): one call */
+    (void)i; (void)j; (void)c;
+    if (hout != NULL && (s = mbs_constraint_velocity(t, w->xt, p, hout, w->tree)) != 0) return s;
+    return mbs_constraint_matrix(t, w->xt, p, Gout, w->tree);
+#endif
+    if (hout == NULL) hout = w->c3;
     memset(Gout, 0, MBS_NC * MBS_NV * sizeof(double));
     if ((s = mbs_constraint_velocity(t, w->xt, p, hout, w->tree)) != 0) return s;
     for (c = 0; c < MBS_NCOLOUR; c++) {
@@ -217,10 +223,11 @@ static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mb
     return 0;
 }
 
-/* G (NC x NV) and h = g_t at the positions of x, with a copy of G in G0. */
-static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w)
+/* G (NC x NV) at the positions of x, with a copy of G in G0, and h = g_t there when `rate` (only the velocity
+ * projection reads it; the accelerations replace h by gddot0). */
+static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w, int rate)
 {
-    int s = mbs_loop_jacobian_into(t, x, p, w, w->G, w->h);
+    int s = mbs_loop_jacobian_into(t, x, p, w, w->G, rate ? w->h : NULL);
     if (s == 0) memcpy(w->G0, w->G, MBS_NC * MBS_NV * sizeof(double));
     return s;
 }
@@ -451,7 +458,7 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
         if (!isfinite(res)) return MBS_LOOP_NONFINITE;
         if (info->iterations >= MBS_LOOP_MAXIT) return MBS_LOOP_NOT_ASSEMBLED;
         if (!keep) {
-            if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
+            if ((s = mbs_loop_jacobian_at(t, q, p, w, 0)) != 0) return s;
             info->jacobians++;
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
             if (info->rank == 0) return MBS_LOOP_NOT_ASSEMBLED;
@@ -475,7 +482,7 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
     for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
         double before = res;
         if (info->iterations == 0 && k == 0) {
-            if ((s = mbs_loop_jacobian_at(t, q, p, w)) != 0) return s;
+            if ((s = mbs_loop_jacobian_at(t, q, p, w, 0)) != 0) return s;
             info->jacobians++;
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) <= 0) return 0;
         }
@@ -519,7 +526,7 @@ static int mbs_loop_project_state(double t, const double *x, const double *p, mb
         s = mbs_loop_positions(t, p, w, -1, info);
     }
     if (s == 0) {
-        s = mbs_loop_jacobian_at(t, w->xc, p, w);
+        s = mbs_loop_jacobian_at(t, w->xc, p, w, 1);
         info->jacobians++;
         if (s == 0 && (info->rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) s = MBS_LOOP_NONFINITE;
     }
@@ -617,7 +624,11 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (s != 0) return s;
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
+#ifdef MBS_MASS_MATRIX_UNCHECKED  /* M need not be definite: no Cholesky check of it here */
+    s = mbs_mass_matrix_unchecked(t, w->xc, p, M, w->tree);
+#else
     s = mbs_mass_matrix(t, w->xc, p, M, w->tree);  /* status 1 (M singular with massless parts) is no error */
+#endif
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
     /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
@@ -731,7 +742,7 @@ static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work
     s = mbs_loop_accelerations(t, p, w, rank);
     if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
         w->keep[0] = 0.0;
-        if ((s = mbs_loop_jacobian_at(t, w->xc, p, w)) != 0) return s;
+        if ((s = mbs_loop_jacobian_at(t, w->xc, p, w, 0)) != 0) return s;
         if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
         s = mbs_loop_accelerations(t, p, w, rank);
     }
@@ -768,7 +779,7 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     int r, s;
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
-    s = mbs_loop_jacobian_at(t, x, p, &w);
+    s = mbs_loop_jacobian_at(t, x, p, &w, 0);
     r = -1;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
@@ -812,7 +823,7 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
-    int s = mbs_loop_jacobian_at(t, x, p, &w);
+    int s = mbs_loop_jacobian_at(t, x, p, &w, 0);
     memcpy(G, w.G, MBS_NC * MBS_NV * sizeof(double));
     return s;
 }
