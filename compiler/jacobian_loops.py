@@ -34,6 +34,11 @@ from .equations import Equations
 from .tree import t
 
 PARTIALS = "mbs_loop_partials"
+#: Largest state for which the partials are generated. Their table grows as nx^2 (about 120,000 entries for the
+#: 40-four-bar chain, a vehicle's tyre tables have no printable derivative anyway): beyond this the generation
+#: and the C compiler take minutes, more than the exact Jacobian saves, and the integrators use their checked
+#: central differences.
+MAX_STATES = 40
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,7 +54,9 @@ class LoopJacobian:
 def loop_jacobian_or_none(equations: Equations, constraints: Constraints
                           ) -> tuple[Equations, LoopJacobian | None]:
     """`loop_jacobian`, or (equations, None) when the equations have no printable derivative (a lookup table):
-    the integrators then use their finite differences."""
+    the integrators then use their finite differences; and for mechanisms of more than MAX_STATES states."""
+    if equations.tree.nx > MAX_STATES:
+        return equations, None
     try:
         return loop_jacobian(equations, constraints)
     except NotDifferentiable:
