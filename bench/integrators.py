@@ -5,7 +5,7 @@
 For each model (its scene's tolerances) and integrator: accepted+rejected steps, right-hand-side calls,
 Jacobian evaluations, wall time (median over --rounds runs; the machine may be shared), and the ratio of the
 wall time to dopri5's measured in the same rounds. Each model is compiled with the generated Jacobian where it
-has one (trees), so rodasp, Radau, BDF, cvode_bdf and ida use it; closed loops fall back to finite differences.
+has one (trees and closed loops; not with lookup tables), so rodasp, Radau, BDF, cvode_bdf and ida use it.
 The end state's difference to a tight dopri5 run is printed so a fast but wrong run is visible.
 
 Nothing is asserted: figures are printed for a reader to compare.

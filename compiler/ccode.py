@@ -54,6 +54,7 @@ from .emit_common import (  # noqa: F401
 from .equations import Equations
 from .hooks import c_helpers as hook_helpers
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
+from .jacobian_loops import loop_jacobian_or_none, loop_jacobian_work_size
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
 GENERATOR = "mbs.compiler.ccode"
@@ -121,8 +122,11 @@ class CEmitter:
                  dynamics=None, events=(), actions=()):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = self.parameter_jacobian = None
+        self.loop_jacobian = None
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
+        elif jacobian:
+            self.eqs, self.loop_jacobian = loop_jacobian_or_none(equations, constraints)
         if parameter_jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
         self.run_time_inputs = tuple(run_time_inputs)
@@ -140,7 +144,8 @@ class CEmitter:
         self.tables = tuple(getattr(tables, "tables", tables))
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, self.constraints, self.run_time_inputs)
-        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs))
+        loop_inputs = self.loop_jacobian.inputs if self.loop_jacobian else ()
+        self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs) + loop_inputs)
         self.names = self.naming.names
 
     # ---- the file ---------------------------------------------------------------------------------------------
@@ -167,7 +172,8 @@ class CEmitter:
         routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
-        return ([r for r in routines if r[0] != "mbs_rhs"] + loop_routines(self.constraints)
+        loops = loop_routines(self.constraints) + ([self.loop_jacobian.routine] if self.loop_jacobian else [])
+        return ([r for r in routines if r[0] != "mbs_rhs"] + loops
                 + [r for r in (self.constraint_matrix,) if r])
 
     def write(self, path: str | Path) -> Path:
@@ -209,6 +215,8 @@ class CEmitter:
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints, self.constraint_matrix is not None)]
+            if self.loop_jacobian:
+                lines.append(self.loop_jacobian.definitions)
         lines += ["",
                   "/* Leave with status 1 (not positive) or 2 (not a number) unless the pivot d is positive. */",
                   "#define MBS_PIVOT(d) do { if (!((d) > 0.0)) return (d) <= 0.0 ? 1 : 2; } while (0)",
@@ -268,6 +276,8 @@ class CEmitter:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
         loops = loop_work_size(tree.nq, tree.nv, nc) if nc else 0
+        if self.loop_jacobian:
+            loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return tree.nv * tree.nv + loops + self._output_scratch()
 
     def _output_scratch(self) -> int:

@@ -200,7 +200,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names, tree.nq, p_names)
     options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
                    events=indicators, actions=action_values, dynamics=asked)
-    if (needs_jacobian(scene) if jacobian is None else jacobian) and constraints is None:
+    if needs_jacobian(scene) if jacobian is None else jacobian:
         options["jacobian"] = True
     if parameter_jacobian and constraints is None:
         options["parameter_jacobian"] = True

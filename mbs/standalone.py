@@ -26,7 +26,10 @@ def standalone_source(gen: Generated) -> str:
     the mbs_loop_rhs that mbs_rhs calls, mbs_project, mbs_loop_multipliers, ..."""
     if gen.layout.constraint_rows is None:
         return gen.c_source
-    return gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
+    source = gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
+    if "#define MBS_LOOP_JACOBIAN " in gen.c_source:  # its exact Jacobian, when the scene's integrator asked for it
+        source += "\n/* ---- runtime/c/loop_jacobian.c ---- */\n" + (C_DIR / "loop_jacobian.c").read_text()
+    return source
 
 
 #: A top-level declaration or definition of an mbs_ function or datum that is not static yet.

@@ -857,3 +857,18 @@ int mbs_loop_report(double t, const double *x, const double *p, double *out, dou
     for (j = 0; j < MBS_NV; j++) out[8 + j] = w.cp[j];
     return 0;
 }
+
+/* The partition the evaluations at x use, for the exact Jacobian (runtime/c/loop_jacobian.c): out = [rank; the
+ * velocity columns in pivot order (the first rank dependent); the constraint rows in pivot order; the
+ * projected state] (1 + NV + NC + NX).  Status 1 at a singular position (its limit rows are not differentiated). */
+int mbs_loop_partition_at(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int s = mbs_loop_project_state(t, x, p, &w, 0, &info);
+    out[0] = info.rank;
+    memcpy(out + 1, w.cp, MBS_NV * sizeof(double));
+    memcpy(out + 1 + MBS_NV, w.rp, MBS_NC * sizeof(double));
+    memcpy(out + 1 + MBS_NV + MBS_NC, w.xc, MBS_NX * sizeof(double));
+    return s != 0 ? s : (w.singular ? MBS_LOOP_SINGULAR : 0);
+}

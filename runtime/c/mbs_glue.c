@@ -33,6 +33,9 @@
 #include "rodasp.c"
 #ifdef MBS_NC
 #include "loops.c"  /* closed kinematic loops: projection, partitioning, constrained accelerations */
+#ifdef MBS_LOOP_JACOBIAN
+#include "loop_jacobian.c"  /* their exact Jacobian (mbs_jacobian) */
+#endif
 #endif
 
 #define MBS_CAT2(a, b) a##b

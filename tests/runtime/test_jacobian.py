@@ -1,5 +1,5 @@
 """The generated Jacobian mbs_jacobian: exact against central differences of the right-hand side, the same in C
-and NumPy, used by rodasp (fewer right-hand sides per step), absent for closed loops."""
+and NumPy, used by rodasp (fewer right-hand sides per step); for closed loops assembled (test_loop_jacobian.py)."""
 
 from pathlib import Path
 
@@ -63,7 +63,8 @@ def test_rodasp_with_the_generated_jacobian_needs_six_rhs_per_step(stiff_mount):
     assert res["body_z"][-1] == pytest.approx(settled, abs=2e-3)  # the 1.6 Hz bounce has decayed to < 2 mm
 
 
-def test_closed_loops_get_no_jacobian():
+def test_closed_loops_get_the_assembled_jacobian():
+    """Their mbs_jacobian is runtime/c/loop_jacobian.c's, from the generated partials (tests/runtime/test_loop_jacobian.py)."""
     system = mbs.load("library/examples/slider_crank.mbs")
     gen = pipeline.generate(system.model, None, jacobian=True)
-    assert "mbs_jacobian" not in gen.c_source
+    assert "int mbs_loop_partials(" in gen.c_source and "#define MBS_LOOP_JACOBIAN 1" in gen.c_source

@@ -1,0 +1,220 @@
+/* The Jacobian of a closed mechanism's right-hand side, exact: mbs_jacobian for models with loops.
+ *
+ * Compiled after loops.c when the model defines MBS_LOOP_JACOBIAN (compiler/jacobian_loops.py), which also
+ * generates mbs_loop_partials: the derivatives of the residuals R1 = M a - f - G^T lambda, R2 = G a + gddot0,
+ * gdot and g with respect to [q, v, t] at fixed (a, lambda).  The right-hand side is x' = F(P(x)), P the
+ * projection by the kept partition (positions: unit quaternions, then Newton steps dq = Q(q) dv with dv_I = 0
+ * and G_D dv_D = -g; velocities: v_I kept, G_D v_D = -(G_I v_I + g_t)), F the null-space solve.  Both are
+ * implicit functions of those residuals, so at the projected state x_c, for a direction (dx, dt):
+ *
+ *   dq_n = N dq                                                 N: the tangent map of q / |q| per quaternion
+ *   dq_c = dq_n - Q E_D S^-1 (g_q dq_n + g_t dt)                the tangent map of the position projection
+ *   dv_c = dv - E_D S^-1 (G dv + gdot_q dq_c + gdot_t dt)       ... and of the velocity projection
+ *   d qdot = qdot_q dq_c + Q dv_c + qdot_t dt                   (Q = d qdot / d v)
+ *   d vdot = T z + c,  c = -E_D S^-1 dR2,  (T^T M T) z = T^T (-dR1 - M c)
+ *
+ * with S = G on the pivot rows and dependent columns, T = [I; -S^-1 G_I] the null-space basis, dR = the
+ * partials times (dq_c, dv_c, dt).  The column for q_j of a dependent coordinate is zero, as P has it.  No
+ * Newton iteration is differenced, so the result has the digits of the residuals, which finite differences
+ * of F∘P (the integrators' fallback) lose to the Newton tolerance.  Cost: one projection, one rhs, the
+ * multipliers, the generated partials (about one tree function per state) and O(nx nv^2) of linear algebra.
+ *
+ * Status: 0 ok, 1 singular factors or a singular position (the loop solver's limit rows are not
+ * differentiated here: the integrators then use finite differences), 2 non-finite, 3 not assembled.
+ */
+#include <math.h>
+#include <string.h>
+
+#define MBS_LJ_W (MBS_NX + 1)  /* columns of the partials and of the result */
+#define MBS_LJ_ROWS (MBS_NV + 3 * MBS_NC + MBS_NQ)  /* of the partials: R1, R2, gdot, g, qdot */
+#define MBS_LJ_QDOT (MBS_NV + 3 * MBS_NC)  /* first row of qdot */
+#define MBS_LJ_NEEDED (MBS_LJ_ROWS * MBS_LJ_W + 4 * MBS_NV * MBS_NV + 4 * MBS_NX + 9 * MBS_NV \
+                       + 4 * MBS_NC + 2)
+#if MBS_LOOP_JACOBIAN_NWORK < MBS_LJ_NEEDED
+#error "MBS_LOOP_JACOBIAN_NWORK is too small for runtime/c/loop_jacobian.c"
+#endif
+
+typedef struct {
+    double *xin, *xdot, *part, *D, *M, *T, *A, *S, *pivS, *pivA, *dx, *h1, *h2, *c, *z, *s, *u, *dn;
+    int r, d;
+} mbs_lj_work;
+
+static mbs_lj_work mbs_lj_layout(double *work)
+{
+    mbs_lj_work w;
+    double *s = work + MBS_NWORK - MBS_LOOP_JACOBIAN_NWORK;
+    w.xin = s; s += MBS_NX + MBS_NV + MBS_NC;
+    w.xdot = s; s += MBS_NX;
+    w.part = s; s += 1 + MBS_NV + MBS_NC + MBS_NX;
+    w.D = s; s += MBS_LJ_ROWS * MBS_LJ_W;
+    w.M = s; s += MBS_NV * MBS_NV;
+    w.T = s; s += MBS_NV * MBS_NV;
+    w.A = s; s += MBS_NV * MBS_NV;
+    w.S = s; s += MBS_NV * MBS_NV;
+    w.pivS = s; s += MBS_NV;
+    w.pivA = s; s += MBS_NV;
+    w.dx = s; s += MBS_LJ_W;
+    w.h1 = s; s += MBS_NV;
+    w.h2 = s; s += MBS_NC;
+    w.c = s; s += MBS_NV;
+    w.z = s; s += MBS_NV;
+    w.s = s; s += MBS_NV;
+    w.dn = s; s += MBS_NV;
+    w.u = s;
+    w.r = w.d = 0;
+    return w;
+}
+
+/* LU with partial pivoting of the n x n row-major A in place; piv[k] the row exchanged with k.  1: singular. */
+static int mbs_lj_factor(int n, double *A, double *piv)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++) {
+        int p = k;
+        for (i = k + 1; i < n; i++)
+            if (fabs(A[i * n + k]) > fabs(A[p * n + k])) p = i;
+        piv[k] = p;
+        if (!(A[p * n + k] != 0.0) || !isfinite(A[p * n + k])) return 1;
+        if (p != k)
+            for (j = 0; j < n; j++) { double tmp = A[k * n + j]; A[k * n + j] = A[p * n + j]; A[p * n + j] = tmp; }
+        for (i = k + 1; i < n; i++) {
+            double l = A[i * n + k] /= A[k * n + k];
+            for (j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
+        }
+    }
+    return 0;
+}
+
+static void mbs_lj_solve(int n, const double *LU, const double *piv, double *b)
+{
+    int i, j, k;
+    for (k = 0; k < n; k++) {
+        int p = (int)piv[k];
+        if (p != k) { double tmp = b[k]; b[k] = b[p]; b[p] = tmp; }
+        for (i = k + 1; i < n; i++) b[i] -= LU[i * n + k] * b[k];
+    }
+    for (i = n - 1; i >= 0; i--) {
+        for (j = i + 1; j < n; j++) b[i] -= LU[i * n + j] * b[j];
+        b[i] /= LU[i * n + i];
+    }
+}
+
+static int mbs_lj_col(const mbs_lj_work *w, int k) { return (int)w->part[1 + k]; }
+static int mbs_lj_row(const mbs_lj_work *w, int k) { return (int)w->part[1 + MBS_NV + k]; }
+
+/* The row `row` of the partials (R1: 0.., R2: NV.., gdot: NV + NC.., g: NV + 2 NC..) times (dx, dt). */
+static double mbs_lj_dot(const mbs_lj_work *w, int row, const double *dx)
+{
+    const double *d = w->D + row * MBS_LJ_W;
+    double sum = 0.0;
+    int j;
+    for (j = 0; j < MBS_LJ_W; j++) sum += d[j] * dx[j];
+    return sum;
+}
+
+/* vec -= E_D S^-1 h[pivot rows]: the dependent components that make the pivot rows of h vanish. */
+static void mbs_lj_dependent(const mbs_lj_work *w, const double *h, double *vec)
+{
+    int k;
+    for (k = 0; k < w->r; k++) w->u[k] = h[mbs_lj_row(w, k)];
+    mbs_lj_solve(w->r, w->S, w->pivS, w->u);
+    for (k = 0; k < w->r; k++) vec[mbs_lj_col(w, k)] -= w->u[k];
+}
+
+/* S, T and T^T M T factored at the projected state.  1: singular. */
+static int mbs_lj_factors(mbs_lj_work *w)
+{
+    const double *G = w->D + (MBS_NV + MBS_NC) * MBS_LJ_W + MBS_NQ;  /* d gdot / d v, row stride MBS_LJ_W */
+    int i, j, k, l, r = w->r, d = w->d;
+    for (k = 0; k < r; k++)
+        for (l = 0; l < r; l++) w->S[k * r + l] = G[mbs_lj_row(w, k) * MBS_LJ_W + mbs_lj_col(w, l)];
+    if (mbs_lj_factor(r, w->S, w->pivS)) return 1;
+    memset(w->T, 0, MBS_NV * MBS_NV * sizeof(double));
+    for (k = 0; k < d; k++) {  /* T e_k = e_I - E_D S^-1 G e_I, I the k-th independent column */
+        int c = mbs_lj_col(w, r + k);
+        for (i = 0; i < MBS_NV; i++) w->s[i] = i == c;
+        for (i = 0; i < MBS_NC; i++) w->h2[i] = G[i * MBS_LJ_W + c];
+        mbs_lj_dependent(w, w->h2, w->s);
+        for (i = 0; i < MBS_NV; i++) w->T[i * d + k] = w->s[i];
+    }
+    for (k = 0; k < d; k++)
+        for (l = 0; l < d; l++) {
+            double sum = 0.0;
+            for (i = 0; i < MBS_NV; i++) {
+                double mt = 0.0;
+                for (j = 0; j < MBS_NV; j++) mt += w->M[i * MBS_NV + j] * w->T[j * d + l];
+                sum += w->T[i * d + k] * mt;
+            }
+            w->A[k * d + l] = sum;
+        }
+    return mbs_lj_factor(d, w->A, w->pivA);
+}
+
+/* Column j of the result (j < MBS_NX: d/d x_j; j == MBS_NX: d/d t) into out. */
+static void mbs_lj_column(mbs_lj_work *w, int j, double *out)
+{
+    double *dx = w->dx, *dq = dx, *dv = dx + MBS_NQ;
+    int i, k, l, d = w->d;
+    memset(dx, 0, MBS_LJ_W * sizeof(double));
+    dx[j] = 1.0;
+    if (j < MBS_NQ || j == MBS_NX) {  /* positions: unit quaternions, then back onto g = 0 along Q E_D */
+        for (k = 0; k < MBS_NQUAT; k++) {
+            const double *qc = w->xin + mbs_quaternion_slots[k];
+            double *e = dq + mbs_quaternion_slots[k];
+            double along = qc[0] * e[0] + qc[1] * e[1] + qc[2] * e[2] + qc[3] * e[3];
+            for (l = 0; l < 4; l++) e[l] -= along * qc[l];
+        }
+        for (i = 0; i < MBS_NC; i++) w->h2[i] = mbs_lj_dot(w, MBS_NV + 2 * MBS_NC + i, dx);
+        memset(w->dn, 0, MBS_NV * sizeof(double));
+        mbs_lj_dependent(w, w->h2, w->dn);
+        for (i = 0; i < MBS_NQ; i++) {
+            const double *Q = w->D + (MBS_LJ_QDOT + i) * MBS_LJ_W + MBS_NQ;
+            double sum = 0.0;
+            for (l = 0; l < MBS_NV; l++) sum += Q[l] * w->dn[l];
+            dq[i] += sum;
+        }
+    }
+    for (i = 0; i < MBS_NC; i++) w->h2[i] = mbs_lj_dot(w, MBS_NV + MBS_NC + i, dx);  /* velocities onto gdot = 0 */
+    mbs_lj_dependent(w, w->h2, dv);
+    for (i = 0; i < MBS_NQ; i++) out[i * MBS_LJ_W + j] = mbs_lj_dot(w, MBS_LJ_QDOT + i, dx);
+    /* accelerations: c from the constraint rows, z from the reduced equations */
+    for (i = 0; i < MBS_NV; i++) { w->h1[i] = -mbs_lj_dot(w, i, dx); w->c[i] = 0.0; }
+    for (i = 0; i < MBS_NC; i++) w->h2[i] = mbs_lj_dot(w, MBS_NV + i, dx);
+    mbs_lj_dependent(w, w->h2, w->c);
+    for (i = 0; i < MBS_NV; i++) {
+        double mc = 0.0;
+        for (l = 0; l < MBS_NV; l++) mc += w->M[i * MBS_NV + l] * w->c[l];
+        w->s[i] = w->h1[i] - mc;
+    }
+    for (k = 0; k < d; k++) {
+        double sum = 0.0;
+        for (i = 0; i < MBS_NV; i++) sum += w->T[i * d + k] * w->s[i];
+        w->z[k] = sum;
+    }
+    mbs_lj_solve(d, w->A, w->pivA, w->z);
+    for (i = 0; i < MBS_NV; i++) {
+        double sum = w->c[i];
+        for (k = 0; k < d; k++) sum += w->T[i * d + k] * w->z[k];
+        out[(MBS_NQ + i) * MBS_LJ_W + j] = sum;
+    }
+}
+
+int mbs_jacobian(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_lj_work w = mbs_lj_layout(work);
+    const double *xc = w.part + 1 + MBS_NV + MBS_NC;
+    int j, s = mbs_loop_partition_at(t, x, p, w.part, work);
+    if (s != 0) return s;
+    w.r = (int)w.part[0];
+    w.d = MBS_NV - w.r;
+    if ((s = mbs_loop_rhs_direct(t, xc, p, w.xdot, work)) != 0) return s;
+    memcpy(w.xin, xc, MBS_NX * sizeof(double));
+    memcpy(w.xin + MBS_NX, w.xdot + MBS_NQ, MBS_NV * sizeof(double));
+    if ((s = mbs_loop_multipliers(t, xc, p, w.xin + MBS_NX + MBS_NV, work)) != 0) return s;
+    /* M may be only semi-definite (massless parts; status 1): T^T M T is what must be regular */
+    if (mbs_mass_matrix(t, xc, p, w.M, work) == 2) return 2;
+    if ((s = mbs_loop_partials(t, w.xin, p, w.D, work)) != 0) return s;
+    if (mbs_lj_factors(&w)) return 1;
+    for (j = 0; j < MBS_LJ_W; j++) mbs_lj_column(&w, j, out);
+    return isfinite(mbs_loop_maxabs(out, MBS_NX * MBS_LJ_W, NULL)) ? 0 : 2;
+}
