@@ -10,3 +10,29 @@ def tyre_forces(system, **params) -> dict:
 
 def fade(vx: float, v_low: float) -> float:
     return vx ** 2 / (vx ** 2 + v_low ** 2)
+
+
+class TyreProbe:
+    """The compiled tyre of a probe model (tests/library/models/*_probe.mbs) evaluated at any wheel motion
+    without a run: the scene's outputs at a state set by hand (thousands of points a second, so that curves
+    can be searched for their peaks and zeros)."""
+
+    def __init__(self, system, **params):
+        self.data, _ = system.start("probe", params=params)
+        model = self.data.model
+        self.names = [n.rsplit(".", 1)[1] for n in model.y_names]
+        self.index = {n: i for i, n in enumerate(model.q_names + model.v_names)}
+        self.x0 = self.data.x.copy()
+
+    def set(self, **params) -> None:
+        for name, value in params.items():
+            self.data.set_param(name, value)
+
+    def __call__(self, *, vx: float, vy: float = 0.0, spin: float = 0.0, height: float | None = None) -> dict:
+        """The tyre's outputs with the wheel centre moving at (vx, vy), spinning at spin, at a height."""
+        x = self.x0.copy()
+        x[self.index["der(free.x)"]], x[self.index["der(free.y)"]] = vx, vy
+        x[self.index["der(free.beta)"]] = spin
+        if height is not None:
+            x[self.index["free.z"]] = height
+        return dict(zip(self.names, self.data.outputs(0.0, x)))
