@@ -71,8 +71,9 @@ def read_layout(code: str) -> Layout | None:
             return None
         comment = _trailing_comment(pending)
         rest = pending[:len(pending) - comment]
-        if functions and any(text.strip() for text in rest):
-            return None  # something else between the contract functions: not the layout we know
+        if functions:  # between contract functions only macros may stand: they go to the shared header
+            if any(text.strip() and not text.startswith("#define ") for text in rest):
+                return None  # something else between the contract functions: not the layout we know
         header += rest
         first = i - comment
         block = Block(match.group(1), "\n".join(lines[first:end + 1]), first + 1, f"{line};")
