@@ -44,6 +44,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self.broken_links: set[tuple[str, str]] = set()
         self.mode_names: set[str] = set()
         self.switches: bool | None = None  # the model setting; None: on when the model has events or modes
+        self.scene_setting: ast.Setting | None = None  # `scenes = NAME`: run another model file's scenes too
 
     # ====================================================================================== entry
     def model(self, module: Module, block: ast.Model, harness: bool = False) -> M.Model | None:
@@ -293,9 +294,11 @@ class Elaborator(PlacementMixin, ParameterMixin):
                 self.diags.error("switches = true or false: whether comparisons and min/max/abs/sign kinks in the "
                                  "motion become events", scope.at(st.value.span))
             self.switches = value == "true"
+        elif st.name.text == "scenes" and scope is self.root:
+            self.scene_setting = st  # language/shared_scenes.py: read by the front end after the model is built
         elif st.name.text != "gravity":
             self.diags.error(f"unknown model setting '{st.name.text}'"
-                             f"{did_you_mean(st.name.text, ['gravity', 'switches'])}", scope.at(st.name.span))
+                             f"{did_you_mean(st.name.text, ['gravity', 'switches', 'scenes'])}", scope.at(st.name.span))
         elif scope is not self.root:
             self.diags.error("gravity is set by the model, not by a component", scope.at(st.span))
         else:

@@ -21,6 +21,7 @@ from .parser import parse_source, without_cycle_collection
 from .repeat import expand
 from .rules import check_model
 from .scenes import build_scene, scene_model_name
+from .shared_scenes import borrowed_scenes, source_module
 from .scope import Module
 
 
@@ -93,6 +94,11 @@ def _check_module(module: Module | None, loader: Loader, diags: Diagnostics) -> 
                 built_scene = build_scene(elab, elab.root, built, scene)
                 if built_scene is not None:
                     scenes.append(built_scene)
+        if elab.scene_setting is not None:
+            st = elab.scene_setting
+            source = source_module(module, st, diags, _span(st))
+            if source is not None:
+                scenes += borrowed_scenes(elab, built, source, {s.name for s in scenes}, _span(st))
         elab.warn_unused(elab.root)  # after the scenes: a parameter used only in a scene is used
         models.append(dataclasses.replace(built, scenes=tuple(scenes)))
     for scene in module.scenes.values():
