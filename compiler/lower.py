@@ -162,8 +162,18 @@ class _Lowering:
         if sym.kind == "state":
             return sp.Symbol(sym.name)
         if sym.kind == "rate":  # der(z) of an extra state: the right-hand side of its equation
-            return self.state(self.model_states[sym.name].rate)
+            return self.state_rate(sym.name)
         raise _error(f"'{sym.name}' cannot be used here", self.model.span)
+
+    def state_rate(self, name: str) -> sp.Expr:
+        """z' of the extra state `name` as one temporary: forces that use der(z) and the right-hand side share it."""
+        tape = self.kin.tape
+        rate = self.state(self.model_states[name].rate)  # its sensors' temporaries keep their own sections
+        before = tape.current_section
+        tape.section(f"extra state {name}: rate")
+        value = tape.temp(rate, "zdot")
+        tape.section(before)
+        return value
 
     def body(self, part: str) -> int:
         return self.body_of_part[part]
@@ -385,7 +395,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     events = lower_events(model.events, lowering.state) + lowering.friction_events
     if lowering.switches is not None:
         lowering.switches.context = "state equations"
-    rates = tuple(lowering.state(s.rate) for s in model.states)
+    rates = tuple(lowering.state_rate(s.name) for s in model.states)
     rates += tuple(lowering.element_rates[s] for s in lowering.kin.tree.states[len(rates):])
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,

@@ -82,6 +82,11 @@ class Tape:
         """Label the entries created from now on (e.g. "body 3 (link3): velocity")."""
         self._section = label
 
+    @property
+    def current_section(self) -> str:
+        """The label new entries get (to return to it after a digression)."""
+        return self._section
+
     def is_temp(self, symbol) -> bool:
         return symbol in self._entry_of
 

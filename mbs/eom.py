@@ -43,6 +43,7 @@ class EquationsOfMotion:
     y: tuple
     v: tuple
     tree: Tree
+    rates: tuple = ()  # (state, right-hand side) of the extra differential states (language/states.py)
 
     @property
     def M(self) -> sp.Matrix:
@@ -69,7 +70,7 @@ class EquationsOfMotion:
         initial values; parameters at their defaults unless given."""
         model = self.system.model
         values = pipeline.parameter_values(model, params)
-        names = tuple(pipeline.display_name(s.name) for s in self.tree.q_symbols + self.tree.v_symbols)
+        names = tuple(pipeline.display_name(s.name) for s in self.tree.x_symbols)
         start = dict(zip(names, pipeline.initial_state_of(model, None, self.tree, values)))
         state = dict(state or {})
         unknown = [name for name in state if name not in start]
@@ -80,7 +81,7 @@ class EquationsOfMotion:
                                                 f"{', '.join(start)})", None)])
         start.update(state)
         env = {parameter_symbol(name): value for name, value in values.items()}
-        env.update({s: start[str(s)] for s in self.y + self.v})
+        env.update({s: start[str(s)] for s in self.y + self.v + tuple(self.tree.states)})
         env[T] = 0.0
         M, k, q = self.equations.evaluate(env)
         return tuple(np.array(m.tolist(), dtype=float).reshape(m.shape) for m in (M, k, q))
@@ -105,6 +106,8 @@ class EquationsOfMotion:
         lines += [f"k[{i + 1}] = {sp.sstr(x)}" for i, x in enumerate(self.k)]
         lines.append("")
         lines += [f"q[{i + 1}] = {sp.sstr(x)}" for i, x in enumerate(self.q)]
+        if self.rates:
+            lines += ["", "# extra states"] + [f"der({z}) = {sp.sstr(rate)}" for z, rate in self.rates]
         return "\n".join(lines)
 
     def latex(self) -> str:
@@ -143,7 +146,9 @@ def equations_of_motion(system: System, *, simplify: bool = True,
         tuple(shown[s] for s in equations.y), tuple(shown[s] for s in equations.v),
         tuple(Intermediate(i.section, i.symbol, i.expr.xreplace(shown)) for i in equations.intermediates),
         *(m.xreplace(shown) for m in (equations.M, equations.k, equations.q)))
-    return EquationsOfMotion(system, renamed, renamed.y, renamed.v, tree)
+    rates = lowered.kinematics.tape.expand(lowered.state_rates) if lowered.state_rates else []
+    return EquationsOfMotion(system, renamed, renamed.y, renamed.v, tree,
+                             tuple(zip(tree.states, (r.xreplace(shown) for r in rates))))
 
 
 def _latex_names(eq: EquationsOfMotion) -> dict:

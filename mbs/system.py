@@ -227,12 +227,8 @@ class System:
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
             if at == "equilibrium":  # at rest: the scene's initial speeds (a car cruising) are not kept
-                if compiled.nz:  # the extra states at rest too (their rates zero)
-                    from mbs.runtime.states_equilibrium import equilibrium_with_states
-                    x = equilibrium_with_states(compiled, data, data.x, t)
-                else:
-                    x = static_equilibrium(compiled, data, data.x, t).x
-                    x[compiled.nq:] = 0.0
+                x = static_equilibrium(compiled, data, data.x, t).x
+                x[compiled.nq:compiled.nq + compiled.nv] = 0.0  # extra states keep their rest values
             elif at == "initial":
                 x = data.x.copy()
             else:

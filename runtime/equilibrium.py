@@ -21,6 +21,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from .equilibrium_newton import newton_equilibrium
 from .integrators import get_integrator
 from .model import CompiledModel
+from .states_equilibrium import equilibrium_with_states, rest_residual
 from .workspace import Workspace
 
 ACCELERATION_TOLERANCE = 1e-6  # m/s^2 or rad/s^2: what "at rest" means
@@ -57,6 +58,10 @@ def _acceleration(data: Workspace, t: float, x: np.ndarray, nq: int) -> np.ndarr
 
 def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t: float = 0.0) -> Equilibrium:
     nq = model.nq
+    if model.nz:  # extra differential states rest too: a root of [vdot; zdot] (states_equilibrium.py)
+        x = equilibrium_with_states(model, data, x0, t)
+        residual, worst = rest_residual(model, data, x, t)
+        return Equilibrium(x, residual, 0, 0, worst)
     x = newton_equilibrium(model, data, x0, t)  # fast and exact where it finds a stable solution
     if x is None:
         x = np.array(x0, dtype=float)

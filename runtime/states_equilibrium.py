@@ -23,7 +23,8 @@ TOLERANCE = 1e-8
 
 
 def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float = 0.0) -> np.ndarray:
-    """x = [q; 0; z] at rest with every acceleration and state rate zero, from the guess x0."""
+    """x = [q; 0; z] at rest with every acceleration and state rate zero, from the guess x0 (the coordinates
+    and the extra states as they are there); MbsError when there is none."""
     nq, nv = model.nq, model.nv
     x = np.array(x0, dtype=float)
     x[nq:nq + nv] = 0.0
@@ -50,3 +51,10 @@ def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float 
                                             f"'{names[k]}' stays at {worst:.3g} (a state that integrates "
                                             "without bound, or a part with nothing to hold it)", None)])
     return state(u)
+
+
+def rest_residual(model: CompiledModel, data: Workspace, x: np.ndarray, t: float = 0.0) -> tuple[float, str]:
+    """(largest |acceleration or state rate|, its name) at x: what is left of the equilibrium."""
+    r = np.abs(data.rhs(t, x)[model.nq:])
+    k = int(np.argmax(r)) if r.size else 0
+    return (float(r[k]), (model.v_names + model.z_names)[k]) if r.size else (0.0, "")

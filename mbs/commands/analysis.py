@@ -21,6 +21,7 @@ class Info:
     def run(args) -> int:
         import mbs
         from mbs.compiler.topology import build_topology
+        from mbs.language import units as U
         system = mbs.load(args.file, args.model)
         model = system.model
         topo = build_topology(model)
@@ -32,6 +33,9 @@ class Info:
             print(f"    {body:24s} <- {joint.interaction.joint.kind:11s} {joint.interaction.name} from {parent}{flipped}")
         for cut in topo.cuts:
             print(f"  loop closed by {cut.name} ({cut.joint.kind})")
+        for state in model.states:  # extra differential states (language/states.py)
+            unit = f" [{U.unit_text(state.dimension)}]" if state.dimension is not None else ""
+            print(f"  state {state.name}{unit}" + (f"  {state.description}" if state.description else ""))
         if args.assemble and topo.cuts:
             _print_assembly(system.assemble(args.scene), system.generate(args.scene))
         return 0
@@ -77,6 +81,8 @@ class Equilibrium:
         units = compiled.units
         for name, value in zip(compiled.q_names, result.x[:compiled.nq]):
             print(f"  {name:32s} {value: .9g} {units.get(name, '')}")
+        for name, value in zip(compiled.z_names, result.x[compiled.nq + compiled.nv:]):
+            print(f"  {name:32s} {value: .9g} {units.get(name, '')}  (state)")
         for name, value in outputs.items():
             print(f"  {name:32s} {value: .9g} {units.get(name, '')}  (output)")
         return 0

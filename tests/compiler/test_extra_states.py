@@ -119,3 +119,11 @@ def test_the_equilibrium_holds_the_extra_states_at_rest_too():
     assert lin.x[0] == pytest.approx(0.05, abs=1e-10)
     assert lin.x[2] == pytest.approx(30.0 / 2000.0, abs=1e-10)
     assert np.allclose(np.sort_complex(lin.eigenvalues), np.sort_complex(np.roots([2.0, 40.0, 800.0, 2000.0])))
+
+
+def test_mbs_eom_shows_the_state_equations_and_evaluates_with_the_states():
+    from mbs.eom import equations_of_motion
+    eq = equations_of_motion(mbs.load(PI))
+    assert "der(z) = r - rail.s" in eq.text()
+    _, _, q = eq.at({"rail.s": 0.01, "z": 0.002})
+    assert q[0, 0] == pytest.approx(800 * 0.04 + 2000 * 0.002 - 30)
