@@ -74,8 +74,11 @@ class HookBinding:
 
     def c_source(self) -> str:
         """The text appended to the generated C: the C files, then one trampoline per Python hook."""
-        parts = []
+        parts, seen = [], set()
         for name, (path, text) in self.c_files.items():
+            if os.path.realpath(path) in seen:  # one file may implement several hooks
+                continue
+            seen.add(os.path.realpath(path))
             shown = path.replace("\\", "\\\\").replace('"', '\\"')
             parts.append(f'#line 1 "{shown}"\n{text}\n')
         if self.python:

@@ -130,6 +130,18 @@ def test_hooks_in_an_event_condition_an_action_and_the_outputs(backend):
     assert np.allclose(energy[after], lost, rtol=1e-8)  # the impact law took (1 - e^2) of the kinetic energy
 
 
+@needs_c
+def test_one_c_file_implements_several_hooks_with_the_python_hooks_results():
+    ball = mbs.load(BALL)
+    c_file = str(HERE / "hooks" / "ball_hooks.c")
+    in_c = ball.simulate(t_end=2.0, rtol=1e-10, atol=1e-12,
+                         hooks={"floor_height": c_file, "impact_law": c_file, "energy": c_file})
+    in_python = ball.simulate(t_end=2.0, rtol=1e-10, atol=1e-12, hooks=_ball_hooks())
+    assert in_c.success, in_c.message
+    assert [e["time"] for e in in_c.events] == pytest.approx([e["time"] for e in in_python.events], abs=1e-12)
+    assert np.allclose(in_c["kinetic"], in_python["kinetic"], rtol=1e-12, atol=1e-12)
+
+
 # ------------------------------------------------------------------------------------------ failures
 def _raising(w, n, mu_s, mu_k):
     if w < 0.15:
