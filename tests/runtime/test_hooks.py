@@ -105,6 +105,19 @@ def test_a_c_hook_on_the_numpy_back_end_is_a_usage_error():
         mbs.load(EXAMPLE, backend="numpy").simulate("cycles", hooks={"friction_law": str(C_LAW)})
 
 
+@needs_c
+@pytest.mark.parametrize("impl", ["python", "c"])
+def test_equilibrium_and_linearisation_take_hooks(belt, impl):
+    """(python: the ctypes callback must outlive the binding that set it; it once did not, and crashed.)"""
+    hooks = {"friction_law": LAW if impl == "python" else str(C_LAW)}
+    rest, _ = belt.equilibrium("cycles", hooks=hooks)
+    assert rest.x[0] == pytest.approx(LAW(0.2, 9.81, 0.6, 0.4) / 100.0, rel=1e-8)  # k s = f(vb) at rest
+    hooked = belt.linearize("cycles", hooks=hooks)
+    plain_law = belt.linearize("cycles", params={"plain": 1}, hooks=hooks)
+    assert np.allclose(np.sort_complex(hooked.eigenvalues), np.sort_complex(plain_law.eigenvalues), atol=1e-5)
+    assert np.abs(hooked.eigenvalues).max() == pytest.approx(10.0, rel=1e-4)  # sqrt(k / m): no slope at vb
+
+
 # ------------------------------------------------------------------------------------------ events and outputs
 def _ball_hooks(e=0.8, floor_cm=25.0):
     """The floor in cm (the model declares the hook in cm), the impact law, the energies (two results)."""
