@@ -155,6 +155,15 @@ def test_one_c_file_implements_several_hooks_with_the_python_hooks_results():
     assert np.allclose(in_c["kinetic"], in_python["kinetic"], rtol=1e-12, atol=1e-12)
 
 
+def test_a_components_hook_serves_every_instance_and_a_hook_may_have_no_arguments():
+    system = mbs.load(HERE / "models" / "hook_component.mbs")
+    assert [h.name for h in system.model.hooks] == ["offset", "damping_law"]
+    res = system.simulate(t_end=3.0, hooks={"damping_law": lambda v: 10.0 * v, "offset": lambda: 0.5})
+    assert res.success, res.message
+    assert res["der(fall.s)"][-1] == pytest.approx(-9.81 / 20.0, rel=1e-6)  # m g = 2 c v: both dampers pull
+    assert res["height"][-1] == pytest.approx(res["fall.s"][-1] + 0.5)
+
+
 # ------------------------------------------------------------------------------------------ failures
 def _raising(w, n, mu_s, mu_k):
     if w < 0.15:
