@@ -75,8 +75,11 @@ def test_the_hooked_run_matches_scipy_on_the_hand_written_equation(belt):
 
 
 @needs_c
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "DOP853", "Radau", "BDF", "LSODA"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "auto", "RK45", "DOP853", "Radau", "BDF", "LSODA",
+                                        "cvode_adams", "cvode_bdf", "ida"])
 def test_every_integrator_runs_a_c_hook(belt, plain, integrator):
+    if integrator in ("cvode_adams", "cvode_bdf", "ida"):
+        pytest.importorskip("sksundae")
     res = belt.simulate("cycles", t_end=1.0, integrator=integrator, rtol=1e-8, atol=1e-10,
                         hooks={"friction_law": str(C_LAW)})
     assert res.success, res.message
