@@ -56,6 +56,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self.inertial_frames: list[ast.Frame] = []
         self.harness_parts: dict[str, PartEntry] = {}
         self.gravity = None
+        self.hook_specs: dict = {}  # user hooks by name (hooks.py: one declaration per name in a model)
         self.declare(root, is_component=block.kind == "component")
         self.bind(root)
         parts, interactions = [], []

@@ -243,7 +243,8 @@ def to_text(e: E) -> str:
         pairs = ", ".join(f"[{x!r}, {y!r}]" for x, y in zip(e.xs, e.ys))
         return f"lookup({to_text(e.x)}, [{pairs}], \"{e.method}\")"
     if isinstance(e, Hook):
-        return f"{e.name}#{e.result}({', '.join(to_text(a) for a in e.args)})"
+        chosen = "" if e.results == 1 else f"[result {e.result}]"
+        return f"{e.name}{chosen}({', '.join(to_text(a) for a in e.args)})"
     if e.op == "neg":
         return f"(-{to_text(e.args[0])})"
     if e.op == "not":

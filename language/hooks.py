@@ -115,7 +115,7 @@ class HookEntry:
 def declare(elab, scope, decl: HookDecl) -> HookEntry:
     """The entry of a declaration; the validated spec is registered on the elaborator (one per name)."""
     spec = _validate(elab, scope, decl)
-    specs = elab.__dict__.setdefault("hook_specs", {})
+    specs = elab.hook_specs
     if spec is not None and decl.name.text not in scope.entries:  # a repeat in one block: "already declared"
         first = specs.get(spec.name)
         if first is None:
@@ -128,9 +128,8 @@ def declare(elab, scope, decl: HookDecl) -> HookEntry:
 
 
 def model_hooks(elab) -> tuple[HookSpec, ...]:
-    """Every hook the elaborated model declares (the elaborator's registry, emptied for the next model)."""
-    specs = elab.__dict__.pop("hook_specs", {})
-    return tuple(specs.values())
+    """Every hook the elaborated model declares (in the elaborator's registry ``hook_specs``, name -> spec)."""
+    return tuple(elab.hook_specs.values())
 
 
 def _validate(elab, scope, decl: HookDecl) -> HookSpec | None:

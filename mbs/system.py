@@ -191,39 +191,45 @@ class System:
         data.x = assembly.x
         return data, assembly
 
-    def _scene_parameters(self, scene: str | None, params: Mapping[str, float | str] | None):
-        """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides."""
+    def _scene_parameters(self, scene: str | None, params: Mapping[str, float | str] | None, hooks=None):
+        """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides;
+        hooks: the implementations of the model's user hooks, connected to the compiled model."""
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         overrides = pipeline.scene_overrides(self.scene(scene))
         overrides.update(parameter_overrides(self.model, params))
         values = pipeline.parameter_values(self.model, overrides)  # checked before the (slow) first compile
-        return self.compile(scene), self.generate(scene), values
+        compiled = self.compile(scene, hooks=binding)
+        if binding is not None:
+            binding.attach(compiled)
+        return compiled, self.generate(scene), values
 
     def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
         what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
         return self._start(*self._scene_parameters(scene, params))[1]
 
-    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
-        """(Equilibrium, {output: value}) of a scene's parameters: where the system rests."""
-        compiled, gen, values = self._scene_parameters(scene, params)
+    def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
+                    hooks: Mapping | None = None):
+        """(Equilibrium, {output: value}) of a scene's parameters: where the system rests. hooks: as for simulate."""
+        compiled, gen, values = self._scene_parameters(scene, params, hooks)
         data = self._workspace(compiled, gen, values)
         result = static_equilibrium(compiled, data, data.x)
         outputs = dict(zip(compiled.y_names, data.outputs(0.0, result.x))) if compiled.ny else {}
         return result, outputs
 
     def linearize(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
-                  at="equilibrium", t: float = 0.0):
+                  at="equilibrium", t: float = 0.0, hooks: Mapping | None = None):
         """The linear model (eigenvalues, natural frequencies, damping ratios, mode shapes, and A, B, C, D for
         the declared inputs and the outputs: .to_scipy(), .to_control()) about the static
         equilibrium at rest (at="equilibrium"; modes are only defined about a state that stays put, so the
         initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
-        array [q; v])."""
+        array [q; v]). hooks: as for simulate (the linear model then comes from finite differences)."""
         from mbs.runtime.linearize import linearize as _linearize
         from .inputs import is_driven, linearization_system, state_space_of
         if self.model.inputs and not is_driven(self.model):
             system, params = linearization_system(self, scene, params, t)  # B and D need switchable inputs
-            return system.linearize(scene, params=params, at=at, t=t)
-        compiled, gen, values = self._scene_parameters(scene, params)
+            return system.linearize(scene, params=params, at=at, t=t, hooks=hooks)
+        compiled, gen, values = self._scene_parameters(scene, params, hooks)
         data = self._workspace(compiled, gen, values)
         if isinstance(at, str):
             if at == "equilibrium":  # at rest: the scene's initial speeds (a car cruising) are not kept

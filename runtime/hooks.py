@@ -63,7 +63,6 @@ class HookBinding:
     python: dict        #: name -> callable
     c_files: dict       #: name -> (path as given, source text)
     _record: _Record = field(default_factory=_Record)
-    _callbacks: list = field(default_factory=list)
 
     @property
     def key(self) -> tuple:
@@ -74,8 +73,11 @@ class HookBinding:
 
     def c_source(self) -> str:
         """The text appended to the generated C: the C files, then one trampoline per Python hook."""
-        parts = []
+        parts, seen = [], set()
         for name, (path, text) in self.c_files.items():
+            if os.path.realpath(path) in seen:  # one file may implement several hooks
+                continue
+            seen.add(os.path.realpath(path))
             shown = path.replace("\\", "\\\\").replace('"', '\\"')
             parts.append(f'#line 1 "{shown}"\n{text}\n')
         if self.python:
@@ -99,11 +101,12 @@ class HookBinding:
                             self._numpy_helper(spec, k))
             return
         lib = _library(backend.module)
-        self._callbacks = []
         for spec in self.specs:
             if spec.name in self.python:
                 callback = _CALLBACK(self._c_callback(spec))
-                self._callbacks.append(callback)  # kept alive as long as the binding
+                # kept alive while the library points to it (until the next attach replaces it): the binding
+                # itself may be gone long before the last call of a model function
+                _CALLBACKS[(backend.module.__file__, spec.name)] = callback
                 pointer = ctypes.c_void_p.in_dll(lib, f"mbs_hook_python_{spec.name}")
                 pointer.value = ctypes.cast(callback, ctypes.c_void_p).value
         lib.mbs_hook_reset()
@@ -196,6 +199,8 @@ def _describe(exc: BaseException) -> str:
 
 
 _LIBRARIES: dict[str, ctypes.CDLL] = {}
+#: (library file, hook) -> the ctypes callback its pointer holds now
+_CALLBACKS: dict[tuple[str, str], object] = {}
 
 
 def _library(module) -> ctypes.CDLL:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import check_scene, model_args, param_arg, params_from_args
+from .hook_args import hook_arg, hooks_from_args
 from .model_files import summary
 
 
@@ -67,6 +68,7 @@ class Equilibrium:
         model_args(p)
         p.add_argument("--scene", help="scene whose parameters and outputs to use")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -74,8 +76,9 @@ class Equilibrium:
         system = mbs.load(args.file, args.model)
         check_scene(system, args.scene)
         params = params_from_args(args, system)
-        result, outputs = system.equilibrium(args.scene, params=params)
-        compiled = system.compile(args.scene)
+        hooks = hooks_from_args(args)
+        result, outputs = system.equilibrium(args.scene, params=params, hooks=hooks)
+        compiled = system.compile(args.scene, hooks=hooks)
         print(f"{system.model.name}: static equilibrium, max |acceleration| {result.residual:.3g} "
               f"({result.steps} relaxation steps, {result.resets} restarts)")
         units = compiled.units
@@ -96,6 +99,7 @@ class Linearize:
         model_args(p)
         p.add_argument("--scene", help="scene whose parameters to use")
         param_arg(p)
+        hook_arg(p)
         p.add_argument("--at", choices=("equilibrium", "initial"), default="equilibrium",
                        help="linearise about the static equilibrium (default) or the initial state")
 
@@ -105,7 +109,7 @@ class Linearize:
         system = mbs.load(args.file, args.model)
         check_scene(system, args.scene)
         params = params_from_args(args, system)
-        lin = system.linearize(args.scene, params=params, at=args.at)
+        lin = system.linearize(args.scene, params=params, at=args.at, hooks=hooks_from_args(args))
         head = f"{system.model.name}" + (f" / scene {args.scene}" if args.scene else "")
         print(f"{head}: linearised about the {'static equilibrium' if args.at == 'equilibrium' else 'initial state'}"
               f", {lin.dof} degree{'s' if lin.dof != 1 else ''} of freedom")

@@ -75,8 +75,11 @@ def test_the_hooked_run_matches_scipy_on_the_hand_written_equation(belt):
 
 
 @needs_c
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "DOP853", "Radau", "BDF", "LSODA"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "auto", "RK45", "DOP853", "Radau", "BDF", "LSODA",
+                                        "cvode_adams", "cvode_bdf", "ida"])
 def test_every_integrator_runs_a_c_hook(belt, plain, integrator):
+    if integrator in ("cvode_adams", "cvode_bdf", "ida"):
+        pytest.importorskip("sksundae")
     res = belt.simulate("cycles", t_end=1.0, integrator=integrator, rtol=1e-8, atol=1e-10,
                         hooks={"friction_law": str(C_LAW)})
     assert res.success, res.message
@@ -105,6 +108,19 @@ def test_a_c_hook_on_the_numpy_back_end_is_a_usage_error():
         mbs.load(EXAMPLE, backend="numpy").simulate("cycles", hooks={"friction_law": str(C_LAW)})
 
 
+@needs_c
+@pytest.mark.parametrize("impl", ["python", "c"])
+def test_equilibrium_and_linearisation_take_hooks(belt, impl):
+    """(python: the ctypes callback must outlive the binding that set it; it once did not, and crashed.)"""
+    hooks = {"friction_law": LAW if impl == "python" else str(C_LAW)}
+    rest, _ = belt.equilibrium("cycles", hooks=hooks)
+    assert rest.x[0] == pytest.approx(LAW(0.2, 9.81, 0.6, 0.4) / 100.0, rel=1e-8)  # k s = f(vb) at rest
+    hooked = belt.linearize("cycles", hooks=hooks)
+    plain_law = belt.linearize("cycles", params={"plain": 1}, hooks=hooks)
+    assert np.allclose(np.sort_complex(hooked.eigenvalues), np.sort_complex(plain_law.eigenvalues), atol=1e-5)
+    assert np.abs(hooked.eigenvalues).max() == pytest.approx(10.0, rel=1e-4)  # sqrt(k / m): no slope at vb
+
+
 # ------------------------------------------------------------------------------------------ events and outputs
 def _ball_hooks(e=0.8, floor_cm=25.0):
     """The floor in cm (the model declares the hook in cm), the impact law, the energies (two results)."""
@@ -128,6 +144,27 @@ def test_hooks_in_an_event_condition_an_action_and_the_outputs(backend):
     after = (res.t > times[0] + 1e-6) & (res.t < times[1] - 1e-6)
     lost = 0.5 * 9.81 * 1.0 - 0.5 * 0.5 * (g * t1) ** 2 * (1 - e * e)
     assert np.allclose(energy[after], lost, rtol=1e-8)  # the impact law took (1 - e^2) of the kinetic energy
+
+
+@needs_c
+def test_one_c_file_implements_several_hooks_with_the_python_hooks_results():
+    ball = mbs.load(BALL)
+    c_file = str(HERE / "hooks" / "ball_hooks.c")
+    in_c = ball.simulate(t_end=2.0, rtol=1e-10, atol=1e-12,
+                         hooks={"floor_height": c_file, "impact_law": c_file, "energy": c_file})
+    in_python = ball.simulate(t_end=2.0, rtol=1e-10, atol=1e-12, hooks=_ball_hooks())
+    assert in_c.success, in_c.message
+    assert [e["time"] for e in in_c.events] == pytest.approx([e["time"] for e in in_python.events], abs=1e-12)
+    assert np.allclose(in_c["kinetic"], in_python["kinetic"], rtol=1e-12, atol=1e-12)
+
+
+def test_a_components_hook_serves_every_instance_and_a_hook_may_have_no_arguments():
+    system = mbs.load(HERE / "models" / "hook_component.mbs")
+    assert [h.name for h in system.model.hooks] == ["offset", "damping_law"]
+    res = system.simulate(t_end=3.0, hooks={"damping_law": lambda v: 10.0 * v, "offset": lambda: 0.5})
+    assert res.success, res.message
+    assert res["der(fall.s)"][-1] == pytest.approx(-9.81 / 20.0, rel=1e-6)  # m g = 2 c v: both dampers pull
+    assert res["height"][-1] == pytest.approx(res["fall.s"][-1] + 0.5)
 
 
 # ------------------------------------------------------------------------------------------ failures
