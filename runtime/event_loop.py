@@ -54,8 +54,8 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     names = model.x_names
     t, x = float(data.t), data.x.copy()
     frozen = init_switches(model, data, t, x)
-    start_friction_modes(model, data, t, x)  # stick or slip from the start state (runtime/friction.py)
-    segments, records, fired_times = Segments(), [], []
+    records = start_friction_modes(model, data, t, x)  # stick or slip from the start state (runtime/friction.py)
+    segments, fired_times = Segments(), []
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
     chunk = max(1, math.ceil(times.size / chunks)) if progress is not None else times.size

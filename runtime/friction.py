@@ -11,12 +11,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from .events import EventRecord
+
 #: Names the compiler gives an element's events and mode (compiler/friction.py, language/friction.py).
 SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
 
 
-def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[str]:
-    """Set data.p's friction modes for the state (t, x); returns the names of the elements let go."""
+def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventRecord]:
+    """Set data.p's friction modes for the state (t, x); returns the log entries of the elements let go (their
+    slip event with the direction 'start')."""
     index = {spec.name: k for k, spec in enumerate(model.events)}
     starting, g = [], None
     for k, spec in enumerate(model.events):
@@ -29,10 +32,14 @@ def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[str]:
         g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
         if g[k] > 0 or (speed and x[speed[0]] != 0):
             starting.append(k)
+    records = []
     if starting:
         values = data.function("event_actions")(t, x)
         for k in starting:
+            changes = []
             for array, i, slot in model.events[k].assignments:
                 if array == "p":
+                    changes.append(f"{model.p_names[i]}: {data.p[i]:.6g} -> {values[slot]:.6g}")
                     data.p[i] = values[slot]
-    return [model.events[k].name[:-len(SLIP)] for k in starting]
+            records.append(EventRecord(t, model.events[k].name, "start", "; ".join(changes)))
+    return records

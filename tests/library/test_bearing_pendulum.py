@@ -67,6 +67,9 @@ def test_the_decay_matches_an_independent_integration(run):
     expected = reference(10.0, run.t)
     np.testing.assert_allclose(run["angle"], expected, atol=1e-8)  # measured: 6e-10 rad
     # the amplitude decays by a load-dependent amount per swing (it is not a constant-torque decay)
+    # released at 60 deg the pin cannot hold it: it slips from the start, towards negative phi
+    assert run.events[0] == {"time": 0.0, "event": "pin.bearing.slip", "direction": "start",
+                             "changes": "pin.bearing.mode: 0 -> -1"}
     turns = [e["time"] for e in run.events if e["event"] == "pin.bearing.grip"]
     assert len(turns) >= 10
     amplitudes = np.abs(np.interp(turns, run.t, run["angle"]))

@@ -8,7 +8,7 @@ time 2 d / vb.
 
 from __future__ import annotations
 
-import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,14 +16,10 @@ import pytest
 
 import mbs
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from stickslipkit import AMPLITUDE, T_SLIP, T_STICK, VB, X_K, D, times_of
+
 EXAMPLE = Path(__file__).resolve().parents[2] / "library" / "examples" / "stick_slip.mbs"
-M, K, VB, MU_S, MU_K, G = 1.0, 100.0, 0.2, 0.6, 0.4, 9.81
-OMEGA = math.sqrt(K / M)
-X_K = MU_K * M * G / K
-D = (MU_S - MU_K) * M * G / K
-AMPLITUDE = math.hypot(D, VB / OMEGA)
-T_SLIP = (math.pi + 2 * math.atan2(VB / OMEGA, D)) / OMEGA
-T_STICK = 2 * D / VB
 
 
 @pytest.fixture(scope="module")
@@ -34,10 +30,6 @@ def system():
 @pytest.fixture(scope="module")
 def run(system):
     return system.simulate("cycles")
-
-
-def times_of(res, name):
-    return np.array([e["time"] for e in res.events if e["event"] == name])
 
 
 def test_stick_and_slip_alternate_with_the_closed_form_durations(run):

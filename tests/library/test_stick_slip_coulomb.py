@@ -9,7 +9,7 @@ compiler derived it from the equations of motion.
 
 from __future__ import annotations
 
-import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -17,14 +17,23 @@ import pytest
 
 import mbs
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from stickslipkit import (
+    AMPLITUDE,
+    MU_K,
+    MU_S,
+    T_SLIP,
+    T_STICK,
+    VB,
+    X_K,
+    D,
+    G,
+    K,
+    M,
+    times_of,
+)
+
 EXAMPLE = Path(__file__).resolve().parents[2] / "library" / "examples" / "stick_slip_coulomb.mbs"
-M, K, VB, MU_S, MU_K, G = 1.0, 100.0, 0.2, 0.6, 0.4, 9.81
-OMEGA = math.sqrt(K / M)
-X_K = MU_K * M * G / K
-D = (MU_S - MU_K) * M * G / K
-AMPLITUDE = math.hypot(D, VB / OMEGA)
-T_SLIP = (math.pi + 2 * math.atan2(VB / OMEGA, D)) / OMEGA
-T_STICK = 2 * D / VB
 SLIP, GRIP = "contact.friction.slip", "contact.friction.grip"
 
 
@@ -36,10 +45,6 @@ def system():
 @pytest.fixture(scope="module")
 def run(system):
     return system.simulate("cycles")
-
-
-def times_of(res, name):
-    return np.array([e["time"] for e in res.events if e["event"] == name])
 
 
 def sticking_rows(res):
