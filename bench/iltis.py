@@ -5,7 +5,11 @@ the static equilibrium, and each bump scene's wall time and real-time factor wit
 
 Printed, all measured in this run (medians of --repeat; the machine is shared and noisy):
 
-* compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load);
+* compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load), and of it
+  the derivation (to generated C) and the C build (split into units compiled in parallel, runtime/units.py);
+* the command line, `mbs -q simulate vehicle.mbs --scene S` in a subprocess (medians of --repeat): warm (the
+  build and the derivation cached: a user's second call) against cold (the build cached, the derivation not:
+  every call before the derivation cache), as a ratio;
 * rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
   the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
@@ -22,7 +26,9 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -31,7 +37,9 @@ from pathlib import Path
 import numpy as np
 
 import mbs
+from mbs.runtime import cache as store
 from mbs.runtime import equilibrium
+from mbs.runtime.build import build_jobs
 from mbs.runtime.equilibrium import static_equilibrium
 from mbs.runtime.workspace import Workspace
 
@@ -85,16 +93,23 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
         system = mbs.load(MODEL, cache_dir=cache)
+        system.generate(args.scenes[0])
+        derived = time.perf_counter()
         compiled = system.compile(args.scenes[0])
-        compile_time = time.perf_counter() - start
+        built = time.perf_counter()
+        compile_time = built - start
         gen = system.generate(args.scenes[0])
         open_system = mbs.loads(chain_text(compiled.nv), cache_dir=cache)
         open_compiled = open_system.compile()
         data = system._workspace(compiled, gen, _values(system, args.scenes[0]))
         x_start = data.x.copy()
         report = data.loop_report(0.0, x_start)
-        print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache); "
-              f"generated C {len(gen.c_source) / 1024:.0f} KiB")
+        print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache: derivation "
+              f"{derived - start:.1f} s, C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
+              f"{len(gen.c_source) / 1024:.0f} KiB")
+        warm, cold = cli_times(cache, args.scenes[0], args.repeat)
+        print(f"command line `mbs simulate {MODEL.name} --scene {args.scenes[0]}`: warm {warm:.2f} s, cold "
+              f"(derivation not cached) {cold:.2f} s: {cold / warm:.1f} x")
         print(f"  nq = {compiled.nq}, nv = {compiled.nv}, constraint rows = {len(gen.constraints.names)}, "
               f"rank {int(report[5])}, degrees of freedom {int(report[6])}")
 
@@ -133,6 +148,27 @@ def main() -> None:
                 base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
                 line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
             print(line + ("" if res.success else f"  ({res.message})"))
+
+
+def cli_times(cache: str, scene: str, repeat: int) -> tuple[float, float]:
+    """Median wall times [s] of the command line run of a scene: with both caches warm, and with the derivation
+    cache emptied before each run (the build cache warm)."""
+    env = {**os.environ, "MBS_CACHE_DIR": cache}
+    command = [sys.executable, "-m", "mbs", "-q", "simulate", str(MODEL), "--scene", scene]
+
+    def run():
+        subprocess.run(command, env=env, check=True, capture_output=True)
+
+    def cold():
+        for entry in Path(cache).glob(f"{store.DERIVED_PREFIX}*"):
+            entry.unlink()
+        run()
+
+    run()  # the cache as a user's second call finds it
+    warm, _ = median_time(run, repeat)
+    cold_time, _ = median_time(cold, max(1, repeat // 2))
+    run()  # leave the derivation cached for what follows
+    return warm, cold_time
 
 
 def kinetic_damping(compiled, data, x0):
