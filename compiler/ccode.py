@@ -172,7 +172,8 @@ class CEmitter:
         routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
             return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
-        loops = loop_routines(self.constraints) + ([self.loop_jacobian.routine] if self.loop_jacobian else [])
+        partials = self.loop_jacobian.routine if self.loop_jacobian else None
+        loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
                 + [r for r in (self.constraint_matrix,) if r])
 

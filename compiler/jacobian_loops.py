@@ -19,6 +19,10 @@ differentiation of the tape (compiler/differentiate.py), as one routine
 
 and runtime/c/loop_jacobian.c turns them into mbs_jacobian, the contract's [d x'/d x | d x'/d t]: the
 tangent map of the projection by the kept partition, then the differentiated null-space solve.
+
+Beyond MAX_STATES states (the table of partials grows as nx^2) and for equations with lookup tables, the same
+assembly takes the partials by forward differences of the residuals, which are smooth tree functions without
+the Newton iteration: half the digits, like a tree's finite differences, and no generation time.
 """
 
 from __future__ import annotations
@@ -34,10 +38,9 @@ from .equations import Equations
 from .tree import t
 
 PARTIALS = "mbs_loop_partials"
-#: Largest state for which the partials are generated. Their table grows as nx^2 (about 120,000 entries for the
-#: 40-four-bar chain, a vehicle's tyre tables have no printable derivative anyway): beyond this the generation
-#: and the C compiler take minutes, more than the exact Jacobian saves, and the integrators use their checked
-#: central differences.
+#: Largest state for which the partials are generated. Their table grows as nx^2 (about 200,000 entries for the
+#: 40-four-bar chain): beyond this the generation and the C compiler take minutes, more than exact partials
+#: save, and the same assembly takes them by differences of the residuals (partials_by_differences).
 MAX_STATES = 40
 
 
@@ -46,21 +49,41 @@ class LoopJacobian:
     """What the C emitter needs: the routine tuple (emit_common's format), the inputs the routine reads after
     the state (symbol, array, index), and the definitions that switch runtime/c/loop_jacobian.c on."""
 
-    routine: tuple
+    routine: tuple | None  # None: the partials by differences (partials_by_differences)
     inputs: tuple
     definitions: str
 
 
 def loop_jacobian_or_none(equations: Equations, constraints: Constraints
                           ) -> tuple[Equations, LoopJacobian | None]:
-    """`loop_jacobian`, or (equations, None) when the equations have no printable derivative (a lookup table):
-    the integrators then use their finite differences; and for mechanisms of more than MAX_STATES states."""
-    if equations.tree.nx > MAX_STATES:
-        return equations, None
-    try:
-        return loop_jacobian(equations, constraints)
-    except NotDifferentiable:
-        return equations, None
+    """`loop_jacobian`; for mechanisms of more than MAX_STATES states and for equations without a printable
+    derivative (a lookup table) the same assembly with the partials by differences of the residuals."""
+    if equations.tree.nx <= MAX_STATES:
+        try:
+            return loop_jacobian(equations, constraints)
+        except NotDifferentiable:
+            pass
+    return equations, partials_by_differences(equations, constraints)
+
+
+def partials_by_differences(equations: Equations, constraints: Constraints) -> LoopJacobian:
+    """runtime/c/loop_jacobian.c with the partials from forward differences of the residuals (tree functions,
+    smooth, no Newton iteration in them): half the digits, but no generation time."""
+    tree = equations.tree
+    return LoopJacobian(None, (), _definitions(tree.nq, tree.nv, constraints.nc, generated=False))
+
+
+def _definitions(nq: int, nv: int, nc: int, *, generated: bool) -> str:
+    how = "from mbs_loop_partials" if generated else "partials by differences of the residuals"
+    lines = [f"#define MBS_JACOBIAN 1   /* mbs_jacobian exists (runtime/c/loop_jacobian.c, {how}) */",
+             "#define MBS_LOOP_JACOBIAN 1",
+             f"#define MBS_LOOP_JACOBIAN_NWORK {loop_jacobian_work_size(nq, nv, nc)}   /* doubles of work it needs */"]
+    if generated:
+        lines.append("int mbs_loop_partials(double t, const double *x, const double *p, double *out, double *work);")
+    else:
+        lines.append("#define MBS_LOOP_PARTIALS_BY_DIFFERENCES 1")
+    lines.append("int mbs_jacobian(double t, const double *x, const double *p, double *out, double *work);")
+    return "\n".join(lines)
 
 
 def loop_jacobian(equations: Equations, constraints: Constraints) -> tuple[Equations, LoopJacobian]:
@@ -87,16 +110,12 @@ def loop_jacobian(equations: Equations, constraints: Constraints) -> tuple[Equat
            "runtime/c/loop_jacobian.c)")
     routine = (PARTIALS, "out", doc, (nv + 3 * nc + nq, nx + 1), results, False)
     inputs = tuple((s, "x", nx + k) for k, s in enumerate(a)) + tuple((s, "x", nx + nv + k) for k, s in enumerate(lam))
-    definitions = "\n".join([
-        "#define MBS_JACOBIAN 1   /* mbs_jacobian exists (runtime/c/loop_jacobian.c, from mbs_loop_partials) */",
-        "#define MBS_LOOP_JACOBIAN 1",
-        f"#define MBS_LOOP_JACOBIAN_NWORK {loop_jacobian_work_size(nq, nv, nc)}   /* doubles of work it needs */",
-        "int mbs_loop_partials(double t, const double *x, const double *p, double *out, double *work);",
-        "int mbs_jacobian(double t, const double *x, const double *p, double *out, double *work);"])
+    definitions = _definitions(nq, nv, nc, generated=True)
     return dataclasses.replace(equations, kinematics=kinematics), LoopJacobian(routine, inputs, definitions)
 
 
 def loop_jacobian_work_size(nq: int, nv: int, nc: int) -> int:
     """Doubles of work runtime/c/loop_jacobian.c needs at the end of the work area (its MBS_LJ_NEEDED)."""
     nx = nq + nv
-    return (nv + 3 * nc + nq) * (nx + 1) + 4 * nv * nv + 4 * nx + 9 * nv + 4 * nc + 2 + 8
+    rows = nv + 3 * nc + nq
+    return rows * (nx + 1) + 4 * nv * nv + 4 * nx + 9 * nv + 4 * nc + 2 + nv * nv + nc * nv + 2 * rows + nx + 8

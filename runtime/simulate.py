@@ -96,6 +96,8 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     started = time.perf_counter()
     options = dict(rtol=rtol, atol=atol, first_step=first_step, max_step=max_step, min_step=min_step,
                    max_steps=max_steps, jac=state_jacobian(data))
+    if getattr(cls, "uses_workspace", False):  # a DAE form needs the model's functions (integrators/ida.py)
+        options["workspace"] = data
     guard = RunGuard(t0, t_end, progress, max_wall_time, stall_time)
     if model.events:
         with guard:

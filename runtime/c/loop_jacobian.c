@@ -19,9 +19,13 @@
  * of F∘P (the integrators' fallback) lose to the Newton tolerance.  Cost: one projection, one rhs, the
  * multipliers, the generated partials (about one tree function per state) and O(nx nv^2) of linear algebra.
  *
+ * With MBS_LOOP_PARTIALS_BY_DIFFERENCES (large mechanisms, lookup tables) the partials come from forward
+ * differences of the residuals instead: tree functions, smooth, so they keep half the digits.
+ *
  * Status: 0 ok, 1 singular factors or a singular position (the loop solver's limit rows are not
  * differentiated here: the integrators then use finite differences), 2 non-finite, 3 not assembled.
  */
+#include <float.h>
 #include <math.h>
 #include <string.h>
 
@@ -29,13 +33,14 @@
 #define MBS_LJ_ROWS (MBS_NV + 3 * MBS_NC + MBS_NQ)  /* of the partials: R1, R2, gdot, g, qdot */
 #define MBS_LJ_QDOT (MBS_NV + 3 * MBS_NC)  /* first row of qdot */
 #define MBS_LJ_NEEDED (MBS_LJ_ROWS * MBS_LJ_W + 4 * MBS_NV * MBS_NV + 4 * MBS_NX + 9 * MBS_NV \
-                       + 4 * MBS_NC + 2)
+                       + 4 * MBS_NC + 2 + MBS_NV * MBS_NV + MBS_NC * MBS_NV + 2 * MBS_LJ_ROWS + MBS_NX)
 #if MBS_LOOP_JACOBIAN_NWORK < MBS_LJ_NEEDED
 #error "MBS_LOOP_JACOBIAN_NWORK is too small for runtime/c/loop_jacobian.c"
 #endif
 
 typedef struct {
     double *xin, *xdot, *part, *D, *M, *T, *A, *S, *pivS, *pivA, *dx, *h1, *h2, *c, *z, *s, *u, *dn;
+    double *Mfd, *Gfd, *r0, *r1, *xt;  /* the partials by differences: scratch */
     int r, d;
 } mbs_lj_work;
 
@@ -60,6 +65,11 @@ static mbs_lj_work mbs_lj_layout(double *work)
     w.z = s; s += MBS_NV;
     w.s = s; s += MBS_NV;
     w.dn = s; s += MBS_NV;
+    w.Mfd = s; s += MBS_NV * MBS_NV;
+    w.Gfd = s; s += MBS_NC * MBS_NV;
+    w.r0 = s; s += MBS_LJ_ROWS;
+    w.r1 = s; s += MBS_LJ_ROWS;
+    w.xt = s; s += MBS_NX;
     w.u = s;
     w.r = w.d = 0;
     return w;
@@ -199,6 +209,51 @@ static void mbs_lj_column(mbs_lj_work *w, int j, double *out)
     }
 }
 
+#ifdef MBS_LOOP_PARTIALS_BY_DIFFERENCES
+/* r = [R1; R2; gdot; g; qdot] at (t, x), a and lambda from w->xin: the tree functions, no loop solve. */
+static int mbs_lj_residuals(double t, const double *x, const double *p, mbs_lj_work *w, double *r, double *work)
+{
+    const double *a = w->xin + MBS_NX, *lam = w->xin + MBS_NX + MBS_NV;
+    double *R1 = r, *R2 = r + MBS_NV, *gd = R2 + MBS_NC, *g = gd + MBS_NC, *qd = g + MBS_NC;
+    int i, j, k, s;
+    if (mbs_mass_matrix(t, x, p, w->Mfd, work) == 2) return 2;  /* status 1: only semi-definite, as above */
+    if ((s = mbs_forces(t, x, p, R1, work)) != 0) return s;
+    if ((s = mbs_loop_jacobian(t, x, p, w->Gfd, work)) != 0) return s;
+    if ((s = mbs_constraint_acceleration(t, x, p, R2, work)) != 0) return s;
+    if ((s = mbs_constraint_velocity(t, x, p, gd, work)) != 0) return s;
+    if ((s = mbs_constraints(t, x, p, g, work)) != 0) return s;
+    if ((s = mbs_qdot(t, x, p, qd, work)) != 0) return s;
+    for (i = 0; i < MBS_NV; i++) {
+        double sum = -R1[i];
+        for (j = 0; j < MBS_NV; j++) sum += w->Mfd[i * MBS_NV + j] * a[j];
+        for (k = 0; k < MBS_NC; k++) sum -= w->Gfd[k * MBS_NV + i] * lam[k];
+        R1[i] = sum;
+    }
+    for (k = 0; k < MBS_NC; k++)
+        for (j = 0; j < MBS_NV; j++) R2[k] += w->Gfd[k * MBS_NV + j] * a[j];
+    return 0;
+}
+
+/* The partials of mbs_loop_partials by forward differences of the residuals: for mechanisms too large (or
+ * with lookup tables) for the generated ones.  The residuals are smooth tree functions (no Newton iteration,
+ * no partition), so one-sided differences keep about half the digits, as for a tree. */
+static int mbs_lj_partials_by_differences(double t, const double *p, mbs_lj_work *w, double *work)
+{
+    int i, j, s;
+    memcpy(w->xt, w->xin, MBS_NX * sizeof(double));
+    if ((s = mbs_lj_residuals(t, w->xt, p, w, w->r0, work)) != 0) return s;
+    for (j = 0; j < MBS_LJ_W; j++) {
+        double base = j < MBS_NX ? w->xt[j] : t, delta = sqrt(DBL_EPSILON) * fmax(1.0, fabs(base));
+        if (j < MBS_NX) w->xt[j] = base + delta;
+        s = mbs_lj_residuals(j < MBS_NX ? t : t + delta, w->xt, p, w, w->r1, work);
+        if (j < MBS_NX) w->xt[j] = base;
+        if (s != 0) return s;
+        for (i = 0; i < MBS_LJ_ROWS; i++) w->D[i * MBS_LJ_W + j] = (w->r1[i] - w->r0[i]) / delta;
+    }
+    return 0;
+}
+#endif
+
 int mbs_jacobian(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_lj_work w = mbs_lj_layout(work);
@@ -213,7 +268,11 @@ int mbs_jacobian(double t, const double *x, const double *p, double *out, double
     if ((s = mbs_loop_multipliers(t, xc, p, w.xin + MBS_NX + MBS_NV, work)) != 0) return s;
     /* M may be only semi-definite (massless parts; status 1): T^T M T is what must be regular */
     if (mbs_mass_matrix(t, xc, p, w.M, work) == 2) return 2;
+#ifdef MBS_LOOP_PARTIALS_BY_DIFFERENCES
+    if ((s = mbs_lj_partials_by_differences(t, p, &w, work)) != 0) return s;
+#else
     if ((s = mbs_loop_partials(t, w.xin, p, w.D, work)) != 0) return s;
+#endif
     if (mbs_lj_factors(&w)) return 1;
     for (j = 0; j < MBS_LJ_W; j++) mbs_lj_column(&w, j, out);
     return isfinite(mbs_loop_maxabs(out, MBS_NX * MBS_LJ_W, NULL)) ? 0 : 2;

@@ -1,13 +1,15 @@
-"""SUNDIALS IDA (variable-order BDF for implicit equations F(t, y, y') = 0) on the model in residual form
-F = y' - f(t, y), with the generated Jacobian dF/dy + c dF/dy' = c I - J when the model has one.
-
-The closed loops enter through the model's right-hand side (projected state), not yet as a stabilised
-index-2 DAE with multipliers among the unknowns."""
+"""SUNDIALS IDA (variable-order BDF for implicit equations F(t, y, y') = 0). A tree is integrated in residual
+form F = y' - f(t, y), with the generated Jacobian dF/dy + c dF/dy' = c I - J when the model has one. A closed
+mechanism is integrated as the stabilised index-2 DAE of ggl.py (constraints as equations, multipliers among
+the unknowns, no projection); the results hold its state x = [q; v] as for every other integrator."""
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
+from .ggl import GGL
 from .registry import register
 from .sundials_common import SundialsSolver
 
@@ -15,10 +17,25 @@ from .sundials_common import SundialsSolver
 @register
 class Ida(SundialsSolver):
     name = "ida"
-    description = "SUNDIALS IDA, BDF orders 1-5 on F = x' - f(t, x) (stiff)"
+    description = "SUNDIALS IDA, BDF orders 1-5 on F = x' - f(t, x), closed loops as an index-2 DAE (stiff)"
+    #: simulate passes the workspace: closed loops need the model's functions, not only its rhs
+    uses_workspace: ClassVar[bool] = True
+
+    def __init__(self, fun, t0, y0, t_bound, *, workspace=None, **options):
+        self._ggl = None
+        if workspace is not None and "constraint_jacobian" in workspace.model.functions:
+            self._ggl = GGL(workspace, t0, y0)
+            y0 = self._ggl.y0[:self._ggl.nx]
+        super().__init__(fun, t0, y0, t_bound, **options)
 
     def _make(self, settings):
         from sksundae import ida
+        if self._ggl is not None:
+            ggl = self._ggl
+            settings.update(atol=ggl.atol(settings["atol"]), algebraic_idx=ggl.algebraic)
+            solver = ida.IDA(ggl.residual, **settings)
+            solver.init_step(self.t, ggl.y0, ggl.yp0)
+            return solver
         n = self.n
         scratch = np.empty(n)
 
@@ -37,3 +54,13 @@ class Ida(SundialsSolver):
         yp0 = np.asarray(self.fun(self.t, self.y), dtype=float)
         solver.init_step(self.t, self.y, yp0)
         return solver
+
+    def _step_impl(self):
+        ok, reason = super()._step_impl()
+        if self._ggl is not None:
+            self.y = self.y[:self._ggl.nx]  # the multipliers stay inside
+        return ok, reason
+
+    def _interpolate(self, t: float) -> np.ndarray:
+        y = super()._interpolate(t)
+        return y[:self._ggl.nx] if self._ggl is not None else y
