@@ -1,9 +1,9 @@
 """The start of a run with switched friction elements (compiler/friction.py): each element's mode from the state.
 
 An element's events only see transitions (the static limit exceeded, the slip speed through zero), so a run that
-starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever.  Before the
-first step every element still in its default stick mode is therefore let go as its slip event would do it,
-when it slides (in its joint or at its contact) or its holding force exceeds the limit; the new mode is that event's own
+starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever. Before the
+first step every element still in its default stick mode is therefore let go as its slip event would do it, when it
+slides (in its joint or at its contact) or its holding force exceeds the limit; the new mode is that event's own
 action value (the sign of the slip speed, or the direction the system accelerates in).
 """
 
