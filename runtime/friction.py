@@ -1,9 +1,9 @@
 """The start of a run with switched friction elements (compiler/friction.py): each element's mode from the state.
 
 An element's events only see transitions (the static limit exceeded, the slip speed through zero), so a run that
-starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever.  Before the
-first step every element still in its default stick mode is therefore let go as its slip event would do it,
-when it moves relative to its joint or its holding force exceeds the limit; the new mode is that event's own
+starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever. Before the
+first step every element still in its default stick mode is therefore let go as its slip event would do it, when it
+slides (in its joint or at its contact) or its holding force exceeds the limit; the new mode is that event's own
 action value (the sign of the slip speed, or the direction the system accelerates in).
 """
 
@@ -26,11 +26,11 @@ def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventReco
         base = spec.name[:-len(SLIP)] if spec.name.endswith(SLIP) else None
         if base is None or base + GRIP not in index or base + MODE_SUFFIX not in model.p_names:
             continue
-        if data.p[model.p_names.index(base + MODE_SUFFIX)] != 0:
+        mode = model.p_names.index(base + MODE_SUFFIX)
+        if data.p[mode] != 0:
             continue  # the user started it sliding
-        speed = [i for array, i, _ in model.events[index[base + GRIP]].assignments if array == "x"]
         g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
-        if g[k] > 0 or (speed and x[speed[0]] != 0):
+        if g[k] > 0 or _slip_speed(data, t, x, mode, index[base + GRIP]) != 0:
             starting.append(k)
     records = []
     if starting:
@@ -43,3 +43,13 @@ def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventReco
                     data.p[i] = values[slot]
             records.append(EventRecord(t, model.events[k].name, "start", "; ".join(changes)))
     return records
+
+
+def _slip_speed(data, t: float, x: np.ndarray, mode: int, grip: int) -> float:
+    """The element's slip speed: its grip indicator reads mode * w while slipping, so with the mode set to +1 for
+    a moment it is w itself (of a joint or of a point contact alike)."""
+    data.p[mode] = 1.0
+    try:
+        return float(data.function("events")(t, x)[grip])
+    finally:
+        data.p[mode] = 0.0

@@ -104,6 +104,17 @@ def test_a_point_contact_sticks_and_slides_like_the_incline():
         np.testing.assert_allclose(res["friction_force"][1:], expected, rtol=1e-10)
 
 
+def test_a_point_contact_that_starts_sliding_slides_until_it_stops_and_then_sticks():
+    theta = math.radians(10)  # below the friction angle: the kinetic friction brakes the block to rest
+    res = simulate("tipping_contact", theta=theta, v0=-0.5)
+    deceleration = G * (0.3 * math.cos(theta) - math.sin(theta))
+    assert res.events[0]["direction"] == "start" and res.events[0]["changes"].endswith("-> -1")
+    grips = [e for e in res.events if e["event"] == "rub.friction.grip"]
+    assert len(grips) == 1 and grips[0]["changes"].endswith("-> 0")
+    assert grips[0]["time"] == pytest.approx(0.5 / deceleration, abs=1e-9)
+    assert res["rail.s"][-1] == pytest.approx(-0.5 ** 2 / (2 * deceleration), abs=1e-9)
+
+
 def test_a_point_contact_on_a_moving_body_is_solved_with_a_joint_element():
     both = simulate("stack_contact", push=1.0)
     np.testing.assert_allclose(both["guide.s"], 0.0, atol=1e-12)
