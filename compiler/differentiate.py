@@ -67,7 +67,9 @@ def _differentiate(expr: sp.Expr, seeds: dict, derivative: dict) -> dict:
             continue
         for k, d in inner.items():
             total[k] = total.get(k, sp.S.Zero) + partial * d
-    return {k: d for k, d in total.items() if d != 0}
+    # in the order of wrt, not of the set of free symbols (whose order changes with the hash seed), so that the
+    # generated text, and with it the build cache key, is the same in every process
+    return {k: total[k] for k in sorted(total) if total[k] != 0}
 
 
 def partial_derivative(expr: sp.Expr, a: sp.Symbol) -> sp.Expr:

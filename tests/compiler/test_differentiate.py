@@ -37,3 +37,24 @@ def test_an_undefined_function_has_no_derivative():
     table = sp.Function("mbs_table_0")
     with pytest.raises(NotDifferentiable):
         partial_derivative(table(x) * y, x)
+
+
+def test_the_generated_jacobian_is_the_same_text_in_every_process(tmp_path):
+    """The build cache is keyed by the generated text: the Jacobian's temporaries must not come out in the order
+    of a set of symbols, which changes with Python's hash seed (it did: every process compiled anew)."""
+    import hashlib
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    model = Path(__file__).resolve().parents[1] / "runtime" / "models" / "stiff_arm.mbs"
+    script = ("import hashlib, sys, mbs; g = mbs.load(sys.argv[1]).generate(jacobian=True); "
+              "print(hashlib.sha256(g.c_source.encode()).hexdigest())")
+    digests = set()
+    for seed in ("1", "2", "3"):
+        env = dict(os.environ, PYTHONHASHSEED=seed, MBS_CACHE_DIR=str(tmp_path / f"cache{seed}"))
+        out = subprocess.run([sys.executable, "-c", script, str(model)], env=env, capture_output=True, text=True,
+                             check=True)
+        digests.add(out.stdout.strip())
+    assert len(digests) == 1 and len(next(iter(digests))) == len(hashlib.sha256().hexdigest())
