@@ -198,6 +198,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
                 if member.name.text in entry.forces:
                     self.diags.error(f"force '{member.name.text}' is already declared", scope.at(member.name.span))
                 entry.forces[member.name.text] = member.kind.text
+        _friction_torque_sensors(entry)
         return entry
 
     def instantiate(self, scope: Scope, st: ast.Use) -> None:
@@ -531,6 +532,18 @@ def _decl_span(entry, fallback: Span) -> Span:
     if decl is not None and hasattr(decl, "name") and hasattr(decl.name, "span"):
         return decl.name.span
     return fallback
+
+
+def _friction_torque_sensors(entry: InteractEntry) -> None:
+    """A force sensor on the friction element of a revolute joint reads a torque (the element acts on the
+    joint's angle), not the force its kind reads elsewhere."""
+    angular = bool(entry.coordinates) and all(d == U.ANGLE for d in entry.coordinates.values())
+    for member in entry.decl.members:
+        if angular and isinstance(member, ast.Sensor) and member.kind.text == "force":
+            element = _word_arg(member.args, "element") or (next(iter(entry.forces)) if len(entry.forces) == 1
+                                                             else None)
+            if entry.forces.get(element) == "coulomb":
+                entry.sensor_dims[member.name.text] = U.TORQUE
 
 
 def _word_arg(args, name: str) -> str | None:

@@ -263,7 +263,7 @@ class ExprResolver:
             if kind in ACCELERATION_SENSORS and not self.allow_acceleration:
                 raise self.error(f"sensor '{ref.dotted}' depends on accelerations and cannot be used in {self.what}",
                                  ref.span)
-            dim = SENSOR_DIMENSIONS.get(kind)
+            dim = entry.sensor_dims.get(member, SENSOR_DIMENSIONS.get(kind))
             if components == ("",) and len(rest) == 1:
                 return X.Sym("sensor", f"{entry.full}.{member}"), dim
             if len(rest) == 1 and components and self.vector_components is not None:

@@ -89,6 +89,7 @@ class InteractEntry:
     speeds: dict[str, Dimension] = field(default_factory=dict)       # names usable in der() or directly
     sensors: dict[str, tuple[str, tuple[str, ...]]] = field(default_factory=dict)  # local -> (kind, comps)
     forces: dict[str, str] = field(default_factory=dict)             # local -> kind
+    sensor_dims: dict[str, Dimension] = field(default_factory=dict)  # a sensor's dimension where not its kind's
 
 
 @dataclass

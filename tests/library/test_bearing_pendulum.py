@@ -81,6 +81,7 @@ def test_the_friction_torque_is_mu_r_times_the_pin_load(run):
     np.testing.assert_allclose(np.abs(run["friction_torque"][moving]), MU_K * R_PIN * run["pin_load"][moving],
                                rtol=1e-9)
     assert np.all(run["friction_torque"][moving] * run["der(pin.phi)"][moving] < 0)  # it opposes the motion
+    assert run.unit("friction_torque") == "N*m"  # the element acts on the pin's angle: a torque
 
 
 def test_the_pin_holds_the_pendulum_once_the_static_limit_can():
