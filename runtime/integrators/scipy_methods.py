@@ -16,6 +16,8 @@ from .base import DenseOutput, OdeSolver
 from .registry import register
 
 _SCIPY_TOO_SMALL = "Required step size is less than spacing between numbers."
+#: f where the model failed at a trial point: squared in the error norms without overflowing to inf - inf
+_FAILED_VALUE = 1e100
 
 
 class _ScipyDense(DenseOutput):
@@ -51,9 +53,10 @@ class ScipyMethod(OdeSolver):
             self._fail(f"the model returned {status_text(exc.status)} at the initial state")
 
     def _guarded(self, fun):
-        """f for scipy: after the first evaluation a model failure at a trial point (a Newton iterate of
-        Radau or BDF far off, where a closed loop cannot be closed) answers NaN, which scipy's methods reject
-        with a smaller step, as SUNDIALS does; the failure is named if the step collapses after all."""
+        """f for scipy: after the first evaluation a model failure at a trial point (a Newton iterate or an
+        error estimate of Radau far off, where a closed loop cannot be closed) answers a huge finite value,
+        which scipy's methods see as an error far beyond the tolerance and reject with a smaller step (NaN would
+        not do: Radau takes a NaN error norm for a passed test); the failure is named if the step collapses."""
         def f(t, y):
             if self._solver is None:
                 return fun(t, y)  # the initial state: a failure there is final
@@ -61,7 +64,7 @@ class ScipyMethod(OdeSolver):
                 return fun(t, y)
             except EvaluationError as exc:
                 self._model_error = exc
-                return np.full(self.n, np.nan)
+                return np.full(self.n, _FAILED_VALUE)
         return f
 
     def _step_impl(self):
