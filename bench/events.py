@@ -8,8 +8,11 @@
    driver's fixed cost (workspace, results table), and of the event machinery only one test per step in C
    (``nev == 0``) and one attribute test in Python.
 2. The bouncing ball example to its accumulation point: events per second of wall time.
-3. The Iltis quarter car over the bump at 10 m/s with dopri5: the tyre contact, leaf stop and damper kinks as
-   switches (events) against the smooth form of the same model (the baseline), median of R runs each.
+3. The Iltis quarter car and the full Iltis (library/iltis/vehicle.mbs) over the bump at 10 m/s with dopri5:
+   the tyre contact, leaf stop and damper kinks as switches (events) against the smooth form of the same model
+   (``switches = false``, the baseline), median of R runs each, the two forms interleaved.  The event form's
+   restarts run inside the C sampling loop (c/ode.c, mbs_ode_restart); ``--python-restarts`` times the Python
+   loop's restarts (a new integrator after each event) as a third line for comparison.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ EXAMPLES = ROOT / "library" / "examples"
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=21)
+    parser.add_argument("--python-restarts", action="store_true", help="also time the restarts in Python")
     args = parser.parse_args(argv)
     import mbs
     from mbs.runtime.simulate import output_times, simulate
@@ -64,21 +68,41 @@ def main(argv=None) -> int:
     wall = statistics.median(w for w, _ in runs)
     print(f"bouncing ball to its accumulation point: {runs[0][1]} events in {wall * 1e3:.1f} ms "
           f"({runs[0][1] / wall:.0f} events/s)")
-    quarter = ROOT / "library" / "iltis" / "quarter_car.mbs"
-    header = 'model quarter_car "Iltis quarter car" {'
-    smooth = mbs.load(quarter)
-    switched = mbs.loads(quarter.read_text().replace(header, header + "\n    switches = true"), path=str(quarter))
-    walls = {}
-    for label, sys_ in (("smooth", smooth), ("events", switched)):
-        sys_.simulate("bump_10")  # compile and warm up
-        walls[label] = [sys_.simulate("bump_10") for _ in range(max(3, args.repeats // 2))]
-    med = {k: statistics.median(r.metadata["wall_time"] for r in v) for k, v in walls.items()}
-    ev = walls["events"][0]
-    print(f"Iltis quarter car, bump at 10 m/s, dopri5, median of {len(walls['smooth'])}:")
-    print(f"  smooth form (baseline)   {med['smooth'] * 1e3:8.1f} ms   nfev {walls['smooth'][0].metadata['stats']['nfev']}")
-    print(f"  event form               {med['events'] * 1e3:8.1f} ms   nfev {ev.metadata['stats']['nfev']}, "
-          f"{len(ev.events)} events   ratio {med['events'] / med['smooth']:.2f}")
+    iltis = ROOT / "library" / "iltis"
+    for label, path, header in (
+            ("Iltis quarter car", iltis / "quarter_car.mbs", 'model quarter_car "Iltis quarter car" {'),
+            ("full Iltis", iltis / "vehicle.mbs", 'model vehicle "Iltis on four suspensions" {')):
+        compare_forms(mbs, label, path, header, max(3, args.repeats // 2), args.python_restarts)
     return 0
+
+
+def compare_forms(mbs, label: str, path: Path, header: str, repeats: int, python_restarts: bool) -> None:
+    """Wall time of the bump at 10 m/s with switches (events) against the smooth form, medians, interleaved."""
+    from mbs.runtime import event_loop
+    text = path.read_text()
+    forms = {name: mbs.loads(text.replace(header, f"{header}\n    switches = {flag}"), path=str(path))
+             for name, flag in (("smooth", "false"), ("events", "true"))}
+    runs: dict[str, list] = {"smooth": [], "events": [], "python": []}
+    tables = event_loop.c_restart_tables
+    for name in ("smooth", "events"):
+        forms[name].simulate("bump_10")  # compile and warm up
+    for _ in range(repeats):
+        runs["smooth"].append(forms["smooth"].simulate("bump_10"))
+        runs["events"].append(forms["events"].simulate("bump_10"))
+        if python_restarts:
+            event_loop.c_restart_tables = lambda model: None
+            try:
+                runs["python"].append(forms["events"].simulate("bump_10"))
+            finally:
+                event_loop.c_restart_tables = tables
+    med = {k: statistics.median(r.metadata["wall_time"] for r in v) for k, v in runs.items() if v}
+    smooth, events = runs["smooth"][0], runs["events"][0]
+    print(f"{label}, bump at 10 m/s, dopri5, median of {repeats}:")
+    print(f"  smooth form (baseline)        {med['smooth'] * 1e3:8.1f} ms   nfev {smooth.metadata['stats']['nfev']}")
+    print(f"  event form, restarts in C     {med['events'] * 1e3:8.1f} ms   nfev {events.metadata['stats']['nfev']}, "
+          f"{len(events.events)} events   ratio {med['events'] / med['smooth']:.2f}")
+    if "python" in med:
+        print(f"  event form, restarts in Python{med['python'] * 1e3:8.1f} ms   ratio {med['python'] / med['smooth']:.2f}")
 
 
 if __name__ == "__main__":

@@ -1,8 +1,9 @@
 """Events in the equations: the model's own events, and the switches hidden inside its expressions.
 
-**Switches.** A comparison inside ``if(...)``, and the kinks of ``min``, ``max``, ``abs`` and ``sign``, make the
-right-hand side discontinuous (or its slope).  An integrator that steps across such a point sees a function
-that is not smooth within the step and shrinks the step until it collapses (a stiff PD motor with a stepped set
+**Switches.** A comparison inside ``if(...)``, the kinks of ``min``, ``max``, ``abs``, ``sign`` and the breakpoints
+of a linear ``lookup`` table make the right-hand side discontinuous (or its slope).  An integrator that steps
+across such a point sees a function that is not smooth within the step and shrinks the step until it collapses
+(a stiff PD motor with a stepped set
 point: "step size collapsed to 5e-16 s").  As Modelica does, each comparison whose operands depend on the
 motion or on time becomes a *switch*: a run-time value ``switch.k`` (a slot of the parameter vector) that holds
 the branch while the integrator steps, and an event indicator ``g_k`` whose located zero crossing flips it.
@@ -23,6 +24,8 @@ import sympy as sp
 
 from mbs.language import model as M
 
+#: Linear tables with more breakpoints than this are evaluated as written (not one switch per breakpoint).
+MAX_TABLE_SWITCHES = 32
 #: The run-time flag: 1 while a simulation holds the switches' branches, 0 elsewhere.
 FROZEN = sp.Symbol("switch.frozen")
 _RELATIONS = {"<": sp.Lt, "<=": sp.Le, ">": sp.Gt, ">=": sp.Ge}
@@ -75,6 +78,21 @@ class SwitchRegistry:
             return sp.Piecewise((1, self.relation(">", x, 0, "sign")), (-1, self.relation("<", x, 0, "sign")),
                                 (0, True))
         return None
+
+    def table(self, table, x):
+        """A linear lookup table of the motion with a switch at each breakpoint (its slope jumps there): the
+        segment is held between located crossings, each segment's straight line extended up to its switch; None
+        for a smooth table (its slope is continuous), a table of parameters, or one of more than
+        MAX_TABLE_SWITCHES breakpoints (evaluated as written: one indicator per breakpoint costs every step)."""
+        xs, ys = table.xs, table.ys
+        if table.method != "linear" or len(xs) > MAX_TABLE_SWITCHES or not self.depends_on_motion(x):
+            return None
+        pieces = [(sp.Float(ys[-1]), self.relation(">=", x, sp.Float(xs[-1]), "table"))]
+        for i in range(len(xs) - 2, -1, -1):
+            slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
+            line = sp.Float(ys[i]) + sp.Float(slope) * (x - sp.Float(xs[i]))
+            pieces.append((line, self.relation(">=", x, sp.Float(xs[i]), "table")))
+        return sp.Piecewise(*pieces, (sp.Float(ys[0]), True))
 
     def _switch(self, g, inclusive: bool, origin: str) -> sp.Symbol:
         g = sp.sympify(g)

@@ -85,7 +85,9 @@ class ToSympy:
                 return T
             return self.resolve(e)
         if isinstance(e, X.Table):
-            return self.tables.function(e)(self(e.x))
+            x = self(e.x)
+            switched = self.switches.table(e, x) if self.switches is not None else None
+            return switched if switched is not None else self.tables.function(e)(x)
         if isinstance(e, X.Hook):
             return hook_function(e.name, e.result, e.results)(T, *(self(a) for a in e.args))
         args = [self(a) for a in e.args]

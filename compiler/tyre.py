@@ -48,6 +48,12 @@ _STAGES = (  # law -> locals it may read (besides parameters, inputs and the sta
             "fy")),
 )
 
+#: Laws whose comparisons and kinks become switches (events) in a model with switches: the road and the normal
+#: force (the contact: lift-off where the force would pull, touch-down where the deflection returns to zero).
+#: The slip laws stay as written: their kinks at zero slip (a |a|, |Fy| Fy) have a continuous slope, and as
+#: switches they would fire at every sign change of the slip on a straight run.
+_SWITCHED = ("road", "fz")
+
 
 def _error(message: str, span) -> MbsError:
     return MbsError([Diagnostic("error", message, span)])
@@ -84,7 +90,8 @@ def attach_tyre(lowering, inter: M.Interaction, force: M.Force) -> dict[str, sp.
                 raise _error(f"the {arg} law of a tyre cannot read '{sym.name}' (it may read "
                              f"{', '.join(allowed)})", force.span)
             return scope[sym.name]
-        return sp.sympify(ToSympy(resolve, lowering.tables)(expr))
+        switches = lowering.switches if arg in _SWITCHED else None
+        return sp.sympify(ToSympy(resolve, lowering.tables, switches)(expr))
 
     centre = to_road([p - q for p, q in zip(pb, pa)])
     x, y = tape.temp(centre[0], "tyx"), tape.temp(centre[1], "tyy")

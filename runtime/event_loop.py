@@ -14,7 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import EvaluationError
-from .events import DEPARTURE_STEP, EventRecord, apply_events, crossings, init_switches, is_zeno, zeno_message
+from .events import (DEPARTURE_STEP, ZENO_WINDOW, EventRecord, against_motion, apply_events, crossings,
+                     init_switches, is_zeno, resolution_message, zeno_message)
 from .friction import start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
@@ -60,16 +61,25 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     i, status, message = 0, FINISHED, ""
     chunk = max(1, math.ceil(times.size / chunks)) if progress is not None else times.size
     solver, stats, hint = None, {}, None
+    tables = c_restart_tables(model)
+    actions = data.function("event_actions") if "event_actions" in model.functions else None
     try:
         while True:
             g_start = departing(data, g, t, x)
             if settle_switches(model, data, g_start):  # a branch at its kink takes the side the motion leaves to
                 g_start = departing(data, g, t, x)
             solver = make_solver(t, x, (g, directions, g_start), hint)
+            in_c = tables is not None and hasattr(solver, "restart_events_in_c")
+            if in_c:
+                solver.restart_events_in_c(actions, tables, C_LOG_CAPACITY, ZENO_WINDOW)
+                p_now = data.p.copy()
             start = i
             while i < times.size and solver.status not in (FAILED, EVENT):
                 stop = min(times.size, i + chunk) if progress is not None else times.size
                 i = solver.sample(times[:stop], states[:stop], i)
+                if in_c:
+                    start = replay(model, data, solver.take_event_log(), p_now, times, states, start, segments,
+                                   records, fired_times)
                 if progress is not None and i > 0 and progress(float(times[i - 1]), t_end) is False \
                         and i < times.size and solver.status != EVENT:
                     status = "stopped"
@@ -77,6 +87,9 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
                     break
             if solver.status == EVENT and i < times.size:  # samples past the chunk that still lie before the event
                 i = solver.sample(times, states, i)
+                if in_c:
+                    start = replay(model, data, solver.take_event_log(), p_now, times, states, start, segments,
+                                   records, fired_times)
             segments.add(times[start:i], states[start:i], data.p)
             for key, value in solver.stats.items():
                 stats[key] = stats.get(key, 0) + value
@@ -91,6 +104,14 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             g_event = g(t_event, y_event)
             fired = crossings(solver.g_old, g_event, directions)
             segments.add([t_event], y_event[None, :], data.p)
+            noise = against_motion(model, data, g, fired, t_event, y_event, solver.g_old)
+            if noise:
+                name = model.events[noise[0]].name
+                status, t = "zeno", t_event
+                message = resolution_message(name, sum(r.event == name for r in records), fired_times, t_event,
+                                             y_event, names)
+                x = y_event
+                break
             x, new = apply_events(model, data, fired, solver.g_old, g_event, t_event, y_event, names)
             if "project" in model.functions:  # closed loops: new speeds consistent with the constraints
                 x = data.project(t_event, x)
@@ -121,6 +142,54 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
         data.t, data.x = solver.t, solver.y
     stats["nevents"] = len(records)
     return segments, status, message, records, stats
+
+
+#: Events the C sampling loop handles between two returns to Python (the log's rows).
+C_LOG_CAPACITY = 64
+
+
+def c_restart_tables(model):
+    """Which events the C sampling loop may apply and restart from itself (c/ode.c, mbs_ode_restart): those whose
+    actions are generated C that assigns run-time values only (switch branches, modes, parameters), not a jump
+    of the state and not the end of the run.  Returns (handled, flag, first, index, slot) as C wants them, or
+    None when no event qualifies."""
+    handled, flag, first, index, slot = [], [], [0], [], []
+    for spec in model.events:
+        ok = not spec.terminal and all(array == "p" for array, _, _ in spec.assignments)
+        handled.append(int(ok))
+        flag.append(spec.switch)
+        for _, target, value_slot in (spec.assignments if ok else ()):
+            index.append(target)
+            slot.append(value_slot)
+        first.append(len(index))
+    if not any(handled):
+        return None
+    return tuple(np.array(a, dtype=np.intc) for a in (handled, flag, first, index, slot))
+
+
+def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start: int, segments: Segments,
+           records: list, fired_times: list) -> int:
+    """Book the events C handled (rows of its log: t, y before, x after, g before the step, g at the event,
+    action values) as the Python loop books its own: the sample rows before each in the run-time values in force
+    then (``p_now``, brought up to date in place), the rows at the event before and after, the log records.
+    Returns the first sample row not yet booked."""
+    nx, nev = model.nx, len(model.events)
+    directions = np.array([e.direction for e in model.events], dtype=np.intc)
+    for row in log:
+        t_event, y, x = row[0], row[1:1 + nx], row[1 + nx:1 + 2 * nx]
+        g_old, g_event = row[1 + 2 * nx:1 + 2 * nx + nev], row[1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
+        j = start + int(np.searchsorted(times[start:], t_event, side="left"))
+        segments.add(times[start:j], states[start:j], p_now)
+        segments.add([t_event], y[None, :], p_now)
+        fired = crossings(g_old, g_event, directions)
+        _, new = apply_events(model, data, fired, g_old, g_event, t_event, y, model.x_names,
+                              values=row[1 + 2 * nx + 2 * nev:], p=p_now)
+        records += new
+        fired_times += [t_event] * len(new)
+        if j >= times.size or times[j] != t_event:
+            segments.add([t_event], x[None, :], p_now)
+        start = j
+    return start
 
 
 def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:

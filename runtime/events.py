@@ -54,7 +54,8 @@ def crossings(g_old: np.ndarray, g_new: np.ndarray, directions: np.ndarray) -> n
 
 def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, fb: float) -> float:
     """The first time in (a, b] at which f has left the sign of fa (to the round-off of t): Illinois
-    (a secant that halves the stale end's value) down to BISECT_BELOW, then bisection to adjacent doubles.
+    (a secant that halves the stale end's value) down to BISECT_BELOW, then two probes either side of the
+    secant's root and bisection to adjacent doubles.
 
     fa may be the value an indicator at zero is leaving with (DEPARTURE_STEP after a, see event_loop.departing)
     rather than f(a) itself; so the bracket first moves its left end there when f has fa's sign at that point."""
@@ -63,9 +64,24 @@ def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, 
         fp = f(probe)
         if fp * fa > 0:
             a, fa = probe, fp
-    retained = 0
+    retained, straddled = 0, False
     while True:
         width = b - a
+        if width <= BISECT_BELOW * max(1.0, abs(b)) and not straddled:
+            # f is linear to round-off here: probe a few doubles either side of the secant's root (the bracket
+            # closes to ~8 doubles in two evaluations instead of a dozen halvings)
+            straddled = True
+            s = b - fb * width / (fb - fa)
+            if a < s < b:
+                e = 4.0 * (math.nextafter(s, math.inf) - s)
+                for probe in (s - e, s + e):
+                    if a < probe < b:
+                        fp = f(probe)
+                        if fp * fa > 0:
+                            a, fa = probe, fp
+                        else:
+                            b, fb = probe, fp
+            continue
         if width <= BISECT_BELOW * max(1.0, abs(b)):
             c = a + 0.5 * width
         else:
@@ -115,10 +131,14 @@ def init_switches(model, data, t: float, x: np.ndarray) -> int:
     return frozen
 
 
-def apply_events(model, data, fired, g_old, g_event, t: float, y: np.ndarray, names) -> tuple[np.ndarray, list]:
-    """The state after the events ``fired`` at (t, y) and their log records; data.p is changed in place.  Every
-    action value is computed first, from the state before the event (Modelica's pre())."""
-    values = data.function("event_actions")(t, y) if "event_actions" in model.functions else ()
+def apply_events(model, data, fired, g_old, g_event, t: float, y: np.ndarray, names, values=None,
+                 p: np.ndarray | None = None) -> tuple[np.ndarray, list]:
+    """The state after the events ``fired`` at (t, y) and their log records; the run-time values ``p`` (data.p
+    unless given) are changed in place.  Every action value is computed first, from the state before the event
+    (Modelica's pre()); ``values`` are those values when C computed them already."""
+    if values is None:
+        values = data.function("event_actions")(t, y) if "event_actions" in model.functions else ()
+    p = data.p if p is None else p
     x = y.copy()
     records = []
     for k in fired:
@@ -126,15 +146,15 @@ def apply_events(model, data, fired, g_old, g_event, t: float, y: np.ndarray, na
         direction = 1 if g_event[k] > g_old[k] else -1
         changes = []
         for array, index, slot in spec.assignments:
-            target = x if array == "x" else data.p
+            target = x if array == "x" else p
             name = names[index] if array == "x" else model.p_names[index]
             changes.append(f"{name}: {target[index]:.6g} -> {values[slot]:.6g}")
             target[index] = values[slot]
         if spec.switch >= 0:
             new = 1.0 if direction > 0 else 0.0
-            if data.p[spec.switch] != new:
-                changes.append(f"branch {data.p[spec.switch]:g} -> {new:g}")
-            data.p[spec.switch] = new
+            if p[spec.switch] != new:
+                changes.append(f"branch {p[spec.switch]:g} -> {new:g}")
+            p[spec.switch] = new
         records.append(EventRecord(t, spec.name, DIRECTION_NAMES[direction], "; ".join(changes)))
     return x, records
 
@@ -145,6 +165,35 @@ def zeno_message(events: list[str], times: list[float], t: float, x: np.ndarray,
     which = ", ".join(f"'{e}'" for e in dict.fromkeys(events[-ZENO_EVENTS:]))
     return (f"chattering (Zeno behaviour) at t = {t:.12g} s: event {which} fired {ZENO_EVENTS} times within "
             f"{times[-1] - times[-ZENO_EVENTS]:.3g} s; the run stops here with its results; state: {state}")
+
+
+#: The look ahead that gives an indicator's rate at a located crossing [s, relative to max(1, |t|)].
+RATE_STEP = 1e-8
+
+
+def against_motion(model, data, g, fired, t: float, y: np.ndarray, g_old: np.ndarray) -> list[int]:
+    """The fired events with a jump of the state whose indicator, at the located crossing, moves back to the side
+    it came from: a crossing in the integrator's noise, not of the motion.  A bouncing ball near its
+    accumulation point gets there when its flights become shorter than the integrator resolves (scipy's BDF and
+    LSODA long before 1e-9 s): the impact would send the ball into the ground.  The rate is g's change along the
+    tangent (an Euler step of RATE_STEP: positions move by v dt, so g = height gives exactly v)."""
+    jumps = [k for k in fired if any(array == "x" for array, _, _ in model.events[k].assignments)]
+    if not jumps:
+        return []
+    dt = RATE_STEP * max(1.0, abs(t))
+    g0 = np.asarray(g(t, y), dtype=float)
+    g1 = np.asarray(g(t + dt, y + dt * data.rhs(t, y)), dtype=float)
+    return [k for k in jumps if (g1[k] - g0[k]) * (0.0 - g_old[k]) < 0]
+
+
+def resolution_message(event: str, count: int, times: list[float], t: float, x: np.ndarray, names) -> str:
+    """Chattering that reached the integrator's resolution before the Zeno window (against_motion)."""
+    state = ", ".join(f"{n} = {v:.6g}" for n, v in zip(names, x))
+    span = times[-1] - times[-min(ZENO_EVENTS, len(times))] if times else 0.0
+    return (f"chattering (Zeno behaviour) at t = {t:.12g} s: event '{event}' (fired {count} times, the last "
+            f"{min(ZENO_EVENTS, len(times))} within {span:.3g} s) now crosses against the motion: the motion has "
+            f"come to rest at its threshold below the integrator's resolution; the run stops here with its "
+            f"results; state: {state}")
 
 
 def is_zeno(times: list[float]) -> bool:

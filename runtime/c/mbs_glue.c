@@ -502,6 +502,89 @@ static PyObject *solver_set_events(SolverObject *self, PyObject *args)
     Py_RETURN_NONE;
 }
 
+/* s.set_restarts(actions, handled, flag, first, index, slot, capacity, window): apply the events marked in
+ * handled (int array per indicator) and restart inside sample() (ode.c, mbs_ode_restart); actions is the
+ * model's "event_actions" function or None.  See mbs_ode_set_restarts for the arrays. */
+static PyObject *solver_set_restarts(SolverObject *self, PyObject *args)
+{
+    PyObject *act_obj, *obj[5], *tmp[5] = {NULL, NULL, NULL, NULL, NULL};
+    const int *a[5];
+    long capacity;
+    double window;
+    int k, rc = -1, nev = self->ode.nev;
+    npy_intp need[5];
+    mbs_fn actions = NULL;
+    int nvalues = 0;
+    if (!PyArg_ParseTuple(args, "OOOOOOld:set_restarts", &act_obj, &obj[0], &obj[1], &obj[2], &obj[3], &obj[4],
+                          &capacity, &window)) return NULL;
+    if (!self->events) {
+        PyErr_SetString(PyExc_RuntimeError, "set_restarts: call set_events first");
+        return NULL;
+    }
+    if (act_obj != Py_None) {
+        FunctionObject *fa = (FunctionObject *)act_obj;
+        if (!PyObject_TypeCheck(act_obj, &FunctionType) || fa->p != ((FunctionObject *)self->function)->p
+            || fa->entry->cols != 0) {
+            PyErr_SetString(PyExc_ValueError, "set_restarts needs the event actions bound to the same workspace");
+            return NULL;
+        }
+        actions = fa->entry->fn;
+        nvalues = fa->entry->rows;
+    }
+    for (k = 0; k < 5; k++) {
+        tmp[k] = PyArray_FROMANY(obj[k], NPY_INT, 1, 1, NPY_ARRAY_CARRAY_RO);
+        if (!tmp[k]) goto done;
+        a[k] = (const int *)PyArray_DATA((PyArrayObject *)tmp[k]);
+    }
+    need[0] = need[1] = nev; need[2] = nev + 1;
+    need[3] = need[4] = PyArray_DIM((PyArrayObject *)tmp[2], 0) == nev + 1 ? a[2][nev] : -1;
+    for (k = 0; k < 5; k++) {
+        if (PyArray_DIM((PyArrayObject *)tmp[k], 0) != need[k]) {
+            PyErr_SetString(PyExc_ValueError, "set_restarts: handled and flag need one entry per indicator, first "
+                                              "one more, index and slot first[-1]");
+            goto done;
+        }
+    }
+    for (k = 0; k < a[2][nev]; k++) {
+        if (a[3][k] < 0 || a[3][k] >= MBS_NP || a[4][k] < 0 || a[4][k] >= nvalues) {
+            PyErr_SetString(PyExc_ValueError, "set_restarts: an assignment out of range");
+            goto done;
+        }
+    }
+    for (k = 0; k < nev; k++) {
+        if (a[1][k] >= MBS_NP) { PyErr_SetString(PyExc_ValueError, "set_restarts: a flag out of range"); goto done; }
+    }
+    /* the parameters are the workspace's own array (the FunctionObject keeps it alive): modes change in place */
+    if (mbs_ode_set_restarts(&self->ode, (double *)((FunctionObject *)self->function)->p, actions, nvalues, a[0],
+                             a[1], a[2], a[3], a[4], capacity, window)) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    rc = 0;
+done:
+    for (k = 0; k < 5; k++) Py_XDECREF(tmp[k]);
+    if (rc) return NULL;
+    Py_RETURN_NONE;
+}
+
+/* s.take_event_log() -> array (events, width): the events handled in C since the last call (see
+ * mbs_ode_restarts for the layout of a row), and the log emptied */
+static PyObject *solver_take_event_log(SolverObject *self, PyObject *unused)
+{
+    mbs_ode_restarts *r = self->ode.restarts;
+    npy_intp dims[2];
+    PyObject *a;
+    (void)unused;
+    dims[0] = r ? r->count : 0;
+    dims[1] = r ? (npy_intp)r->width : 0;
+    a = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (a && r && r->count) {
+        memcpy(PyArray_DATA((PyArrayObject *)a), r->log, (size_t)r->count * r->width * sizeof(double));
+        r->count = 0;
+    }
+    return a;
+}
+
 static PyObject *vector_copy(const double *data, npy_intp n)
 {
     PyObject *a = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
@@ -559,6 +642,10 @@ static PyMethodDef solver_methods[] = {
      "step budget)"},
     {"set_events", (PyCFunction)solver_set_events, METH_VARARGS,
      "set_events(events, directions): locate zero crossings of a model function after every step"},
+    {"set_restarts", (PyCFunction)solver_set_restarts, METH_VARARGS,
+     "set_restarts(actions, handled, flag, first, index, slot, capacity, window): events restarted in C"},
+    {"take_event_log", (PyCFunction)solver_take_event_log, METH_NOARGS,
+     "take_event_log() -> (events, width) array of the events handled in C since the last call"},
     {"sample", (PyCFunction)solver_sample, METH_VARARGS,
      "sample(t_eval, out, start) -> (status, next): fill out[i] = y(t_eval[i]) for i >= start"},
     {NULL, NULL, 0, NULL},

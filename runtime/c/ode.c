@@ -16,8 +16,33 @@
  * runtime/events.py), relative to max(1, |t|). */
 #define MBS_ODE_DEPARTURE_STEP 1e-12
 
+/* Events restarted in C (see mbs_ode_restart): which indicators qualify and what their actions assign, and the
+ * log of the events handled since the caller last read it. */
+typedef struct mbs_ode_restarts {
+    double *p;              /* the parameters the run uses (o->p), writable: modes and branch flags change */
+    mbs_fn actions;         /* mbs_event_actions (the values the actions assign), or NULL without values */
+    int nvalues;            /* its output size */
+    int *handled;           /* [nev]: 1 when the event can be applied here (no jump of x, not terminal) */
+    int *flag;              /* [nev]: p index of a switch's branch flag, or -1 */
+    int *first;             /* [nev + 1]: the p assignments of event k are index[first[k] .. first[k + 1]) */
+    int *index, *slot;      /* p index assigned, and the slot of the actions' output it takes */
+    double window;          /* an event this close after the previous one goes back to the caller (chattering) */
+    double last_t;          /* time of the last event handled here */
+    long capacity, count;   /* log entries */
+    size_t width;           /* doubles per entry: t, y before [n], x after [n], g before [nev], g at [nev], values */
+    double *log;            /* [capacity * width] */
+} mbs_ode_restarts;
+
+static void mbs_ode_free_restarts(mbs_ode_restarts *r)
+{
+    if (!r) return;
+    free(r->handled); free(r->flag); free(r->first); free(r->index); free(r->slot); free(r->log);
+    free(r);
+}
+
 static void mbs_ode_free(mbs_ode *o)
 {
+    mbs_ode_free_restarts(o->restarts);
     if (o->release) o->release(o);
     free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl); free(o->yproj);
     free(o->directions); free(o->g_old); free(o->g_new); free(o->g_try); free(o->y_try);
@@ -180,7 +205,7 @@ static double mbs_ode_g_at(mbs_ode *o, int k, double t)
  * algorithm as mbs.runtime.events.locate_crossing.  A NaN counts as the new side (the bracket closes on it). */
 static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
 {
-    int retained = 0;
+    int retained = 0, straddled = 0;
     /* ga may be the value an indicator at zero leaves with (1e-12 s on, runtime/event_loop.py): start there */
     double probe = a + MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(a));
     if (probe < b) {
@@ -189,6 +214,23 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
     }
     for (;;) {
         double width = b - a, c, gc;
+        if (width <= 1e-12 * fmax(1.0, fabs(b)) && !straddled) {
+            /* the indicator is linear to round-off here: probe a few doubles either side of the secant's root
+             * (the bracket closes to ~8 doubles in two evaluations instead of a dozen halvings) */
+            double s = b - gb * width / (gb - ga), e, side[2];
+            int j;
+            straddled = 1;
+            if (!(a < s && s < b)) continue;
+            e = 4.0 * (nextafter(s, HUGE_VAL) - s);
+            side[0] = s - e; side[1] = s + e;
+            for (j = 0; j < 2; j++) {
+                if (!(a < side[j] && side[j] < b)) continue;
+                gc = mbs_ode_g_at(o, k, side[j]);
+                if (gc * ga > 0) { a = side[j]; ga = gc; }
+                else { b = side[j]; gb = gc; }
+            }
+            continue;
+        }
         if (width <= 1e-12 * fmax(1.0, fabs(b))) c = a + 0.5 * width;
         else {
             c = b - gb * width / (gb - ga);
@@ -233,6 +275,117 @@ static void mbs_ode_find_event(mbs_ode *o)
     o->status = MBS_ODE_EVENT;
 }
 
+/* Handle events in C: ``handled[k]`` marks the indicators whose actions only assign parameters (the
+ * ``nassign`` pairs index[j] <- actions output slot[j], grouped per event by first[]) or flip a switch's branch
+ * flag (flag[k] >= 0); up to ``capacity`` of them are logged per call of mbs_ode_sample.  Returns 0, or -1
+ * without memory (the solver then returns every event, as without this call). */
+static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalues, const int *handled,
+                                const int *flag, const int *first, const int *index, const int *slot,
+                                long capacity, double window)
+{
+    int k, nev = o->nev, nassign = first[nev];
+    mbs_ode_restarts *r = calloc(1, sizeof *r);
+    if (!r) return -1;
+    r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window; r->last_t = -HUGE_VAL;
+    r->capacity = capacity > 0 ? capacity : 1;
+    r->width = 1 + 2 * (size_t)o->n + 2 * (size_t)nev + (size_t)nvalues;
+    r->handled = calloc((size_t)nev + 1, sizeof(int));
+    r->flag = calloc((size_t)nev + 1, sizeof(int));
+    r->first = calloc((size_t)nev + 1, sizeof(int));
+    r->index = calloc((size_t)nassign + 1, sizeof(int));
+    r->slot = calloc((size_t)nassign + 1, sizeof(int));
+    r->log = calloc((size_t)r->capacity * r->width, sizeof(double));
+    if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log) {
+        mbs_ode_free_restarts(r);
+        return -1;
+    }
+    for (k = 0; k < nev; k++) { r->handled[k] = handled[k]; r->flag[k] = flag[k]; }
+    for (k = 0; k <= nev; k++) r->first[k] = first[k];
+    for (k = 0; k < nassign; k++) { r->index[k] = index[k]; r->slot[k] = slot[k]; }
+    mbs_ode_free_restarts(o->restarts);
+    o->restarts = r;
+    return 0;
+}
+
+static int mbs_ode_sign(double g) { return (g > 0) - (g < 0); }
+
+/* The indicators at a restart from (t, y), with f = fn(t, y) evaluated: an indicator at zero (within round-off)
+ * is replaced by its value an Euler step of MBS_ODE_DEPARTURE_STEP later, the side it is leaving to (as
+ * runtime/event_loop.departing). */
+static void mbs_ode_depart(mbs_ode *o, double *g)
+{
+    double dt = MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(o->t));
+    int i, k;
+    if (o->events(o->t, o->y, o->p, g, o->work) != MBS_OK) return;
+    for (i = 0; i < o->n; i++) o->y_try[i] = o->y[i] + dt * o->f[i];
+    if (o->events(o->t + dt, o->y_try, o->p, o->g_try, o->work) != MBS_OK) return;
+    for (k = 0; k < o->nev; k++)
+        if (mbs_ode_sign(o->g_try[k]) != mbs_ode_sign(g[k]) && isfinite(o->g_try[k])) g[k] = o->g_try[k];
+}
+
+/* Each switch takes the side its indicator leaves to (runtime/event_loop.settle_switches); 1 when a branch
+ * changed (f and the indicators must then be evaluated again). */
+static int mbs_ode_settle(mbs_ode *o, const double *g)
+{
+    mbs_ode_restarts *r = o->restarts;
+    int k, changed = 0;
+    for (k = 0; k < o->nev; k++) {
+        if (r->flag[k] >= 0 && g[k] != 0) {
+            double side = g[k] > 0 ? 1.0 : 0.0;
+            if (r->p[r->flag[k]] != side) { r->p[r->flag[k]] = side; changed = 1; }
+        }
+    }
+    return changed;
+}
+
+/* At a located event (status MBS_ODE_EVENT, g_old the indicators at the step's start): when every indicator
+ * that fired is handled here, log it, apply its actions (values computed before any is applied, Modelica's pre)
+ * and restart the method from the same state: f and the indicators evaluated afresh, the step size kept (the
+ * state did not jump).  Returns 1 when the run continues, 0 to hand the event to the caller (an event not
+ * handled here, a full log, or chattering: two events closer than the window). */
+static int mbs_ode_restart(mbs_ode *o)
+{
+    mbs_ode_restarts *r = o->restarts;
+    int k, j, n = o->n, nev = o->nev, fired = 0, pass;
+    double *entry, *g_event, *values;
+    if (!r || r->count >= r->capacity || o->t - r->last_t <= r->window * fmax(1.0, fabs(o->t))) return 0;
+    entry = r->log + (size_t)r->count * r->width;
+    g_event = entry + 1 + 2 * (size_t)n + nev;
+    values = g_event + nev;
+    if (o->events(o->t, o->y, o->p, g_event, o->work) != MBS_OK) return 0;
+    for (k = 0; k < nev; k++) {
+        if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
+            if (!r->handled[k]) return 0;
+            fired++;
+        }
+    }
+    if (!fired || (r->nvalues && r->actions(o->t, o->y, o->p, values, o->work) != MBS_OK)) return 0;
+    entry[0] = o->t;
+    memcpy(entry + 1, o->y, (size_t)n * sizeof(double));
+    memcpy(entry + 1 + 2 * (size_t)n, o->g_old, (size_t)nev * sizeof(double));
+    for (k = 0; k < nev; k++) {
+        if (!mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) continue;
+        for (j = r->first[k]; j < r->first[k + 1]; j++) r->p[r->index[j]] = values[r->slot[j]];
+        if (r->flag[k] >= 0) r->p[r->flag[k]] = g_event[k] > o->g_old[k] ? 1.0 : 0.0;
+    }
+    if (o->project && o->project(o->t, o->y, o->p, o->yproj, o->work) == MBS_OK)
+        memcpy(o->y, o->yproj, (size_t)n * sizeof(double));
+    memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
+    r->count++;
+    r->last_t = o->t;
+    o->t_old = o->t;
+    for (pass = 0;; pass++) {
+        if (mbs_ode_eval(o, o->t, o->y, o->f) != MBS_OK) {
+            o->status = MBS_ODE_MODEL_FAILED;
+            return 1;
+        }
+        mbs_ode_depart(o, o->g_old);
+        if (pass == 1 || !mbs_ode_settle(o, o->g_old)) break;
+    }
+    o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
+    return 1;
+}
+
 /* Fill out[i*n .. i*n+n) with y(t_eval[i]) for i from *index on, stepping as needed.  Stops when all
  * samples are filled (returns the status, RUNNING or FINISHED) or the run fails (returns the failure;
  * *index is then the first unfilled sample).  No Python, no allocation. */
@@ -251,6 +404,8 @@ static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *i
             i++;
         }
         *index = i;
+        /* restart here only with every sample before the event filled (the old step's dense output goes) */
+        if (o->status == MBS_ODE_EVENT && i < n_eval && mbs_ode_restart(o)) continue;
         if (i >= n_eval || o->status == MBS_ODE_EVENT) return o->status;
         if (o->status == MBS_ODE_FINISHED) return o->status = MBS_ODE_BAD_SAMPLE;  /* beyond t_bound */
         if (o->status != MBS_ODE_RUNNING) return o->status;

@@ -102,6 +102,14 @@ class NativeSolver(OdeSolver):
     def _find_event(self):
         """C has looked for events after its step already (c/ode.c)."""
 
+    def restart_events_in_c(self, actions, tables, capacity: int, window: float) -> None:
+        """Apply the events ``tables`` marks (runtime/event_loop.c_restart_tables) and restart inside the C
+        sampling loop; ``take_event_log()`` returns what happened there."""
+        self._c.set_restarts(actions, *tables, capacity, window)
+
+    def take_event_log(self) -> np.ndarray:
+        return self._c.take_event_log()
+
     def _step_impl(self):
         self._c.step()
         self._sync()  # a failure is recorded here, with the reason from C

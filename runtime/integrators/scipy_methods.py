@@ -16,6 +16,8 @@ from .base import DenseOutput, OdeSolver
 from .registry import register
 
 _SCIPY_TOO_SMALL = "Required step size is less than spacing between numbers."
+#: f where the model failed at a trial point: squared in the error norms without overflowing to inf - inf
+_FAILED_VALUE = 1e100
 
 
 class _ScipyDense(DenseOutput):
@@ -44,12 +46,28 @@ class ScipyMethod(OdeSolver):
         if self.min_step > 0 and self.scipy_class is integrate.LSODA:
             kwargs["min_step"] = self.min_step
         self._solver = None
+        self._model_error: EvaluationError | None = None
         if self.status != "running":
             return
         try:
-            self._solver = self.scipy_class(fun, t0, self.y, t_bound, **kwargs)
+            self._solver = self.scipy_class(self._guarded(fun), t0, self.y, t_bound, **kwargs)
         except EvaluationError as exc:  # scipy evaluates f(t0, y0) while setting up
             self._fail(f"the model returned {status_text(exc.status)} at the initial state")
+
+    def _guarded(self, fun):
+        """f for scipy: after the first evaluation a model failure at a trial point (a Newton iterate or an
+        error estimate of Radau far off, where a closed loop cannot be closed) answers a huge finite value,
+        which scipy's methods see as an error far beyond the tolerance and reject with a smaller step (NaN would
+        not do: Radau takes a NaN error norm for a passed test); the failure is named if the step collapses."""
+        def f(t, y):
+            if self._solver is None:
+                return fun(t, y)  # the initial state: a failure there is final
+            try:
+                return fun(t, y)
+            except EvaluationError as exc:
+                self._model_error = exc
+                return np.full(self.n, _FAILED_VALUE)
+        return f
 
     def _step_impl(self):
         s = self._solver
@@ -64,9 +82,11 @@ class ScipyMethod(OdeSolver):
         self.nfev, self.njev, self.nlu = int(s.nfev), int(s.njev), int(s.nlu)
         self.nsteps += 1
         if s.status == "failed":
+            exc = self._model_error
+            model = f" (the model returned {status_text(exc.status)} at t = {exc.t:.6g} s)" if exc else ""
             if message == _SCIPY_TOO_SMALL:
-                return False, f"step size collapsed to {_step_size(s):.3g} s"
-            return False, str(message)
+                return False, f"step size collapsed to {_step_size(s):.3g} s{model}"
+            return False, str(message) + model
         h = s.t - s.t_old
         if h < self.min_step and s.t < self.t_bound:  # only LSODA knows min_step itself
             return False, f"step size collapsed to {h:.3g} s (min_step = {self.min_step:g} s)"

@@ -10,9 +10,9 @@ counter is exact; samples inside the last step come from SUNDIALS' own interpola
 history (CVodeGetDky / IDAGetDky through a "normal" call behind the current time), which has the method's
 order, not a cubic of ours.
 
-Events: when a caller passes ``events=(g, n)`` with g(t, y) -> array of n values (the model's generated
-mbs_events, issue 10), it becomes SUNDIALS' root function (``eventsfn``, non-terminal by default). The
-integration loop that acts on the roots is the events module's.
+Events: ``events=(g, directions[, g_start])`` as for every integrator (base.py): after each internal step the
+crossings of the model's indicators are located on SUNDIALS' interpolant by the shared root finder
+(runtime/events.py), to the round-off of t, and the events module's loop restarts SUNDIALS after each.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..errors import EvaluationError, UsageError, status_text
-from .base import DenseOutput, OdeSolver
+from .base import EVENT, DenseOutput, OdeSolver
 
 
 class _SundialsDense(DenseOutput):
@@ -42,7 +42,7 @@ class SundialsSolver(OdeSolver):
 
     stiff: ClassVar[bool] = True
 
-    def __init__(self, fun, t0, y0, t_bound, *, events=None, **options):
+    def __init__(self, fun, t0, y0, t_bound, **options):
         super().__init__(fun, t0, y0, t_bound, **options)
         self._error: EvaluationError | None = None
         self._solver = None
@@ -54,10 +54,6 @@ class SundialsSolver(OdeSolver):
                     self.max_step, "min_step": self.min_step}
         if self.first_step is not None:
             settings["first_step"] = self.first_step
-        if events is not None:
-            g, n = events
-            settings.update(eventsfn=lambda t, y, out: out.__setitem__(slice(None), g(t, y)), num_events=int(n))
-            settings["eventsfn"].terminal = [False] * int(n)
         try:
             self._solver = self._make(settings)
         except EvaluationError as exc:
@@ -112,7 +108,7 @@ class SundialsSolver(OdeSolver):
     def sample(self, t_eval, out, start=0):
         i, n = start, len(t_eval)
         while i < n:
-            if t_eval[i] == self.t:
+            if t_eval[i] == self.t and self.status != EVENT:  # at an event: a row of the next solver
                 out[i] = self.y
                 i += 1
             elif t_eval[i] < self.t and self.t_old is not None and t_eval[i] >= self.t_old:
