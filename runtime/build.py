@@ -105,12 +105,8 @@ def _unit_source(model_source: str, filename: str) -> str:
     # '#line' makes the compiler name the user's file in its messages; Python.h must come first.
     return ("/* build unit written by mbs.runtime.build: do not edit */\n"
             "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n"
-            f"#line 1 \"{_c_string(filename)}\"\n{model_source}\n"
+            f"#line 1 \"{_units.line_name(filename)}\"\n{model_source}\n"
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
-
-
-def _c_string(text: str) -> str:
-    return text.replace("\\", "\\\\").replace('"', '\\"')
 
 
 def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
