@@ -54,7 +54,8 @@ def main() -> None:
             with tempfile.TemporaryDirectory() as cache:
                 units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS if split else math.inf
                 start, cpu = time.perf_counter(), _children_cpu()
-                flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(level,))
+                default = build.model_unit_flags(tuple(build.compiler_command()))
+                flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(*default, level))
                 result = build.build(code, cache_dir=cache, **flags)
                 seconds, cpu = time.perf_counter() - start, _children_cpu() - cpu
                 units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS
