@@ -4,7 +4,7 @@
 
 For each model the generated C (derived once) is compiled with each level into a fresh cache: by default the level
 applies to the model's units of the split build (runtime/units.py; the glue unit with the integrators and the
-loop solver keeps -O2), with --whole to every unit. Printed: the build's wall time and the compiler processes'
+loop solver keeps -O2), with --whole to every unit; last, as the baseline, the former build: one unit at -O2. Printed: the build's wall time and the compiler processes'
 CPU time (the fairer figure on a shared machine), then the right-hand side the integrators call, timed inside C
 at the start state (`Function.time`, median of 5). Ratios are to -O2, the build default, in this run.
 """
@@ -12,6 +12,7 @@ at the start state (`Function.time`, median of 5). Ratios are to -O2, the build 
 from __future__ import annotations
 
 import argparse
+import math
 import resource
 import statistics
 import sys
@@ -22,7 +23,8 @@ from pathlib import Path
 import numpy as np
 
 import mbs
-from mbs.runtime import build
+from mbs.runtime import build, units
+from mbs.runtime.units import SPLIT_MIN_CHARS
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "runtime"))
@@ -47,24 +49,28 @@ def main() -> None:
         data = system._workspace(compiled, system.generate(scene), dict(zip(compiled.p_names, compiled.p_default)))
         code = system.generate(scene).c_source
         rows = {}
-        for level in ("-" + name.lstrip("-") for name in args.levels):
+        runs = [(level, level, True) for level in ("-" + name.lstrip("-") for name in args.levels)]
+        for label, level, split in runs + [("-O2, one unit (the former build)", "-O2", False)]:
             with tempfile.TemporaryDirectory() as cache:
+                units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS if split else math.inf
                 start, cpu = time.perf_counter(), _children_cpu()
-                flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(level,))
+                default = build.model_unit_flags(tuple(build.compiler_command()))
+                flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(*default, level))
                 result = build.build(code, cache_dir=cache, **flags)
                 seconds, cpu = time.perf_counter() - start, _children_cpu() - cpu
+                units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS
                 module = build.load(result)
                 work = np.zeros(module.NWORK)
                 f = module.Function("rhs", np.asarray(data.p, dtype=float), work)
                 rhs = statistics.median(f.time(data.x, 500) for _ in range(5))
-            rows[level] = (seconds, cpu, rhs)
+            rows[label] = (seconds, cpu, rhs)
         base = rows.get("-O2", next(iter(rows.values())))
         where = "every unit" if args.whole else "the model's units (glue -O2)"
-        print(f"{name}: generated C {len(code) / 1024:.0f} KiB; level for {where}")
-        print(f"  {'level':6s} {'wall':>8s} {'cpu':>8s} {'cpu/-O2':>8s} {'rhs':>10s} {'/ -O2':>6s}")
-        for level, (seconds, cpu, rhs) in rows.items():
-            print(f"  {level:6s} {seconds:7.1f}s {cpu:7.1f}s {cpu / base[1]:8.2f} {rhs * 1e6:8.2f}us "
-                  f"{rhs / base[2]:6.2f}")
+        print(f"{name}: generated C {len(code) / 1024:.0f} KiB; level for {where}; {build.build_jobs()} jobs")
+        print(f"  {'level':6s} {'wall':>8s} {'/ -O2':>6s} {'cpu':>8s} {'/ -O2':>6s} {'rhs':>10s} {'/ -O2':>6s}")
+        for label, (seconds, cpu, rhs) in rows.items():
+            print(f"  {label:6s} {seconds:7.1f}s {seconds / base[0]:6.2f} {cpu:7.1f}s {cpu / base[1]:6.2f} "
+                  f"{rhs * 1e6:8.2f}us {rhs / base[2]:6.2f}")
 
 
 def _children_cpu() -> float:

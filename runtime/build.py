@@ -46,9 +46,14 @@ RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c
                    "mbs_glue.c")
 #: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
 FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
-#: Appended to the flags of the model's units in a split build (runtime/translation_units.py), chosen from what
-#: bench/optlevels.py measures: the glue unit (integrators, loop solver) keeps FLAGS.
-MODEL_UNIT_FLAGS: tuple[str, ...] = ()
+#: Appended to the flags of the model's units in a split build (runtime/translation_units.py) when the compiler is GCC, from
+#: what bench/optlevels.py measures. GCC's RTL global CSE/PRE and its alias walks (value numbering, dead stores)
+#: grow faster than the code on long straight-line functions whose every store may alias every load: of the
+#: 14 s of CPU the 40-four-bar chain's units took at -O2, 12 s went to its mass matrix. With these 6.4 s, and the
+#: right-hand side as fast (0.96 of -O2 for the chain, 0.94 for the Iltis, interleaved in one process). -O1
+#: would cost the chain's right-hand side 12 %. The glue unit (integrators, loop solver) keeps FLAGS.
+GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access=100",
+                        "--param=dse-max-alias-queries-per-store=32")
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
 PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
 CACHE_ENV = "MBS_CACHE_DIR"
@@ -93,6 +98,12 @@ def compiler_version(cc: tuple[str, ...]) -> str:
     return proc.stdout.strip()
 
 
+def model_unit_flags(cc: tuple[str, ...]) -> tuple[str, ...]:
+    """The flags the model's units of a split build get beyond FLAGS (GCC_MODEL_UNIT_FLAGS for GCC, else none)."""
+    version = compiler_version(cc)
+    return GCC_MODEL_UNIT_FLAGS if "Free Software Foundation" in version and "clang" not in version else ()
+
+
 def have_c_compiler() -> bool:
     """True when a C compiler can be run (the C back end is then available)."""
     try:
@@ -106,12 +117,8 @@ def _unit_source(model_source: str, filename: str) -> str:
     # '#line' makes the compiler name the user's file in its messages; Python.h must come first.
     return ("/* build unit written by mbs.runtime.build: do not edit */\n"
             "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n"
-            f"#line 1 \"{_c_string(filename)}\"\n{model_source}\n"
+            f"#line 1 \"{_units.line_name(filename)}\"\n{model_source}\n"
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
-
-
-def _c_string(text: str) -> str:
-    return text.replace("\\", "\\\\").replace('"', '\\"')
 
 
 def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
@@ -208,12 +215,12 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
     """Compile generated C source text into a cached extension module.
 
     ``filename`` is the name compiler messages use for the model.  extra_flags: appended to every compiler
-    call; model_flags: appended to those of the model's units of a split build (default MODEL_UNIT_FLAGS).
+    call; model_flags: appended to those of the model's units of a split build (default model_unit_flags).
     Raises BuildError with the compiler's messages when compilation fails.
     """
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    model_flags = MODEL_UNIT_FLAGS if model_flags is None else tuple(model_flags)
+    model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     files = _build_files(code, filename)
     unit = _joined(files)
     key = _hash(unit, flags + (("model units:", *model_flags) if len(files) > 1 else ()), cc)

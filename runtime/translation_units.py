@@ -120,7 +120,7 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
     layout = read_layout(code)
     if layout is None:
         return None
-    where = _c_string(filename)
+    where = line_name(filename)
     prototypes = "\n".join(b.prototype for b in layout.functions)
     files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.translation_units: do not edit */\n"
                          f"#line 1 \"{where}\"\n{layout.header}\n"
@@ -168,5 +168,6 @@ def _helpers_for(body: str, helpers: tuple[Block, ...]) -> list[Block]:
     return [h for h in helpers if h.name in wanted]
 
 
-def _c_string(text: str) -> str:
-    return text.replace("\\", "\\\\").replace('"', '\\"')
+def line_name(filename: str) -> str:
+    """The file name as the string of a #line directive."""
+    return filename.replace("\\", "\\\\").replace('"', '\\"')
