@@ -63,7 +63,7 @@
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
-#define MBS_LOOP_NWORK_NEEDED (3 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
+#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
                                + 10 * MBS_NV + MBS_NQ + 4 + 16)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
@@ -112,7 +112,8 @@ typedef struct {
     double *g, *h, *y, *c3;     /* NC each: residuals, g_t or gddot0, solve scratch, third-order rates */
     double *dv, *f, *c0, *b, *a, *vd;  /* NV each */
     double *dq;                 /* NQ */
-    double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis */
+    double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis (packed) */
+    int *Ti;                    /* NV x NV ints: the velocity of each packed entry of T */
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one) */
@@ -165,7 +166,8 @@ static mbs_loop_work mbs_loop_layout(double *work)
     w.dq = s; s += MBS_NQ;
     w.M = s; s += MBS_NV * MBS_NV;
     w.A = s; s += MBS_NV * MBS_NV;
-    w.T = s;
+    w.T = s; s += MBS_NV * MBS_NV;
+    w.Ti = (int *)s;  /* NV * NV ints in the room of NV * NV doubles */
     return w;
 }
 
@@ -236,11 +238,13 @@ static double mbs_loop_gmax(const mbs_loop_work *w)
 {
     double amax = 0.0;
     int i;
-    for (i = 0; i < MBS_NC * MBS_NV; i++) {
-        if (!isfinite(w->G0[i])) return -1.0;
-        amax = fmax(amax, fabs(w->G0[i]));
+    double probe = 0.0;  /* stays 0 unless an entry is infinite or NaN */
+    for (i = 0; i < MBS_NC * MBS_NV; i++) {  /* comparisons, not the library's fmax: this runs every call */
+        const double a = fabs(w->G0[i]);
+        amax = a > amax ? a : amax;
+        probe += 0.0 * w->G0[i];
     }
-    return amax;
+    return probe == 0.0 ? amax : -1.0;
 }
 
 /* Exchange rows k and pi of the factors w->G and their original indices rp. */
@@ -259,10 +263,10 @@ static void mbs_loop_eliminate(double *A, int k, int rows)
 {
     int i, j;
     for (i = k + 1; i < rows; i++) {
-        double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
-        A[i * MBS_NV + k] = l;
-        if (l != 0.0)
-            for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+        double l;
+        if (A[i * MBS_NV + k] == 0.0) continue;  /* another loop's row (independent blocks): nothing to do */
+        l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
+        for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
     }
 }
 
@@ -618,6 +622,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
+    int *Ti = w->Ti, start[MBS_NV + 1];
     int i, j, k, s;
     if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
     r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
@@ -631,11 +636,15 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 #endif
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
-    /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
+    /* null-space basis T (NV x m) by packed columns: column j holds entries e = start[j] .. start[j + 1] - 1,
+     * the value T[e] at velocity Ti[e]; first the independent velocity cp[r + j] (1), then the dependent ones it
+     * moves.  Independent loops (blocks of G that share no column) leave most of T zero: only its nonzeros are
+     * stored and touched below. */
     {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
         * row upwards so that the inner loops run over the columns and skip the zeros of U11 */
         const double *G = w->G;
         double *Y = w->K;
+        int e = 0;
         for (k = r - 1; k >= 0; k--) {
             double *yk = Y + k * MBS_NV;
             for (j = 0; j < m; j++) yk[j] = -G[k * MBS_NV + r + j];
@@ -646,40 +655,49 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
             }
             for (j = 0; j < m; j++) yk[j] /= G[k * MBS_NV + k];
         }
-        memset(T, 0, MBS_NV * MBS_NV * sizeof(double));
-        for (j = 0; j < m; j++) T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
-        for (k = 0; k < r; k++) memcpy(T + (int)w->cp[k] * MBS_NV, Y + k * MBS_NV, m * sizeof(double));
+        for (j = 0; j < m; j++) {
+            int first = start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = (int)w->cp[r + j];
+            for (k = 0; k < r; k++)
+                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order: the sums below then add in the */
+                    int at = e++;                 /* order of the dense products they replace, term for term */
+                    for (; at > first && Ti[at - 1] > (int)w->cp[k]; at--) {
+                        T[at] = T[at - 1];
+                        Ti[at] = Ti[at - 1];
+                    }
+                    T[at] = Y[k * MBS_NV + j];
+                    Ti[at] = (int)w->cp[k];
+                }
+        }
+        start[m] = e;
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
-    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column.  T and
-     * c0 are sparse where the loops are independent (a column moves one loop's coordinates): zeros skipped */
+    /* b = f - M c0 (c0 is zero on the independent velocities), then column by column: M T_j into w->vd (M is
+     * symmetric: row Ti[e] of M is its column Ti[e]), the lower triangle of A = T^T M T and a_j = T_j^T b */
     memcpy(w->b, w->f, MBS_NV * sizeof(double));
     for (k = 0; k < MBS_NV; k++) {
         const double c = w->c0[k];
         if (c != 0.0)
-            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[i * MBS_NV + k] * c;
-    }
-    for (j = 0; j < m; j++) {
-        memset(w->vd, 0, MBS_NV * sizeof(double));
-        for (k = 0; k < MBS_NV; k++) {
-            const double tk = T[k * MBS_NV + j];
-            if (tk != 0.0)
-                for (i = 0; i < MBS_NV; i++) w->vd[i] += M[i * MBS_NV + k] * tk;
-        }
-        for (i = j; i < m; i++) {
-            double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++)
-                if (T[k * MBS_NV + i] != 0.0) sum += T[k * MBS_NV + i] * w->vd[k];
-            A[i * MBS_NV + j] = sum;  /* lower triangle */
-        }
-        dmax = fmax(dmax, A[j * MBS_NV + j]);
+            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[k * MBS_NV + i] * c;
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        for (k = 0; k < MBS_NV; k++)
-            if (T[k * MBS_NV + j] != 0.0) sum += T[k * MBS_NV + j] * w->b[k];
+        int e;
+        memset(w->vd, 0, MBS_NV * sizeof(double));
+        for (e = start[j]; e < start[j + 1]; e++) {
+            const double *Mrow = M + Ti[e] * MBS_NV, tk = T[e];
+            for (i = 0; i < MBS_NV; i++) w->vd[i] += Mrow[i] * tk;
+            sum += tk * w->b[Ti[e]];
+        }
         w->a[j] = sum;
+        for (i = j; i < m; i++) {
+            sum = 0.0;
+            for (e = start[i]; e < start[i + 1]; e++) sum += T[e] * w->vd[Ti[e]];
+            A[i * MBS_NV + j] = sum;  /* lower triangle */
+        }
+        dmax = fmax(dmax, A[j * MBS_NV + j]);
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
     for (j = 0; j < m; j++) {
@@ -705,11 +723,9 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     for (j = m - 1; j >= 0; j--)
         for (k = j + 1; k < m; k++) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
     /* vdot = T a + c0 */
-    for (i = 0; i < MBS_NV; i++) {
-        double sum = w->c0[i];
-        for (j = 0; j < m; j++) sum += T[i * MBS_NV + j] * w->a[j];
-        w->vd[i] = sum;
-    }
+    memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
+    for (j = 0; j < m; j++)
+        for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
     return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
@@ -740,7 +756,8 @@ static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work
     int s;
     if (*rank < 0 && (*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
     s = mbs_loop_accelerations(t, p, w, rank);
-    if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
+    /* with every row a pivot row (rank NC) none was dropped: they hold by construction */
+    if (s == 0 && !w->fresh && *rank < MBS_NC && !mbs_loop_rows_hold(w)) {  /* forget it, choose afresh here */
         w->keep[0] = 0.0;
         if ((s = mbs_loop_jacobian_at(t, w->xc, p, w, 0)) != 0) return s;
         if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
