@@ -114,6 +114,7 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) 
         "int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work);",
+        "int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work);",
         ""])
 
 

@@ -16,6 +16,7 @@
  *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
+ *   mbs_loop_rates       [x'; lambda] at x_c from one projection and one solve (the outputs)   (NX + NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
  *   mbs_loop_normalize   x with unit quaternions                                    (NX)
  *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
@@ -348,14 +349,14 @@ static double mbs_loop_factor_kept(mbs_loop_work *w)
     const double *kp = w->keep;
     const int r = (int)kp[1];
     double *A = w->G, amax0 = mbs_loop_gmax(w), minpivot = HUGE_VAL;
-    int i, j, k;
+    int i, j, k, column[MBS_NV];  /* the kept column order as ints (converted once, not per entry) */
     if (amax0 < 0.0) return -1.0;
     if (!(amax0 > 0.0)) return 0.0;
-    for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
+    for (j = 0; j < MBS_NV; j++) column[j] = (int)(w->cp[j] = kp[4 + j]);
     for (k = 0; k < r; k++) {
         const double *src = w->G0 + (int)kp[4 + MBS_NV + k] * MBS_NV;
         w->rp[k] = kp[4 + MBS_NV + k];
-        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[(int)w->cp[j]];
+        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[column[j]];
     }
     for (k = 0; k < r; k++) {
         int pi = k;
@@ -382,8 +383,11 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
         for (j = 0; j < k; j++) s -= A[k * MBS_NV + j] * y[j];
         y[k] = s;
     }
-    for (k = 0; k < r; k++)
-        for (j = r; j < MBS_NV; j++) y[k] -= A[k * MBS_NV + j] * z[(int)w->cp[j]];
+    for (j = r; j < MBS_NV; j++) {  /* column by column, each y[k] still in the order of j; zeros skipped */
+        const double zj = z[(int)w->cp[j]];
+        if (zj != 0.0)
+            for (k = 0; k < r; k++) y[k] -= A[k * MBS_NV + j] * zj;
+    }
     for (k = r - 1; k >= 0; k--) {  /* U11 z_D = y */
         double s = y[k];
         for (j = k + 1; j < r; j++) s -= A[k * MBS_NV + j] * y[j];
@@ -653,7 +657,8 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
                 if (u != 0.0)
                     for (j = 0; j < m; j++) yk[j] -= u * Y[i * MBS_NV + j];
             }
-            for (j = 0; j < m; j++) yk[j] /= G[k * MBS_NV + k];
+            for (j = 0; j < m; j++)
+                if (yk[j] != 0.0) yk[j] /= G[k * MBS_NV + k];  /* other loops' columns stay 0: no division */
         }
         for (j = 0; j < m; j++) {
             int first = start[j] = e;
@@ -813,28 +818,48 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
     return s;
 }
 
+/* lambda from the accelerations just solved (w->vd, with M, f and the factors of G at w->xc, rank r). */
+static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
+{
+    const double *A = w->G;
+    int i, j, k;
+    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
+    for (k = 0; k < r; k++) {
+        int c = (int)w->cp[k];
+        double sum = -w->f[c];
+        for (j = 0; j < MBS_NV; j++) sum += w->M[c * MBS_NV + j] * w->vd[j];
+        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
+        w->y[k] = sum / A[k * MBS_NV + k];
+    }
+    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
+        for (i = k + 1; i < r; i++) w->y[k] -= A[i * MBS_NV + k] * w->y[i];
+    memset(lambda, 0, MBS_NC * sizeof(double));
+    for (k = 0; k < r; k++) lambda[(int)w->rp[k]] = w->y[k];
+    return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+
 int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    const double *A = w.G;
-    int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
+    int r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
     r = info.rank;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
-    if (s != 0) return s;
-    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
-    for (k = 0; k < r; k++) {
-        int c = (int)w.cp[k];
-        double sum = -w.f[c];
-        for (j = 0; j < MBS_NV; j++) sum += w.M[c * MBS_NV + j] * w.vd[j];
-        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w.y[j];  /* U11^T y = b */
-        w.y[k] = sum / A[k * MBS_NV + k];
-    }
-    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
-        for (i = k + 1; i < r; i++) w.y[k] -= A[i * MBS_NV + k] * w.y[i];
-    memset(lambda, 0, MBS_NC * sizeof(double));
-    for (k = 0; k < r; k++) lambda[(int)w.rp[k]] = w.y[k];
-    return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    return s != 0 ? s : mbs_loop_lambda(&w, r, lambda);
+}
+
+/* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
+ * (accelerations and reactions), formerly mbs_loop_rhs and mbs_loop_multipliers, each projecting and solving. */
+int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
+    r = info.rank;
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
+    if (s == 0) s = mbs_qdot(t, w.xc, p, out, w.tree);
+    if (s == 0) memcpy(out + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    return s != 0 ? s : mbs_loop_lambda(&w, r, out + MBS_NX);
 }
 
 int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
