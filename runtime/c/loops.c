@@ -237,15 +237,26 @@ static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_
 
 static double mbs_loop_gmax(const mbs_loop_work *w)
 {
-    double amax = 0.0;
-    int i;
-    double probe = 0.0;  /* stays 0 unless an entry is infinite or NaN */
-    for (i = 0; i < MBS_NC * MBS_NV; i++) {  /* comparisons, not the library's fmax: this runs every call */
+    /* every call runs this: comparisons, not the library's fmax, and four independent chains (a single running
+     * maximum and sum would wait for each other's latency at every entry); probe stays 0 unless an entry is
+     * infinite or NaN */
+    double m[4] = {0.0, 0.0, 0.0, 0.0}, probe[4] = {0.0, 0.0, 0.0, 0.0};
+    int i, k;
+    for (i = 0; i + 4 <= MBS_NC * MBS_NV; i += 4)
+        for (k = 0; k < 4; k++) {
+            const double a = fabs(w->G0[i + k]);
+            m[k] = a > m[k] ? a : m[k];
+            probe[k] += 0.0 * w->G0[i + k];
+        }
+    for (; i < MBS_NC * MBS_NV; i++) {
         const double a = fabs(w->G0[i]);
-        amax = a > amax ? a : amax;
-        probe += 0.0 * w->G0[i];
+        m[0] = a > m[0] ? a : m[0];
+        probe[0] += 0.0 * w->G0[i];
     }
-    return probe == 0.0 ? amax : -1.0;
+    if (!(probe[0] + probe[1] + probe[2] + probe[3] == 0.0)) return -1.0;
+    m[0] = m[1] > m[0] ? m[1] : m[0];
+    m[2] = m[3] > m[2] ? m[3] : m[2];
+    return m[2] > m[0] ? m[2] : m[0];
 }
 
 /* Exchange rows k and pi of the factors w->G and their original indices rp. */
@@ -378,9 +389,10 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
     const double *A = w->G;
     double *y = w->y;
     int j, k;
-    for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+    for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I; the zeros of the factors (other loops) skipped */
         double s = h ? -h[(int)w->rp[k]] : 0.0;
-        for (j = 0; j < k; j++) s -= A[k * MBS_NV + j] * y[j];
+        for (j = 0; j < k; j++)
+            if (A[k * MBS_NV + j] != 0.0) s -= A[k * MBS_NV + j] * y[j];
         y[k] = s;
     }
     for (j = r; j < MBS_NV; j++) {  /* column by column, each y[k] still in the order of j; zeros skipped */
@@ -390,7 +402,8 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
     }
     for (k = r - 1; k >= 0; k--) {  /* U11 z_D = y */
         double s = y[k];
-        for (j = k + 1; j < r; j++) s -= A[k * MBS_NV + j] * y[j];
+        for (j = k + 1; j < r; j++)
+            if (A[k * MBS_NV + j] != 0.0) s -= A[k * MBS_NV + j] * y[j];
         y[k] = s / A[k * MBS_NV + k];
     }
     for (k = 0; k < r; k++) z[(int)w->cp[k]] = y[k];
