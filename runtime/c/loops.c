@@ -21,8 +21,13 @@
  *   mbs_loop_normalize   x with unit quaternions                                    (NX)
  *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
  *
- * G comes from evaluations of gdot: column j is gdot(e_j) - gdot(0), and columns that share no row (one loop's
- * against another's) come from one evaluation (the colouring of compiler/jacobian_colours.py, MBS_NCOLOUR).
+ * G comes from mbs_constraint_matrix when the model defines MBS_CONSTRAINT_MATRIX (d gdot / d v printed from the
+ * tape, compiler/ccode_loops.py); otherwise from evaluations of gdot: column j is gdot(e_j) - gdot(0), and
+ * columns that share no row (one loop's against another's) come from one evaluation (the colouring of
+ * compiler/jacobian_colours.py, MBS_NCOLOUR).  Loops that close below a body are written relative to it
+ * (compiler/relative_motion.py), so independent loops give G exact zeros outside their own columns; the
+ * factorisations, the triangular solves and the null-space basis T (stored by its nonzeros) skip them, so the
+ * cost follows the loops' own sizes rather than NC x NV.
  *
  * Partitioning: the pivot columns of G are the dependent velocities, the others independent.  A partition is
  * kept from call to call and G factored with it (row exchanges among its pivot rows only) while its smallest
