@@ -299,9 +299,7 @@ class CEmitter:
             lines += [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
         else:
             lines += [f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;",
-                      f"    int mbs_status = mbs_loop_rhs(t, x, p, work, work + {scratch});",
-                      "    if (mbs_status == 0)",
-                      f"        mbs_status = mbs_loop_multipliers(t, x, p, work + MBS_NX, work + {scratch});"]
+                      f"    const int mbs_status = mbs_loop_rates(t, x, p, work, work + {scratch});"]
         return lines + ["    if (mbs_status != 0)", "        return mbs_status;"]
 
     def _function(self, r: Routine) -> str:

@@ -42,7 +42,7 @@ def loop_work_size(nq: int, nv: int, nc: int) -> int:
     """Doubles of work memory the loop solver needs beyond the tree functions' (the formula of
     MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time)."""
     nx = nq + nv
-    return 3 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS
+    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS
 
 
 def loop_routines(constraints: Constraints) -> list:
@@ -114,6 +114,7 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) 
         "int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work);",
+        "int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work);",
         ""])
 
 
@@ -131,9 +132,13 @@ def unchecked_mass_matrix(body: str, name: str, out: str) -> str:
     """The text of the mass matrix function `body` (called `<name>_unchecked`, no check that M is positive
     definite) followed by `name`, the contract's function with that check. The loop solver calls the unchecked
     one at every evaluation: it needs T^T M T definite, not M (massless parts are allowed), and the Cholesky
-    check of the full nv x nv matrix cost more than the matrix itself (Iltis: 3.1 of 5.4 us)."""
+    check of the full nv x nv matrix cost more than the matrix itself (Iltis: 3.1 of 5.4 us). Nor does the
+    unchecked one test every entry for NaN: the loop solver's results are checked, and a NaN in M reaches them."""
+    finite = f"    if (!mbs_all_finite({out}, MBS_NV*MBS_NV))\n        return 2;\n"
+    if finite not in body:
+        raise ValueError("the mass matrix function has no finiteness check to leave out")
     return "\n".join([
-        body.rstrip("\n"), "",
+        body.replace(finite, "").rstrip("\n"), "",
         "#define MBS_MASS_MATRIX_UNCHECKED 1   /* runtime/c/loops.c calls it */", "",
         f"/* {out} as {name}_unchecked, status 1 unless it is positive definite (the contract's mass matrix). */",
         f"int {name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",

@@ -44,7 +44,9 @@ def forward_derivatives(tape: Tape, results: Sequence, wrt: Sequence[sp.Symbol],
         found = _differentiate(entry.expr, seeds, derivative)
         if found:
             fork.section(f"derivatives of {entry.section}")
-            derivative[entry.symbol] = {k: fork.temp(d, f"{entry.name}_d{k}") for k, d in found.items()}
+            # in the order of wrt, not of the set of symbols the entry reads (which changes from run to run, and
+            # with it the text of the generated C and the build cache's key)
+            derivative[entry.symbol] = {k: fork.temp(d, f"{entry.name}_d{k}") for k, d in sorted(found.items())}
     rows = []
     for r in results:
         found = _differentiate(r, seeds, derivative)

@@ -16,12 +16,18 @@
  *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
+ *   mbs_loop_rates       [x'; lambda] at x_c from one projection and one solve (the outputs)   (NX + NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
  *   mbs_loop_normalize   x with unit quaternions                                    (NX)
  *   mbs_loop_report      the projection's diagnostics, always status 0        (MBS_LOOP_NREPORT, see below)
  *
- * G comes from evaluations of gdot: column j is gdot(e_j) - gdot(0), and columns that share no row (one loop's
- * against another's) come from one evaluation (the colouring of compiler/jacobian_colours.py, MBS_NCOLOUR).
+ * G comes from mbs_constraint_matrix when the model defines MBS_CONSTRAINT_MATRIX (d gdot / d v printed from the
+ * tape, compiler/ccode_loops.py); otherwise from evaluations of gdot: column j is gdot(e_j) - gdot(0), and
+ * columns that share no row (one loop's against another's) come from one evaluation (the colouring of
+ * compiler/jacobian_colours.py, MBS_NCOLOUR).  Loops that close below a body are written relative to it
+ * (compiler/relative_motion.py), so independent loops give G exact zeros outside their own columns; the
+ * factorisations, the triangular solves and the null-space basis T (stored by its nonzeros) skip them, so the
+ * cost follows the loops' own sizes rather than NC x NV.
  *
  * Partitioning: the pivot columns of G are the dependent velocities, the others independent.  A partition is
  * kept from call to call and G factored with it (row exchanges among its pivot rows only) while its smallest
@@ -63,7 +69,7 @@
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
-#define MBS_LOOP_NWORK_NEEDED (3 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
+#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
                                + 10 * MBS_NV + MBS_NQ + 4 + 16)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
@@ -112,7 +118,8 @@ typedef struct {
     double *g, *h, *y, *c3;     /* NC each: residuals, g_t or gddot0, solve scratch, third-order rates */
     double *dv, *f, *c0, *b, *a, *vd;  /* NV each */
     double *dq;                 /* NQ */
-    double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis */
+    double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis (packed) */
+    int *Ti;                    /* NV x NV ints: the velocity of each packed entry of T */
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one) */
@@ -165,7 +172,8 @@ static mbs_loop_work mbs_loop_layout(double *work)
     w.dq = s; s += MBS_NQ;
     w.M = s; s += MBS_NV * MBS_NV;
     w.A = s; s += MBS_NV * MBS_NV;
-    w.T = s;
+    w.T = s; s += MBS_NV * MBS_NV;
+    w.Ti = (int *)s;  /* NV * NV ints in the room of NV * NV doubles */
     return w;
 }
 
@@ -234,13 +242,26 @@ static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_
 
 static double mbs_loop_gmax(const mbs_loop_work *w)
 {
-    double amax = 0.0;
-    int i;
-    for (i = 0; i < MBS_NC * MBS_NV; i++) {
-        if (!isfinite(w->G0[i])) return -1.0;
-        amax = fmax(amax, fabs(w->G0[i]));
+    /* every call runs this: comparisons, not the library's fmax, and four independent chains (a single running
+     * maximum and sum would wait for each other's latency at every entry); probe stays 0 unless an entry is
+     * infinite or NaN */
+    double m[4] = {0.0, 0.0, 0.0, 0.0}, probe[4] = {0.0, 0.0, 0.0, 0.0};
+    int i, k;
+    for (i = 0; i + 4 <= MBS_NC * MBS_NV; i += 4)
+        for (k = 0; k < 4; k++) {
+            const double a = fabs(w->G0[i + k]);
+            m[k] = a > m[k] ? a : m[k];
+            probe[k] += 0.0 * w->G0[i + k];
+        }
+    for (; i < MBS_NC * MBS_NV; i++) {
+        const double a = fabs(w->G0[i]);
+        m[0] = a > m[0] ? a : m[0];
+        probe[0] += 0.0 * w->G0[i];
     }
-    return amax;
+    if (!(probe[0] + probe[1] + probe[2] + probe[3] == 0.0)) return -1.0;
+    m[0] = m[1] > m[0] ? m[1] : m[0];
+    m[2] = m[3] > m[2] ? m[3] : m[2];
+    return m[2] > m[0] ? m[2] : m[0];
 }
 
 /* Exchange rows k and pi of the factors w->G and their original indices rp. */
@@ -259,10 +280,10 @@ static void mbs_loop_eliminate(double *A, int k, int rows)
 {
     int i, j;
     for (i = k + 1; i < rows; i++) {
-        double l = A[i * MBS_NV + k] / A[k * MBS_NV + k];
-        A[i * MBS_NV + k] = l;
-        if (l != 0.0)
-            for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+        double l;
+        if (A[i * MBS_NV + k] == 0.0) continue;  /* another loop's row (independent blocks): nothing to do */
+        l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
+        for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
     }
 }
 
@@ -344,14 +365,14 @@ static double mbs_loop_factor_kept(mbs_loop_work *w)
     const double *kp = w->keep;
     const int r = (int)kp[1];
     double *A = w->G, amax0 = mbs_loop_gmax(w), minpivot = HUGE_VAL;
-    int i, j, k;
+    int i, j, k, column[MBS_NV];  /* the kept column order as ints (converted once, not per entry) */
     if (amax0 < 0.0) return -1.0;
     if (!(amax0 > 0.0)) return 0.0;
-    for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
+    for (j = 0; j < MBS_NV; j++) column[j] = (int)(w->cp[j] = kp[4 + j]);
     for (k = 0; k < r; k++) {
         const double *src = w->G0 + (int)kp[4 + MBS_NV + k] * MBS_NV;
         w->rp[k] = kp[4 + MBS_NV + k];
-        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[(int)w->cp[j]];
+        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[column[j]];
     }
     for (k = 0; k < r; k++) {
         int pi = k;
@@ -373,16 +394,21 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
     const double *A = w->G;
     double *y = w->y;
     int j, k;
-    for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+    for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I; the zeros of the factors (other loops) skipped */
         double s = h ? -h[(int)w->rp[k]] : 0.0;
-        for (j = 0; j < k; j++) s -= A[k * MBS_NV + j] * y[j];
+        for (j = 0; j < k; j++)
+            if (A[k * MBS_NV + j] != 0.0) s -= A[k * MBS_NV + j] * y[j];
         y[k] = s;
     }
-    for (k = 0; k < r; k++)
-        for (j = r; j < MBS_NV; j++) y[k] -= A[k * MBS_NV + j] * z[(int)w->cp[j]];
+    for (j = r; j < MBS_NV; j++) {  /* column by column, each y[k] still in the order of j; zeros skipped */
+        const double zj = z[(int)w->cp[j]];
+        if (zj != 0.0)
+            for (k = 0; k < r; k++) y[k] -= A[k * MBS_NV + j] * zj;
+    }
     for (k = r - 1; k >= 0; k--) {  /* U11 z_D = y */
         double s = y[k];
-        for (j = k + 1; j < r; j++) s -= A[k * MBS_NV + j] * y[j];
+        for (j = k + 1; j < r; j++)
+            if (A[k * MBS_NV + j] != 0.0) s -= A[k * MBS_NV + j] * y[j];
         y[k] = s / A[k * MBS_NV + k];
     }
     for (k = 0; k < r; k++) z[(int)w->cp[k]] = y[k];
@@ -618,6 +644,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
+    int *Ti = w->Ti, start[MBS_NV + 1];
     int i, j, k, s;
     if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
     r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
@@ -631,11 +658,15 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 #endif
     if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
     if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
-    /* null-space basis T (NV x m, row stride NV): column j moves independent velocity cp[r + j] */
+    /* null-space basis T (NV x m) by packed columns: column j holds entries e = start[j] .. start[j + 1] - 1,
+     * the value T[e] at velocity Ti[e]; first the independent velocity cp[r + j] (1), then the dependent ones it
+     * moves.  Independent loops (blocks of G that share no column) leave most of T zero: only its nonzeros are
+     * stored and touched below. */
     {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
         * row upwards so that the inner loops run over the columns and skip the zeros of U11 */
         const double *G = w->G;
         double *Y = w->K;
+        int e = 0;
         for (k = r - 1; k >= 0; k--) {
             double *yk = Y + k * MBS_NV;
             for (j = 0; j < m; j++) yk[j] = -G[k * MBS_NV + r + j];
@@ -644,42 +675,52 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
                 if (u != 0.0)
                     for (j = 0; j < m; j++) yk[j] -= u * Y[i * MBS_NV + j];
             }
-            for (j = 0; j < m; j++) yk[j] /= G[k * MBS_NV + k];
+            for (j = 0; j < m; j++)
+                if (yk[j] != 0.0) yk[j] /= G[k * MBS_NV + k];  /* other loops' columns stay 0: no division */
         }
-        memset(T, 0, MBS_NV * MBS_NV * sizeof(double));
-        for (j = 0; j < m; j++) T[(int)w->cp[r + j] * MBS_NV + j] = 1.0;
-        for (k = 0; k < r; k++) memcpy(T + (int)w->cp[k] * MBS_NV, Y + k * MBS_NV, m * sizeof(double));
+        for (j = 0; j < m; j++) {
+            int first = start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = (int)w->cp[r + j];
+            for (k = 0; k < r; k++)
+                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order: the sums below then add in the */
+                    int at = e++;                 /* order of the dense products they replace, term for term */
+                    for (; at > first && Ti[at - 1] > (int)w->cp[k]; at--) {
+                        T[at] = T[at - 1];
+                        Ti[at] = Ti[at - 1];
+                    }
+                    T[at] = Y[k * MBS_NV + j];
+                    Ti[at] = (int)w->cp[k];
+                }
+        }
+        start[m] = e;
     }
     memset(w->c0, 0, MBS_NV * sizeof(double));
     mbs_loop_solve(w, r, w->h, w->c0);
-    /* b = f - M c0 (in w->b), then A = T^T M T and a-rhs = T^T b; M T goes to w->vd column by column.  T and
-     * c0 are sparse where the loops are independent (a column moves one loop's coordinates): zeros skipped */
+    /* b = f - M c0 (c0 is zero on the independent velocities), then column by column: M T_j into w->vd (M is
+     * symmetric: row Ti[e] of M is its column Ti[e]), the lower triangle of A = T^T M T and a_j = T_j^T b */
     memcpy(w->b, w->f, MBS_NV * sizeof(double));
     for (k = 0; k < MBS_NV; k++) {
         const double c = w->c0[k];
         if (c != 0.0)
-            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[i * MBS_NV + k] * c;
-    }
-    for (j = 0; j < m; j++) {
-        memset(w->vd, 0, MBS_NV * sizeof(double));
-        for (k = 0; k < MBS_NV; k++) {
-            const double tk = T[k * MBS_NV + j];
-            if (tk != 0.0)
-                for (i = 0; i < MBS_NV; i++) w->vd[i] += M[i * MBS_NV + k] * tk;
-        }
-        for (i = j; i < m; i++) {
-            double sum = 0.0;
-            for (k = 0; k < MBS_NV; k++)
-                if (T[k * MBS_NV + i] != 0.0) sum += T[k * MBS_NV + i] * w->vd[k];
-            A[i * MBS_NV + j] = sum;  /* lower triangle */
-        }
-        dmax = fmax(dmax, A[j * MBS_NV + j]);
+            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[k * MBS_NV + i] * c;
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        for (k = 0; k < MBS_NV; k++)
-            if (T[k * MBS_NV + j] != 0.0) sum += T[k * MBS_NV + j] * w->b[k];
+        int e;
+        memset(w->vd, 0, MBS_NV * sizeof(double));
+        for (e = start[j]; e < start[j + 1]; e++) {
+            const double *Mrow = M + Ti[e] * MBS_NV, tk = T[e];
+            for (i = 0; i < MBS_NV; i++) w->vd[i] += Mrow[i] * tk;
+            sum += tk * w->b[Ti[e]];
+        }
         w->a[j] = sum;
+        for (i = j; i < m; i++) {
+            sum = 0.0;
+            for (e = start[i]; e < start[i + 1]; e++) sum += T[e] * w->vd[Ti[e]];
+            A[i * MBS_NV + j] = sum;  /* lower triangle */
+        }
+        dmax = fmax(dmax, A[j * MBS_NV + j]);
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
     for (j = 0; j < m; j++) {
@@ -705,11 +746,9 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     for (j = m - 1; j >= 0; j--)
         for (k = j + 1; k < m; k++) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
     /* vdot = T a + c0 */
-    for (i = 0; i < MBS_NV; i++) {
-        double sum = w->c0[i];
-        for (j = 0; j < m; j++) sum += T[i * MBS_NV + j] * w->a[j];
-        w->vd[i] = sum;
-    }
+    memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
+    for (j = 0; j < m; j++)
+        for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
     return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
@@ -740,7 +779,8 @@ static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work
     int s;
     if (*rank < 0 && (*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
     s = mbs_loop_accelerations(t, p, w, rank);
-    if (s == 0 && !w->fresh && !mbs_loop_rows_hold(w)) {  /* forget the partition, choose afresh here */
+    /* with every row a pivot row (rank NC) none was dropped: they hold by construction */
+    if (s == 0 && !w->fresh && *rank < MBS_NC && !mbs_loop_rows_hold(w)) {  /* forget it, choose afresh here */
         w->keep[0] = 0.0;
         if ((s = mbs_loop_jacobian_at(t, w->xc, p, w, 0)) != 0) return s;
         if ((*rank = mbs_loop_partition(t, w->xc, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
@@ -796,28 +836,48 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
     return s;
 }
 
+/* lambda from the accelerations just solved (w->vd, with M, f and the factors of G at w->xc, rank r). */
+static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
+{
+    const double *A = w->G;
+    int i, j, k;
+    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
+    for (k = 0; k < r; k++) {
+        int c = (int)w->cp[k];
+        double sum = -w->f[c];
+        for (j = 0; j < MBS_NV; j++) sum += w->M[c * MBS_NV + j] * w->vd[j];
+        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
+        w->y[k] = sum / A[k * MBS_NV + k];
+    }
+    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
+        for (i = k + 1; i < r; i++) w->y[k] -= A[i * MBS_NV + k] * w->y[i];
+    memset(lambda, 0, MBS_NC * sizeof(double));
+    for (k = 0; k < r; k++) lambda[(int)w->rp[k]] = w->y[k];
+    return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+
 int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    const double *A = w.G;
-    int i, j, k, r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
+    int r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
     r = info.rank;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
-    if (s != 0) return s;
-    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
-    for (k = 0; k < r; k++) {
-        int c = (int)w.cp[k];
-        double sum = -w.f[c];
-        for (j = 0; j < MBS_NV; j++) sum += w.M[c * MBS_NV + j] * w.vd[j];
-        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w.y[j];  /* U11^T y = b */
-        w.y[k] = sum / A[k * MBS_NV + k];
-    }
-    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
-        for (i = k + 1; i < r; i++) w.y[k] -= A[i * MBS_NV + k] * w.y[i];
-    memset(lambda, 0, MBS_NC * sizeof(double));
-    for (k = 0; k < r; k++) lambda[(int)w.rp[k]] = w.y[k];
-    return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    return s != 0 ? s : mbs_loop_lambda(&w, r, lambda);
+}
+
+/* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
+ * (accelerations and reactions), formerly mbs_loop_rhs and mbs_loop_multipliers, each projecting and solving. */
+int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_info info;
+    int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
+    r = info.rank;
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
+    if (s == 0) s = mbs_qdot(t, w.xc, p, out, w.tree);
+    if (s == 0) memcpy(out + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    return s != 0 ? s : mbs_loop_lambda(&w, r, out + MBS_NX);
 }
 
 int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
