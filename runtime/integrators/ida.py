@@ -26,6 +26,10 @@ class Ida(SundialsSolver):
         if workspace is not None and "constraint_jacobian" in workspace.model.functions:
             self._ggl = GGL(workspace, t0, y0)
             y0 = self._ggl.y0[:self._ggl.nx]
+            if options.get("events") is not None:  # the indicators read the state, not the multipliers
+                g, *rest = options["events"]
+                nx = self._ggl.nx
+                options["events"] = (lambda t, y: g(t, y[:nx]), *rest)
         super().__init__(fun, t0, y0, t_bound, **options)
 
     def _make(self, settings):
