@@ -165,11 +165,10 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
-    if lowered.tree.states and (constraints is not None or dynamics):
-        what = "a model with closed loops" if constraints is not None else "the dynamics functions"
+    if lowered.tree.states and dynamics:
         where = model.states[0].span if model.states else model.span
-        raise MbsError([Diagnostic("error", f"extra states (declared, or a tyre's relaxation) are not supported in "
-                                            f"{what} yet", where)])
+        raise MbsError([Diagnostic("error", "extra states (declared, or a tyre's relaxation) are not supported in "
+                                            "the dynamics functions yet", where)])
     try:
         equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None,
                                      state_rates=lowered.state_rates)
