@@ -136,3 +136,16 @@ def test_lugre_friction_in_a_tree_joint_of_a_loop_model():
     assert np.max(np.abs(res["friction.z"] - ref[:, 2])) < 1e-9          # 1.1e-10 measured (z ~ 2e-4 m)
     # it slides: the bristles sit near their steady deflection g(v) / sigma0 most of the time
     assert np.max(np.abs(res["friction.z"])) > 0.9 * LUGRE["fc"] / LUGRE["sigma0"]
+
+
+def test_linearisation_of_a_loop_model_with_a_state(lag):
+    """About the rest position (no torque: the spring unstretched, s = l0) the eigenvalues are the lag's -1/T and
+    the crank's +-i sqrt(k s'(theta)^2 / m(theta)) of the hand-written Lagrange equation."""
+    lin = lag.linearize(params={"tau_cmd": 0.0})
+    m, _, _, s, ds = slider_crank_terms(**SC)
+    theta = lin.x[0]
+    assert s(theta) == pytest.approx(SC["l0"], abs=1e-10)
+    omega = math.sqrt(SC["k"] * ds(theta)**2 / m(theta))
+    expected = sorted([-1 / T, 1j * omega, -1j * omega], key=lambda e: (e.real, e.imag))
+    found = sorted(lin.eigenvalues, key=lambda e: (round(e.real, 6), e.imag))
+    np.testing.assert_allclose(found, expected, atol=1e-6 * omega)
