@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import numpy as np
 
 from mbs.compiler.integrator_names import JACOBIAN_INTEGRATORS
-from mbs.compiler.tyre_relaxation import relaxation_states
+from mbs.compiler.tyre_relaxation import model_inputs, relaxation_states
 from mbs.language import binding
 from mbs.language import expr as X
 from mbs.language import model as M
@@ -330,7 +330,7 @@ def units_of(generated: Generated) -> dict[str, str]:
         angle = c.dimension.is_dimensionless
         units[c.name] = U.unit_text(c.dimension, angle=angle)
         units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
-    units.update(relaxation_states(generated.model))
+    units.update(relaxation_states(generated.model, model_inputs(generated.model, generated.scene)))
     for s in generated.model.states:
         if s.dimension is not None:  # a bare-number initial value leaves the unit free
             units[s.name] = U.unit_text(s.dimension)
