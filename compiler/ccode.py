@@ -34,7 +34,7 @@ import sympy as sp
 
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
 from .ccode_loops import (constraint_matrix_routine, loop_definitions, loop_functions, loop_routines, loop_work_size,
-                          unchecked_mass_matrix)
+                          state_rates_routine, unchecked_mass_matrix)
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -125,7 +125,7 @@ class CEmitter:
         self.loop_jacobian = None
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
-        elif jacobian:
+        elif jacobian and not equations.zdot:  # with extra states: differences of mbs_rhs over all of x
             self.eqs, self.loop_jacobian = loop_jacobian_or_none(equations, constraints)
         if parameter_jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
@@ -175,7 +175,7 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix,) if r])
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r])
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -276,7 +276,7 @@ class CEmitter:
     def _work(self) -> int:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc) if nc else 0
+        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) if nc else 0
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return tree.nv * tree.nv + loops + self._output_scratch()

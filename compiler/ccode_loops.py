@@ -38,10 +38,11 @@ from .jacobian_colours import constraint_colours
 LOOP_SCALARS = 16
 
 
-def loop_work_size(nq: int, nv: int, nc: int) -> int:
+def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0) -> int:
     """Doubles of work memory the loop solver needs beyond the tree functions' (the formula of
-    MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time)."""
-    nx = nq + nv
+    MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time); nz extra states ride along
+    in its two state copies."""
+    nx = nq + nv + nz
     return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS
 
 
@@ -57,6 +58,17 @@ def loop_routines(constraints: Constraints) -> list:
         ("mbs_constraint_acceleration", "out", "gddot with vdot = 0: G vdot + this = 0 on the constraint "
          "manifold [m/s^2 or 1/s^2]", (nc,), list(enumerate(constraints.acceleration)), False),
     ]
+
+
+def state_rates_routine(equations: Equations) -> tuple | None:
+    """The routine `mbs_state_rates` writing z' of the extra states (tree.states), or None without states.
+    With loops mbs_rhs is the loop solver's, which takes qdot and vdot from the loop solve and z' from this
+    function at the same (projected) state: the rates are functions of (t, q, v, z), never of accelerations
+    (the language refuses acceleration and reaction sensors in them), so no loop solve is needed for them."""
+    if not equations.zdot:
+        return None
+    return ("mbs_state_rates", "out", "z' of the extra states, at the state the loop solver evaluates "
+            "(runtime/c/loops.c)", (len(equations.zdot),), list(enumerate(equations.zdot)), False)
 
 
 def constraint_matrix_routine(equations: Equations, constraints: Constraints) -> tuple[Equations, tuple | None]:
@@ -87,7 +99,7 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) 
     constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
-    work = loop_work_size(tree.nq, tree.nv, constraints.nc)
+    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz)
     colours = constraint_colours(constraints)
     ncol = max(colours.ncolours, 1)
     table = [colours.column_of(i, c) for i in range(constraints.nc) for c in range(ncol)]
@@ -105,6 +117,9 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) 
         f"static const int mbs_column_colour[{tree.nv}] = {{{', '.join(map(str, colours.colour))}}};",
         "/* Row i, colour c: the column of that colour row i depends on, -1 when none. */",
         f"static const int mbs_colour_column[{len(table)}] = {{{', '.join(map(str, table))}}};",
+        *(["/* z' of the extra states: the loop solver's right-hand sides append it (runtime/c/loops.c) */",
+           "int mbs_state_rates(double t, const double *x, const double *p, double *out, double *work);"]
+          if tree.nz else []),
         *(["#define MBS_CONSTRAINT_MATRIX 1   /* mbs_constraint_matrix gives G (the colours are not used) */",
            "int mbs_constraint_matrix(double t, const double *x, const double *p, double *out, double *work);"]
           if constraint_matrix else []),

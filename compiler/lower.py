@@ -25,7 +25,7 @@ from .spatial import cross, dot
 from .symbolic import TableRegistry, ToSympy, parameter_symbol, safe_atan2
 from .topology import Topology, build_topology
 from .tyre import attach_tyre
-from .tyre_relaxation import relaxation_states
+from .tyre_relaxation import model_inputs, relaxation_states
 from .tree import JointSpec, Tree, TreeBody, t
 
 
@@ -59,9 +59,7 @@ class _Lowering:
     def __init__(self, model: M.Model, scene: M.Scene | None):
         self.model, self.scene = model, scene
         self.tables = TableRegistry()
-        self.inputs = {i.name: i.value for i in model.inputs}
-        if scene is not None:
-            self.inputs.update(dict(scene.inputs))
+        self.inputs = model_inputs(model, scene)
         self.geometry = ToSympy(self._no_state, self.tables)
         self.topology = build_topology(model)
         self.body_of_part = {M.INERTIAL: -1}
@@ -70,7 +68,7 @@ class _Lowering:
             self.body_of_part[part] = i
             self.body_of_interaction[joint.interaction.name] = i
         tree = Tree(tuple(self._tree_body(i) for i in range(len(self.topology.bodies))),
-                    tuple(self.geometry(g) for g in model.gravity), tuple(state_symbols(model)))
+                    tuple(self.geometry(g) for g in model.gravity), tuple(state_symbols(model, self.inputs)))
         self.element_rates: dict[sp.Symbol, sp.Expr] = {}  # rates of states force elements add (tyre relaxation)
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
@@ -402,14 +400,15 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
                    lowering.acceleration_terms.inputs(), events, switches, rates)
 
 
-def state_symbols(model: M.Model) -> list[sp.Symbol]:
+def state_symbols(model: M.Model, inputs=None) -> list[sp.Symbol]:
     """The symbols of the extra states, named as the model names them; a name a parameter also has is refused
-    (both would be the same symbol)."""
+    (both would be the same symbol). `inputs`: the model's as the scene replaces them (a tyre relaxation
+    length that is 0 adds no state, compiler/tyre_relaxation.py)."""
     params = {p.name for p in model.parameters}
     for s in model.states:
         if s.name in params:
             raise _error(f"state '{s.name}' has the name of a parameter; rename one of them", s.span)
-    return [sp.Symbol(s.name) for s in model.states] + [sp.Symbol(name) for name, _ in relaxation_states(model)]
+    return [sp.Symbol(s.name) for s in model.states] + [sp.Symbol(name) for name, _ in relaxation_states(model, inputs)]
 
 
 __all__ = ["Lowered", "lower", "parameter_symbol"]

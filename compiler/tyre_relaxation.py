@@ -12,12 +12,20 @@ at speed it is |vx| (the textbook form, a distance constant sigma), and with alp
 V * alpha ~ vsy: the deflection form, which stays finite and well damped at standstill, where the textbook
 form would freeze alpha_r. Without the arguments nothing changes: no state, the same code. The tyre
 sensor's alpha and kappa are then the relaxed values, the ones the laws see.
+
+A length that is the number 0 once the inputs are put in (`relax_y = relax` with `input relax = 0 m`) is
+off in the same way: no state, the same code. A scene that replaces the input (`input relax = 0.5 m`)
+switches the relaxation on, which changes the compiled code, so a scene can do it and a parameter cannot
+(library/iltis/vehicle.mbs: scene steer_ramp_20_relax).
 """
 
 from __future__ import annotations
 
 import sympy as sp
 
+from collections.abc import Mapping
+
+from mbs.language import expr as X
 from mbs.language import model as M
 
 #: element argument -> (slip quantity it relaxes, unit of the relaxed state)
@@ -28,14 +36,34 @@ def relaxed_name(force_name: str, slip: str) -> str:
     return f"{force_name}.{slip}_r"
 
 
-def relaxation_states(model: M.Model) -> list[tuple[str, str]]:
-    """(state name, unit) of every relaxed slip of the model's tyres, in element order."""
+def switched_off(length: X.E | None, inputs: Mapping[str, X.E]) -> bool:
+    """True when there is no relaxation length, or it is the number 0 once the inputs (the model's, as a scene
+    replaces them) are put in: no state then."""
+    seen = set()
+    while isinstance(length, X.Sym) and length.kind == "input" and length.name in inputs and length not in seen:
+        seen.add(length)
+        length = inputs[length.name]
+    return length is None or (isinstance(length, X.Const) and length.value == 0)
+
+
+def model_inputs(model: M.Model, scene: M.Scene | None = None) -> dict[str, X.E]:
+    """The inputs' expressions by name, the scene's replacing the model's."""
+    inputs = {i.name: i.value for i in model.inputs}
+    if scene is not None:
+        inputs.update(dict(scene.inputs))
+    return inputs
+
+
+def relaxation_states(model: M.Model, inputs: Mapping[str, X.E] | None = None) -> list[tuple[str, str]]:
+    """(state name, unit) of every relaxed slip of the model's tyres that is switched on, in element order;
+    `inputs`: as `model_inputs` gives them (default: the model's own)."""
+    inputs = model_inputs(model) if inputs is None else inputs
     out = []
     for inter in model.interactions:
         for force in inter.forces:
             if force.kind == "tyre":
                 out += [(relaxed_name(force.name, slip), unit) for arg, (slip, unit) in RELAXED.items()
-                        if force.arg(arg) is not None]
+                        if not switched_off(force.arg(arg), inputs)]
     return out
 
 
@@ -44,7 +72,7 @@ def relax(lowering, force: M.Force, values: dict, speed) -> None:
     the states' rates with the lowering."""
     for arg, (slip, _) in RELAXED.items():
         length = force.arg(arg)
-        if length is None:
+        if switched_off(length, lowering.inputs):
             continue
         state = sp.Symbol(relaxed_name(force.name, slip))
         lowering.element_rates[state] = speed * (values[slip] - state) / lowering.state(length)

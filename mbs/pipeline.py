@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 import numpy as np
 
 from mbs.compiler.integrator_names import JACOBIAN_INTEGRATORS
-from mbs.compiler.tyre_relaxation import relaxation_states
+from mbs.compiler.tyre_relaxation import model_inputs, relaxation_states
 from mbs.language import binding
 from mbs.language import expr as X
 from mbs.language import model as M
@@ -165,11 +165,10 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
-    if lowered.tree.states and (constraints is not None or dynamics):
-        what = "a model with closed loops" if constraints is not None else "the dynamics functions"
+    if lowered.tree.states and dynamics:
         where = model.states[0].span if model.states else model.span
-        raise MbsError([Diagnostic("error", f"extra states (declared, or a tyre's relaxation) are not supported in "
-                                            f"{what} yet", where)])
+        raise MbsError([Diagnostic("error", "extra states (declared, or a tyre's relaxation) are not supported in "
+                                            "the dynamics functions yet", where)])
     try:
         equations = derive_equations(lowered.kinematics, forward_dynamics=constraints is None,
                                      state_rates=lowered.state_rates)
@@ -331,7 +330,7 @@ def units_of(generated: Generated) -> dict[str, str]:
         angle = c.dimension.is_dimensionless
         units[c.name] = U.unit_text(c.dimension, angle=angle)
         units[f"der({c.name})"] = U.unit_text(c.dimension / U.TIME, angle=angle)
-    units.update(relaxation_states(generated.model))
+    units.update(relaxation_states(generated.model, model_inputs(generated.model, generated.scene)))
     for s in generated.model.states:
         if s.dimension is not None:  # a bare-number initial value leaves the unit free
             units[s.name] = U.unit_text(s.dimension)

@@ -148,7 +148,7 @@ def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None 
 
     # velocities: the least change of the free speeds
     G = data.constraint_jacobian(t, x)
-    v = x[nq:]
+    v = x[nq:nq + nv]  # a view: the extra states z after it stay as given
     gd = data.constraint_velocity(t, x)
     if np.any(~hold_v):
         v[~hold_v] -= np.linalg.lstsq(G[:, ~hold_v], gd, rcond=RCOND)[0]
@@ -187,9 +187,10 @@ def _rank_and_dependent_rows(G: np.ndarray) -> tuple[int, list[int], list[int]]:
 
 
 def _moved(data: Workspace, t: float, x: np.ndarray, dv: np.ndarray) -> np.ndarray:
-    """x with q moved by qdot(q, dv) (a first-order step along the velocity coordinates), quaternions unit."""
+    """x with q moved by qdot(q, dv) (a first-order step along the velocity coordinates), quaternions unit;
+    the extra states z stay."""
     nq = data.model.nq
-    probe = np.concatenate([x[:nq], dv])
+    probe = np.concatenate([x[:nq], dv, x[nq + dv.size:]])
     out = x.copy()
     out[:nq] += data.qdot(t, probe)
     return data.normalize(t, out)

@@ -61,6 +61,9 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
     if model.nz:  # extra differential states rest too: a root of [vdot; zdot] (states_equilibrium.py)
         x = equilibrium_with_states(model, data, x0, t)
         residual, worst = rest_residual(model, data, x, t)
+        x[nq:nq + model.nv] = np.asarray(x0, dtype=float)[nq:nq + model.nv]  # as below: the speeds it was given
+        if "project" in model.functions:
+            x = data.project(t, x)
         return Equilibrium(x, residual, 0, 0, worst)
     x = newton_equilibrium(model, data, x0, t)  # fast and exact where it finds a stable solution
     if x is None:

@@ -3,7 +3,9 @@
 At rest the speeds vanish and neither the accelerations nor the extra states' rates may: an integrator state
 settles where its input is zero, a lag where it has caught up with its command. The unknowns are the
 coordinates and the extra states, (q, z), and the conditions vdot(q, 0, z) = 0 and zdot(q, 0, z) = 0: square
-for joints without quaternions, solved by MINPACK's hybrid Powell method (least squares otherwise). The relaxation
+for joints without quaternions, solved by MINPACK's hybrid Powell method (least squares otherwise, and with
+closed loops, where the right-hand side projects the coordinates so that the dependent ones have no effect:
+the solution is then projected onto the constraints). The relaxation
 of runtime/equilibrium.py (stop the parts at the kinetic energy's peak, start again) has no meaning for a state
 that is not a motion, so it is not used here.
 """
@@ -38,7 +40,8 @@ def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float 
         return data.rhs(t, state(u))[nq:]
 
     u0 = np.concatenate([x[:nq], x[nq + nv:]])
-    if nq == nv:
+    loops = "project" in model.functions  # closed loops: rhs projects q, so the dependent ones do not count
+    if nq == nv and not loops:
         sol = root(residual, u0, method="hybr", options={"xtol": 1e-13})
         u = sol.x
     else:
@@ -50,7 +53,7 @@ def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float 
         raise MbsError([Diagnostic("error", f"no static equilibrium with the extra states at rest: the rate of "
                                             f"'{names[k]}' stays at {worst:.3g} (a state that integrates "
                                             "without bound, or a part with nothing to hold it)", None)])
-    return state(u)
+    return data.function("project")(t, state(u)) if loops else state(u)
 
 
 def rest_residual(model: CompiledModel, data: Workspace, x: np.ndarray, t: float = 0.0) -> tuple[float, str]:

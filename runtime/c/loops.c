@@ -69,7 +69,7 @@
 #endif
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
-#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * (MBS_NQ + MBS_NV) \
+#define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * MBS_NX \
                                + 10 * MBS_NV + MBS_NQ + 4 + 16)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
@@ -789,6 +789,18 @@ static int mbs_loop_solve_accelerations(double t, const double *p, mbs_loop_work
     return s;
 }
 
+/* z' of the extra states (MBS_NZ, compiler/ccode_loops.py state_rates_routine) at the state x the solver used,
+ * after [qdot; vdot] in xdot; nothing without them.  The projection leaves z alone (it copies all of x). */
+static int mbs_loop_state_rates(double t, const double *x, const double *p, double *xdot, mbs_loop_work *w)
+{
+#if defined(MBS_NZ) && MBS_NZ > 0
+    return mbs_state_rates(t, x, p, xdot + MBS_NQ + MBS_NV, w->tree);
+#else
+    (void)t; (void)x; (void)p; (void)xdot; (void)w;
+    return 0;
+#endif
+}
+
 /* ---- the functions of the model table (exported: a standalone library offers them too) ------------- */
 
 /* x' at the projected state: robust for integrators that cannot project (scipy's), and the mbs_rhs of every
@@ -802,6 +814,7 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
     if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    if (s == 0) s = mbs_loop_state_rates(t, w.xc, p, xdot, &w);
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
         int i;
         for (i = 0; i < MBS_NX; i++) xdot[i] += MBS_LOOP_STABILIZE * (w.xc[i] - x[i]);
@@ -824,6 +837,7 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    if (s == 0) s = mbs_loop_state_rates(t, x, p, xdot, &w);
     return s;
 }
 
