@@ -43,6 +43,7 @@ from mbs.language.friction import is_switched, mode_name
 
 from . import dynamics
 from .events import LoweredEvent
+from .friction_loops import resolve_in_loops
 from .reactions import point_acceleration
 from .spatial import ZERO3, add, cross, dot, mul
 from .symbolic import ToSympy, parameter_symbol
@@ -61,6 +62,7 @@ class _Element:
     body: int                # the tree body whose joint carries the load (bearing friction); -1 for a contact
     coordinate: str | None   # the joint coordinate whose speed a grip sets to zero, 'contact.s'
     locked: Callable         # vdot -> the relative acceleration a stick holds at zero
+    rate: sp.Expr            # the speed a stick holds at zero: the joint speed, or the contact's slip speed
     placeholder: sp.Symbol   # the generalized force while the equations are split
     mode: sp.Symbol          # 0 sticks, +1/-1 slips
     speed: sp.Expr           # slip speed at the friction surface [m/s]
@@ -79,6 +81,8 @@ class FrictionLowering:
     def __init__(self, lowering):
         self.low = lowering
         self.elements: list[_Element] = []
+        self.rows: tuple = ()    # closed loops: the sticking elements' constraint rows (compiler/friction_loops.py)
+        self.inputs: tuple = ()  # ... and their multipliers as run-time inputs
 
     def attach(self, inter: M.Interaction, force: M.Force) -> sp.Expr:
         """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
@@ -95,9 +99,11 @@ class FrictionLowering:
         if force.arg("tangent") is not None:
             contact = _Contact(low, inter, force.arg("tangent"))
             speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
+            rate = speed
         else:
             slot = low.kin.tree.v_slots[body][0]
-            speed, coordinate = lever * low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            rate, coordinate = low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            speed = lever * rate
             locked = lambda vdot: vdot[slot]
             apply = lambda value: low.kin.add_generalized_force(body, 0, value)
         mu = mu_k
@@ -120,7 +126,7 @@ class FrictionLowering:
             return value
         placeholder = sp.Symbol(f"friction.{force.name}")
         apply(placeholder)
-        self.elements.append(_Element(force, body, coordinate, locked, placeholder,
+        self.elements.append(_Element(force, body, coordinate, locked, rate, placeholder,
                                       parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
                                       load))
         return placeholder
@@ -131,8 +137,8 @@ class FrictionLowering:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
-            raise _error("switched friction in a model with a closed kinematic loop is not supported yet (the "
-                         "locking force needs the loop's multipliers); use 'smoothing = ..'", elements[0].force.span)
+            values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
+            return values, events
         loaded = [e for e in elements if e.load is not None]
         if loaded and len(elements) > 1:
             raise _error("a friction element whose normal force is the joint's reaction must be the model's only "
@@ -298,15 +304,15 @@ def _bearing(tape, e: _Element, a0, W, R0, B) -> tuple[list, list, list]:
     return [force], [required], [limit]
 
 
-def _events(e: _Element, required, limit) -> tuple[LoweredEvent, LoweredEvent]:
+def _events(e: _Element, required, limit, after_grip=None) -> tuple[LoweredEvent, LoweredEvent]:
     """slip: |F_req| rises through the limit while sticking; grip: the slip speed falls through zero while
-    slipping."""
+    slipping, and the element takes the mode `after_grip` (default: sticks when |F_req| is within the limit)."""
     stick = _sticks(e)
     direction_held = sp.Piecewise((-1, required > 0), (1, True))  # where the system accelerates when let go
     start = sp.Piecewise((1, e.speed > 0), (-1, e.speed < 0), (direction_held, True))
     slip = LoweredEvent(f"{e.force.name}.slip", stick * (sp.Abs(required) - limit) - e.mode ** 2, 1, False,
                         (("set", mode_name(e.force.name), start),), e.force.span)
-    after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True))
+    after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True)) if after_grip is None else after_grip
     reinit = (("speed", e.coordinate, sp.S.Zero),) if e.coordinate is not None else ()
     grip = LoweredEvent(f"{e.force.name}.grip", e.mode * e.speed + stick, -1, False,
                         reinit + (("set", mode_name(e.force.name), after),), e.force.span)

@@ -4,7 +4,9 @@ An element's events only see transitions (the static limit exceeded, the slip sp
 starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever. Before the
 first step every element still in its default stick mode is therefore let go as its slip event would do it, when it
 slides (in its joint or at its contact) or its holding force exceeds the limit; the new mode is that event's own
-action value (the sign of the slip speed, or the direction the system accelerates in).
+action value (the sign of the slip speed, or the direction the system accelerates in). After every event the
+sticking elements are checked again (held beyond the limit only): in a model with closed loops a grip always
+sticks first (compiler/friction_loops.py), and an event that jumps the loads can break a stick.
 """
 
 from __future__ import annotations
@@ -17,9 +19,10 @@ from .events import EventRecord
 SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
 
 
-def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventRecord]:
+def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = True) -> list[EventRecord]:
     """Set data.p's friction modes for the state (t, x); returns the log entries of the elements let go (their
-    slip event with the direction 'start')."""
+    slip event with the direction 'start'). moving=False: only elements held beyond their limit are let go (the
+    check right after an event: a grip in a loop model, which sticks first, or a jump of the loads)."""
     index = {spec.name: k for k, spec in enumerate(model.events)}
     starting, g = [], None
     for k, spec in enumerate(model.events):
@@ -30,7 +33,7 @@ def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventReco
         if data.p[mode] != 0:
             continue  # the user started it sliding
         g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
-        if g[k] > 0 or _slip_speed(data, t, x, mode, index[base + GRIP]) != 0:
+        if g[k] > 0 or (moving and _slip_speed(data, t, x, mode, index[base + GRIP]) != 0):
             starting.append(k)
     records = []
     if starting:
