@@ -39,11 +39,12 @@ from dataclasses import dataclass
 import sympy as sp
 from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
-from mbs.language.friction import is_switched, mode_name
+from mbs.language.friction import direction_names, is_switched, mode_name
 
 from . import dynamics
 from .events import LoweredEvent
 from .friction_loops import resolve_in_loops
+from .friction_plane import kinetic_directions, plane_events, plane_tangents, slip_speed
 from .reactions import point_acceleration
 from .spatial import ZERO3, add, cross, dot, mul
 from .symbolic import ToSympy, parameter_symbol
@@ -72,6 +73,8 @@ class _Element:
     mu: sp.Expr              # kinetic coefficient at the slip speed (Stribeck)
     normal: sp.Expr | None   # normal force, None when it is load * |reaction|
     load: sp.Expr | None     # k of normal = k * reaction
+    direction: sp.Expr | None = None  # a plane contact's row: the kinetic force's direction component (else: mode)
+    plane: int = 0           # 0 one row per element; a plane contact's rows are 1 and 2 (compiler/friction_plane.py)
 
 
 class FrictionLowering:
@@ -96,8 +99,10 @@ class FrictionLowering:
         mu_k = arg("mu_k")
         mu_s = arg("mu_s") if force.arg("mu_s") is not None else mu_k
         lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
+        if force.arg("surface_normal") is not None:
+            return self._attach_plane(inter, force, arg, mu_k, mu_s, conv(force.arg("normal")))
         if force.arg("tangent") is not None:
-            contact = _Contact(low, inter, force.arg("tangent"))
+            contact = _Contact(low, inter, [low.geometry(c) for c in force.arg("tangent")])
             speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
             rate = speed
         else:
@@ -131,12 +136,42 @@ class FrictionLowering:
                                       load))
         return placeholder
 
+    def _attach_plane(self, inter, force, arg, mu_k, mu_s, normal) -> sp.Expr:
+        """A point contact sliding in a plane: two rows with one mode (compiler/friction_plane.py); returns the
+        magnitude of its friction force."""
+        low = self.low
+        if not is_switched(force):
+            raise _error("the smoothed (tanh) law is for one tangent; a plane contact (surface_normal = ..) is the "
+                         "switched element", force.span)
+        try:
+            tangents = plane_tangents([low.geometry(c) for c in force.arg("surface_normal")])
+        except ValueError as exc:
+            raise _error(str(exc), force.span) from None
+        contacts = [_Contact(low, inter, t) for t in tangents]
+        w = [c.speed for c in contacts]
+        mu = mu_k
+        if force.arg("stribeck_speed") is not None:
+            mu = mu_k + (mu_s - mu_k) * sp.exp(-(slip_speed(w) ** 2) / arg("stribeck_speed") ** 2)
+        mode = parameter_symbol(mode_name(force.name))
+        e = [parameter_symbol(n) for n in direction_names(force.name)]
+        placeholders = []
+        for k, (contact, d) in enumerate(zip(contacts, kinetic_directions(w, e))):
+            placeholder = sp.Symbol(f"friction.{force.name}.{k + 1}")
+            contact.apply(placeholder)
+            placeholders.append(placeholder)
+            self.elements.append(_Element(force, -1, None, contact.acceleration, contact.speed, placeholder, mode,
+                                          contact.speed, sp.Integer(1), mu_k, mu_s, mu, normal, None, d, k + 1))
+        return sp.sqrt(placeholders[0] ** 2 + placeholders[1] ** 2)
+
     def resolve(self) -> tuple[dict, tuple[LoweredEvent, ...]]:
         """({placeholder: friction force}, events): the forces replace the placeholders on the kinematics."""
         if not self.elements:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
+            if any(e.plane for e in elements):
+                raise _error("a plane contact (surface_normal = ..) in a model with a closed kinematic loop is not "
+                             "supported yet", next(e for e in elements if e.plane).force.span)
             values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
             return values, events
         loaded = [e for e in elements if e.load is not None]
@@ -159,7 +194,14 @@ class FrictionLowering:
             forces, required, limits = _locked(tape, elements, zero, slope)
         mapping = {e.placeholder: f for e, f in zip(elements, forces)}
         kin.substitute_loads(mapping)
-        events = tuple(ev for e, req, lim in zip(elements, required, limits) for ev in _events(e, req, lim))
+        events = []
+        for i, (e, req, lim) in enumerate(zip(elements, required, limits)):
+            if e.plane == 1:
+                events += plane_events(e.force.name, e.force.span, e.mode, _directions(e), (e.speed,
+                                       elements[i + 1].speed), (req, required[i + 1]), lim)
+            elif e.plane == 0:
+                events += _events(e, req, lim)
+        events = tuple(events)
         return mapping, events
 
 
@@ -168,12 +210,11 @@ class _Contact:
     frame a).  The slip speed is the tangential velocity of that point relative to the point of a's part at the
     same place; the friction force acts on both parts there."""
 
-    def __init__(self, low, inter: M.Interaction, tangent):
+    def __init__(self, low, inter: M.Interaction, axis):
         kin, tape = low.kin, low.kin.tape
         self.kin = kin
         self.ba, _, _, Ra = low.frame_world(inter.a)
         self.bb, self.pb_local, pb, _ = low.frame_world(inter.b)
-        axis = [low.geometry(c) for c in tangent]
         self.t = [tape.temp(dot(Ra[k], axis), "fric_t") for k in range(3)]
         self.pa_local = ZERO3
         if self.ba >= 0:  # the point of a's part where b's origin is
@@ -252,17 +293,35 @@ def _locked(tape, elements, a0, W) -> tuple[list, list, list]:
     """Forces, holding forces F_req and static limits of elements with given normal forces: rows of sticking
     elements lock their joint (a0_i + W_i. F = 0), rows of slipping ones hold the kinetic force."""
     n = len(elements)
-    kinetic = [-e.mode * e.mu * e.normal * e.lever for e in elements]
+    kinetic = [-e.mode * e.mu * e.normal * (e.lever if e.direction is None else e.direction) for e in elements]
     A = [[add(mul(_sticks(e), W[i][j]), (1 - _sticks(e)) if i == j else 0) for j in range(n)]
          for i, e in enumerate(elements)]
     b = [add(-_sticks(e) * a0[i], (1 - _sticks(e)) * kinetic[i]) for i, e in enumerate(elements)]
     forces = _solve(tape, A, b)
     required = []
     for i in range(n):
+        if elements[i].plane == 2:
+            continue
+        if elements[i].plane == 1:  # the plane contact's two rows together: a 2 x 2 block
+            required += _required_pair(tape, a0, W, forces, i)
+            continue
         others = add(a0[i], *(mul(W[i][j], forces[j]) for j in range(n) if j != i))
         required.append(tape.temp(-others * tape.inverse(W[i][i], f"friction_iW{i}"), f"friction_required{i}"))
     limits = [tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}") for i, e in enumerate(elements)]
     return forces, required, limits
+
+
+def _required_pair(tape, a0, W, forces, i) -> list:
+    """The forces of rows i, i + 1 (a plane contact) that hold both, the other elements' forces as they are."""
+    n, j = len(a0), i + 1
+    r = [add(a0[k], *(mul(W[k][l], forces[l]) for l in range(n) if l not in (i, j))) for k in (i, j)]
+    inv = tape.inverse(tape.temp(W[i][i] * W[j][j] - W[i][j] * W[j][i], f"friction_det{i}"), f"friction_idet{i}")
+    return [tape.temp((-W[j][j] * r[0] + W[i][j] * r[1]) * inv, f"friction_required{i}"),
+            tape.temp((W[j][i] * r[0] - W[i][i] * r[1]) * inv, f"friction_required{j}")]
+
+
+def _directions(e: _Element) -> list:
+    return [parameter_symbol(n) for n in direction_names(e.force.name)]
 
 
 def _solve(tape, A, b) -> list:

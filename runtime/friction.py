@@ -33,7 +33,7 @@ def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = Tr
         if data.p[mode] != 0:
             continue  # the user started it sliding
         g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
-        if g[k] > 0 or (moving and _slip_speed(data, t, x, mode, index[base + GRIP]) != 0):
+        if g[k] > 0 or (moving and _slip_speed(model, data, t, x, mode, index[base + GRIP]) != 0):
             starting.append(k)
     records = []
     if starting:
@@ -48,11 +48,18 @@ def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = Tr
     return records
 
 
-def _slip_speed(data, t: float, x: np.ndarray, mode: int, grip: int) -> float:
+def _slip_speed(model, data, t: float, x: np.ndarray, mode: int, grip: int) -> float:
     """The element's slip speed: its grip indicator reads mode * w while slipping, so with the mode set to +1 for
-    a moment it is w itself (of a joint or of a point contact alike)."""
+    a moment it is w itself (of a joint or of a point contact alike); a plane contact's reads |w| while its slip
+    direction (the values after the mode, compiler/friction_plane.py) is unset."""
+    names = model.p_names
+    direction = [mode + k for k in (1, 2) if mode + k < len(names) and names[mode + k] in
+                 (names[mode][:-len(MODE_SUFFIX)] + ".e1", names[mode][:-len(MODE_SUFFIX)] + ".e2")]
+    kept = [data.p[i] for i in direction]
     data.p[mode] = 1.0
+    data.p[direction] = 0.0
     try:
         return float(data.function("events")(t, x)[grip])
     finally:
         data.p[mode] = 0.0
+        data.p[direction] = kept
