@@ -60,8 +60,22 @@ def reference_run(mu_s, mu_k, t_end):
     return grips, xs(y[0])
 
 
-def simulate(t_end, **params):
-    system = mbs.load(MODEL)
+def at_a_contact(tmp_path) -> Path:
+    """The model with the guide's friction moved to a point contact of the slider on the floor (tangent = x):
+    the same physics, the lock a row of the contact's slip speed instead of the joint speed."""
+    text = MODEL.read_text()
+    element = ("        force friction = coulomb(mu_s = mu_s, mu_k = mu_k, normal = N)\n"
+               "        sensor f = force(element = friction)\n")
+    assert element in text and "output friction_force = guide.f" in text
+    text = text.replace(element, "").replace("output friction_force = guide.f", "output friction_force = floor.f")
+    floor = "    interact floor {\n        connect inertial -> slider\n" + element.replace("N)", "N, tangent = x)")
+    path = tmp_path / "contact.mbs"
+    path.write_text(text.replace("    interact wrist_pin", floor + "    }\n\n    interact wrist_pin"))
+    return path
+
+
+def simulate(t_end, model=MODEL, **params):
+    system = mbs.load(model)
     return system.simulate(t_end=t_end, t_eval=np.linspace(0.0, t_end, 51), params=params, rtol=1e-10, atol=1e-12)
 
 
@@ -74,14 +88,14 @@ def test_a_locked_mechanism_holds_the_spring_with_the_guides_friction():
     np.testing.assert_allclose(res["friction_force"], K * (x0 - L0), rtol=1e-10)  # balances the spring
 
 
-def test_slip_and_stick_in_a_closed_loop_match_the_hand_written_equation():
+@pytest.mark.parametrize("where", ["guide", "floor"])
+def test_slip_and_stick_in_a_closed_loop_match_the_hand_written_equation(tmp_path, where):
     grips, x_rest = reference_run(0.4, 0.3, 1.0)
     assert [holds for _, holds in grips] == [False, True]  # the first stop is beyond the limit, the second holds
-    res = simulate(1.0)
+    res = simulate(1.0, MODEL if where == "guide" else at_a_contact(tmp_path))
     assert res.success, res.message
     logged = [(e["time"], e["event"]) for e in res.events]
-    assert [name for _, name in logged] == ["guide.friction.slip", "guide.friction.grip", "guide.friction.slip",
-                                            "guide.friction.grip"]
+    assert [name for _, name in logged] == [f"{where}.friction.{e}" for e in ("slip", "grip", "slip", "grip")]
     for (t_ref, _), (t, _) in zip(grips, logged[1::2]):
         assert t == pytest.approx(t_ref, abs=1e-8)
     assert logged[2][0] == logged[1][0]  # let go at once: held beyond mu_s N
