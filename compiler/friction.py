@@ -22,7 +22,8 @@ the accelerations and so on F itself. R is affine in F as well (R = R0 + B F, fr
 the accelerations a0 + W F), so the kinetic law F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho =
 |R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B) rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c
 |B| < 1 (beyond that the law has no unique solution, Painleve's paradox: the right-hand side turns NaN and the run
-stops there). Such an element must be the model's only switched friction element.
+stops there). That is the case of one element alone; several, or one with other switched elements, are solved
+by compiler/friction_bearing.py (the loads by Newton's method from these quadratics).
 
 **Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises through
 the static limit mu_s N while sticking (the new mode is the direction the system then accelerates in); grip when the
@@ -43,6 +44,7 @@ from mbs.language.friction import direction_names, is_switched, mode_name
 
 from . import dynamics
 from .events import LoweredEvent
+from .friction_bearing import solve_loaded
 from .friction_loops import resolve_in_loops
 from .friction_plane import kinetic_directions, plane_events, plane_tangents, slip_speed
 from .reactions import point_acceleration
@@ -175,21 +177,23 @@ class FrictionLowering:
             values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
             return values, events
         loaded = [e for e in elements if e.load is not None]
-        if loaded and len(elements) > 1:
-            raise _error("a friction element whose normal force is the joint's reaction must be the model's only "
-                         "switched friction element (for now)", loaded[0].force.span)
         kin = low.kin
         tape = kin.tape
         tape.section("friction: accelerations with the friction forces as placeholders")
         vdot = dynamics.forward_dynamics(kin)
         targets = [e.locked(vdot) for e in elements]
         if loaded:
-            targets += _across_axis(tape, kin, loaded[0].body, dynamics.transmitted_loads(kin, vdot))
+            transmitted = dynamics.transmitted_loads(kin, vdot)
+            for e in loaded:
+                targets += _across_axis(tape, kin, e.body, transmitted)
         tape.section("friction: accelerations without friction and their response to the friction forces")
         zero, slope = affine_split(tape, targets, [e.placeholder for e in elements])
-        if loaded:
+        n = len(elements)
+        if loaded and n == 1:
             forces, required, limits = _bearing(tape, elements[0], zero[0], slope[0][0], zero[1:],
                                                 [row[0] for row in slope[1:]])
+        elif loaded:
+            forces, required, limits = _several_loaded(tape, elements, zero[:n], slope[:n], zero[n:], slope[n:])
         else:
             forces, required, limits = _locked(tape, elements, zero, slope)
         mapping = {e.placeholder: f for e, f in zip(elements, forces)}
@@ -298,6 +302,32 @@ def _locked(tape, elements, a0, W) -> tuple[list, list, list]:
          for i, e in enumerate(elements)]
     b = [add(-_sticks(e) * a0[i], (1 - _sticks(e)) * kinetic[i]) for i, e in enumerate(elements)]
     forces = _solve(tape, A, b)
+    required = _required(tape, elements, a0, W, forces)
+    limits = [tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}") for i, e in enumerate(elements)]
+    return forces, required, limits
+
+
+def _several_loaded(tape, elements, a0, W, R0, B) -> tuple[list, list, list]:
+    """Forces, holding forces and static limits with several load-dependent elements (compiler/friction_bearing.py);
+    R0, B: the load vectors' components (three per loaded element, in order) and their slopes in the forces."""
+    forces, loaded = solve_loaded(tape, elements, a0, W, [R0[3 * l:3 * l + 3] for l in range(len(R0) // 3)],
+                                  [B[3 * l:3 * l + 3] for l in range(len(B) // 3)], _solve, _sticks, affine_split)
+    required = _required(tape, elements, a0, W, forces)
+    limits = []
+    for i, e in enumerate(elements):
+        if e.load is None:
+            limits.append(tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}"))
+            continue
+        l = loaded.index(i)  # its load with its own force at the holding force
+        held = [add(R0[3 * l + c], *(mul(B[3 * l + c][j], required[i] if j == i else forces[j])
+                                     for j in range(len(elements)))) for c in range(3)]
+        limits.append(tape.temp(e.mu_s * e.load * e.lever * sp.sqrt(dot(held, held)), f"friction_limit{i}"))
+    return forces, required, limits
+
+
+def _required(tape, elements, a0, W, forces) -> list:
+    """Per element (a plane contact: per row) the force that would hold it, the others' forces as they are."""
+    n = len(elements)
     required = []
     for i in range(n):
         if elements[i].plane == 2:
@@ -307,8 +337,7 @@ def _locked(tape, elements, a0, W) -> tuple[list, list, list]:
             continue
         others = add(a0[i], *(mul(W[i][j], forces[j]) for j in range(n) if j != i))
         required.append(tape.temp(-others * tape.inverse(W[i][i], f"friction_iW{i}"), f"friction_required{i}"))
-    limits = [tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}") for i, e in enumerate(elements)]
-    return forces, required, limits
+    return required
 
 
 def _required_pair(tape, a0, W, forces, i) -> list:
