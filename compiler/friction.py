@@ -171,9 +171,6 @@ class FrictionLowering:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
-            if any(e.plane for e in elements):
-                raise _error("a plane contact (surface_normal = ..) in a model with a closed kinematic loop is not "
-                             "supported yet", next(e for e in elements if e.plane).force.span)
             values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
             return values, events
         loaded = [e for e in elements if e.load is not None]

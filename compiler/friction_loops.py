@@ -23,6 +23,9 @@ the row is on (lambda is 0 while slipping): it sets the element to stick, and th
 right after an event when its holding force is beyond the static limit (runtime/friction.py), in the direction
 the system then accelerates in.
 
+A plane contact (compiler/friction_plane.py) is two rows, one per tangent, its holding force the pair of
+multipliers, checked against the cone.
+
 Not here: bearing friction (normal = reaction) in a loop model, friction in a loop-closing joint.
 """
 
@@ -33,8 +36,12 @@ from dataclasses import dataclass, replace
 import sympy as sp
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from mbs.language.friction import direction_names
+
 from .constraints import ConstraintRow, Constraints
+from .friction_plane import plane_events
 from .reactions import MULTIPLIER_ARRAY
+from .symbolic import parameter_symbol
 
 
 @dataclass(frozen=True)
@@ -63,14 +70,22 @@ def resolve_in_loops(low, elements, sticks, events_of) -> tuple[dict, tuple, tup
     loads, values, rows, events = {}, {}, [], []
     for k, e in enumerate(elements):
         stick = sticks(e)
-        slipping = tape.temp((1 - stick) * (-e.mode * e.mu * e.normal * e.lever), f"friction_kinetic{k}")
-        multiplier = sp.Symbol(f"lambda.{e.force.name}.stick")
+        along = e.lever if e.direction is None else e.direction  # a plane contact's row: its direction component
+        slipping = tape.temp((1 - stick) * (-e.mode * e.mu * e.normal * along), f"friction_kinetic{k}")
+        label = f"{e.force.name}.stick" + (str(e.plane) if e.plane else "")
+        multiplier = sp.Symbol(f"lambda.{label}")
         loads[e.placeholder] = slipping
         values[e.placeholder] = tape.temp(stick * multiplier + slipping, f"friction_force{k}")
-        rows.append(FrictionRow(f"{e.force.name}.stick", sp.S.Zero, tape.temp(stick * e.rate, f"gd_stick{k}"),
+        rows.append(FrictionRow(label, sp.S.Zero, tape.temp(stick * e.rate, f"gd_stick{k}"),
                                 tape.temp(stick * e.locked(zero), f"gdd_stick{k}"), multiplier))
         limit = tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{k}")
-        events += events_of(e, multiplier, limit, after_grip=sp.S.Zero)
+        if e.plane == 1:  # both rows' multipliers make the holding force; the grip sticks while lambda is 0
+            partner = elements[k + 1]
+            events += plane_events(e.force.name, e.force.span, e.mode, [parameter_symbol(n) for n in
+                                   direction_names(e.force.name)], (e.speed, partner.speed),
+                                   (multiplier, sp.Symbol(f"lambda.{partner.force.name}.stick2")), limit)
+        elif e.plane == 0:
+            events += events_of(e, multiplier, limit, after_grip=sp.S.Zero)
     kin.substitute_loads(loads)
     low.acceleration_terms.used = True  # the events read the multipliers at run time
     inputs = tuple((r.multiplier, MULTIPLIER_ARRAY, offset + k) for k, r in enumerate(rows))

@@ -11,8 +11,8 @@ a0 + W F = 0 with the other elements, and the stick holds while the force lies i
 moment after a slip onset from rest) the direction is the one the slip event chose: e = (e1, e2), run-time values
 next to the mode (language/friction.py).
 
-**Slip onset** (event ``<force>.slip``): |F_req| rises through mu_s N while sticking; the element slips towards
--F_req / |F_req|, where the system accelerates when let go (exact when the contact's response W is isotropic,
+**Slip onset** (event ``<force>.slip``): |F_req| rises through mu_s N while sticking; the element slips along w
+when it moves (faster than GRIP_SPEED: a run that starts sliding), else towards -F_req / |F_req|, where the system accelerates when let go (exact when the contact's response W is isotropic,
 a body's centre of mass on the plane; otherwise the direction settles within the first moments of the slide, as
 w / |w| takes over).
 
@@ -74,7 +74,7 @@ def plane_events(name: str, span, mode, e, w, required, limit) -> tuple[LoweredE
     held = sp.sqrt(required[0] ** 2 + required[1] ** 2)
     let_go = [sp.Piecewise((-r / held, held > 0), (ei, True)) for r, ei in zip(required, e)]
     speed = slip_speed(w)
-    moving = [sp.Piecewise((wi / speed, speed > 0), (d, True)) for wi, d in zip(w, let_go)]
+    moving = [sp.Piecewise((wi / speed, speed > GRIP_SPEED), (d, True)) for wi, d in zip(w, let_go)]
     names = direction_names(name)
     slip = LoweredEvent(f"{name}.slip", stick * (held - limit) - mode ** 2, 1, False,
                         (("set", mode_name(name), sp.S.One),) + tuple(("set", n, d) for n, d in zip(names, moving)),

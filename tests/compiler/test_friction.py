@@ -161,15 +161,10 @@ def test_a_normal_force_the_compiler_cannot_solve_is_an_error(tmp_path, model, o
 @pytest.mark.parametrize("interaction, law, message", [
     ("wrist_pin \"closes the loop\"", "coulomb(mu_k = 0.1, normal = 10 N, radius = 1 cm)", "closes a kinematic loop"),
     ("guide", "coulomb(mu_k = 0.1, normal = reaction)", "bearing friction"),
-    ("guide", None, "plane contact"),
 ])
 def test_what_switched_friction_cannot_do_in_a_closed_loop_is_refused(tmp_path, interaction, law, message):
     example = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
     head = f"interact {interaction} {{\n"
-    if law is None:  # a plane contact of the slider on the floor, an interaction of its own
-        new = ("interact floor {\n        connect inertial -> slider\n        force friction = coulomb(mu_k = 0.1, "
-               "normal = 10 N, surface_normal = z)\n    }\n    " + head)
-    else:
-        new = f"{head}        force friction = {law}\n"
+    new = f"{head}        force friction = {law}\n"
     with pytest.raises(MbsError, match=message):
         mbs.load(edited(tmp_path, head, new, source=example)).simulate(t_end=0.1)

@@ -70,12 +70,12 @@ def at_a_contact(tmp_path) -> Path:
     text = text.replace(element, "").replace("output friction_force = guide.f", "output friction_force = floor.f")
     floor = "    interact floor {\n        connect inertial -> slider\n" + element.replace("N)", "N, tangent = x)")
     path = tmp_path / "contact.mbs"
-    path.write_text(text.replace("    interact wrist_pin", floor + "    }\n\n    interact wrist_pin"))
+    path.write_text(text.replace("    interact wrist_pin", floor + "    }\n\n    interact wrist_pin", 1))
     return path
 
 
 def simulate(t_end, model=MODEL, **params):
-    system = mbs.load(model)
+    system = mbs.load(model, "slider_crank_friction")
     return system.simulate(t_end=t_end, t_eval=np.linspace(0.0, t_end, 51), params=params, rtol=1e-10, atol=1e-12)
 
 
@@ -108,5 +108,21 @@ def test_slip_and_stick_in_a_closed_loop_match_the_hand_written_equation(tmp_pat
 
 def test_the_generated_c_compiles_without_warnings(tmp_path):
     from mbs.runtime import build
-    result = build.build(mbs.load(MODEL).generate().c_source, filename="friction_loops.c", cache_dir=tmp_path)
+    result = build.build(mbs.load(MODEL, "slider_crank_friction").generate().c_source, filename="friction_loops.c", cache_dir=tmp_path)
     assert not result.cached and result.warnings == "", result.warnings
+
+
+def test_a_plane_contact_in_a_model_with_a_loop_stops_at_the_closed_form_time():
+    """The oblique launch of test_friction_plane.py beside a slider-crank: its two sticking rows join the loop's.
+    A run that starts sliding in a loop model is started in its slip mode (the stick rows would hold the
+    assembly's velocities otherwise)."""
+    v0 = math.hypot(1.2, 0.5)
+    system = mbs.load(MODEL, "plane_beside_a_loop")
+    res = system.simulate(t_end=1.0, t_eval=np.linspace(0.0, 1.0, 11), rtol=1e-10, atol=1e-12,
+                          params={"rub.friction.mode": 1, "rub.friction.e1": 1.2 / v0, "rub.friction.e2": 0.5 / v0})
+    assert res.success, res.message
+    assert [e["event"] for e in res.events] == ["rub.friction.grip"] and "1 -> 0" in res.events[0]["changes"]
+    assert res.events[0]["time"] == pytest.approx(v0 / (0.3 * 9.81), abs=1e-9)
+    distance = np.hypot(res["table.x"][-1], res["table.y"][-1])
+    assert distance == pytest.approx(v0 ** 2 / (2 * 0.3 * 9.81), abs=1e-9)
+    assert res["friction_force"][-1] == pytest.approx(0.0, abs=1e-9)
