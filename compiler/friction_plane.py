@@ -12,7 +12,8 @@ moment after a slip onset from rest) the direction is the one the slip event cho
 next to the mode (language/friction.py).
 
 **Slip onset** (event ``<force>.slip``): |F_req| rises through mu_s N while sticking; the element slips along w
-when it moves (faster than GRIP_SPEED: a run that starts sliding), else towards -F_req / |F_req|, where the system accelerates when let go (exact when the contact's response W is isotropic,
+when it moves (faster than GRIP_SPEED: a run that starts sliding), else towards -F_req / |F_req|, where the
+system accelerates when let go (exact when the contact's response W is isotropic,
 a body's centre of mass on the plane; otherwise the direction settles within the first moments of the slide, as
 w / |w| takes over).
 

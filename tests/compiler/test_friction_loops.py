@@ -108,7 +108,8 @@ def test_slip_and_stick_in_a_closed_loop_match_the_hand_written_equation(tmp_pat
 
 def test_the_generated_c_compiles_without_warnings(tmp_path):
     from mbs.runtime import build
-    result = build.build(mbs.load(MODEL, "slider_crank_friction").generate().c_source, filename="friction_loops.c", cache_dir=tmp_path)
+    source = mbs.load(MODEL, "slider_crank_friction").generate().c_source
+    result = build.build(source, filename="friction_loops.c", cache_dir=tmp_path)
     assert not result.cached and result.warnings == "", result.warnings
 
 
