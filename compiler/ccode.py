@@ -293,8 +293,9 @@ class CEmitter:
         if not arrays & {ACCELERATION_ARRAY, MULTIPLIER_ARRAY}:
             return []
         scratch = self._output_scratch()
-        lines = ["    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */",
-                 f"    const double *const {ACCELERATION_ARRAY} = work + MBS_NQ;"]
+        lines = ["    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */"]
+        if ACCELERATION_ARRAY in arrays:  # (a function that reads only multipliers, friction's events, has none)
+            lines.append(f"    const double *const {ACCELERATION_ARRAY} = work + MBS_NQ;")
         if self.constraints is None:
             lines += [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
         else:

@@ -22,7 +22,8 @@ the accelerations and so on F itself. R is affine in F as well (R = R0 + B F, fr
 the accelerations a0 + W F), so the kinetic law F = -mode c |R0 + B F| (c = mu k r) is solved *exactly*: with rho =
 |R|, (1 - c^2 B.B) rho^2 - 2 sigma c (R0.B) rho - R0.R0 = 0, sigma = -mode, whose positive root is unique while c
 |B| < 1 (beyond that the law has no unique solution, Painleve's paradox: the right-hand side turns NaN and the run
-stops there). Such an element must be the model's only switched friction element.
+stops there). That is the case of one element alone; several, or one with other switched elements, are solved
+by compiler/friction_bearing.py (the loads by Newton's method from these quadratics).
 
 **Events** (named ``<force>.slip`` and ``<force>.grip``, the mode ``<force>.mode``): slip when |F_req| rises through
 the static limit mu_s N while sticking (the new mode is the direction the system then accelerates in); grip when the
@@ -39,10 +40,13 @@ from dataclasses import dataclass
 import sympy as sp
 from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
-from mbs.language.friction import is_switched, mode_name
+from mbs.language.friction import direction_names, is_switched, mode_name
 
 from . import dynamics
 from .events import LoweredEvent
+from .friction_bearing import solve_loaded
+from .friction_loops import resolve_in_loops
+from .friction_plane import kinetic_directions, plane_events, plane_tangents, slip_speed
 from .reactions import point_acceleration
 from .spatial import ZERO3, add, cross, dot, mul
 from .symbolic import ToSympy, parameter_symbol
@@ -61,6 +65,7 @@ class _Element:
     body: int                # the tree body whose joint carries the load (bearing friction); -1 for a contact
     coordinate: str | None   # the joint coordinate whose speed a grip sets to zero, 'contact.s'
     locked: Callable         # vdot -> the relative acceleration a stick holds at zero
+    rate: sp.Expr            # the speed a stick holds at zero: the joint speed, or the contact's slip speed
     placeholder: sp.Symbol   # the generalized force while the equations are split
     mode: sp.Symbol          # 0 sticks, +1/-1 slips
     speed: sp.Expr           # slip speed at the friction surface [m/s]
@@ -70,6 +75,8 @@ class _Element:
     mu: sp.Expr              # kinetic coefficient at the slip speed (Stribeck)
     normal: sp.Expr | None   # normal force, None when it is load * |reaction|
     load: sp.Expr | None     # k of normal = k * reaction
+    direction: sp.Expr | None = None  # a plane contact's row: the kinetic force's direction component (else: mode)
+    plane: int = 0           # 0 one row per element; a plane contact's rows are 1 and 2 (compiler/friction_plane.py)
 
 
 class FrictionLowering:
@@ -79,6 +86,8 @@ class FrictionLowering:
     def __init__(self, lowering):
         self.low = lowering
         self.elements: list[_Element] = []
+        self.rows: tuple = ()    # closed loops: the sticking elements' constraint rows (compiler/friction_loops.py)
+        self.inputs: tuple = ()  # ... and their multipliers as run-time inputs
 
     def attach(self, inter: M.Interaction, force: M.Force) -> sp.Expr:
         """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
@@ -92,12 +101,16 @@ class FrictionLowering:
         mu_k = arg("mu_k")
         mu_s = arg("mu_s") if force.arg("mu_s") is not None else mu_k
         lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
+        if force.arg("surface_normal") is not None:
+            return self._attach_plane(inter, force, arg, mu_k, mu_s, conv(force.arg("normal")))
         if force.arg("tangent") is not None:
-            contact = _Contact(low, inter, force.arg("tangent"))
+            contact = _Contact(low, inter, [low.geometry(c) for c in force.arg("tangent")])
             speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
+            rate = speed
         else:
             slot = low.kin.tree.v_slots[body][0]
-            speed, coordinate = lever * low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            rate, coordinate = low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
+            speed = lever * rate
             locked = lambda vdot: vdot[slot]
             apply = lambda value: low.kin.add_generalized_force(body, 0, value)
         mu = mu_k
@@ -120,10 +133,37 @@ class FrictionLowering:
             return value
         placeholder = sp.Symbol(f"friction.{force.name}")
         apply(placeholder)
-        self.elements.append(_Element(force, body, coordinate, locked, placeholder,
+        self.elements.append(_Element(force, body, coordinate, locked, rate, placeholder,
                                       parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
                                       load))
         return placeholder
+
+    def _attach_plane(self, inter, force, arg, mu_k, mu_s, normal) -> sp.Expr:
+        """A point contact sliding in a plane: two rows with one mode (compiler/friction_plane.py); returns the
+        magnitude of its friction force."""
+        low = self.low
+        if not is_switched(force):
+            raise _error("the smoothed (tanh) law is for one tangent; a plane contact (surface_normal = ..) is the "
+                         "switched element", force.span)
+        try:
+            tangents = plane_tangents([low.geometry(c) for c in force.arg("surface_normal")])
+        except ValueError as exc:
+            raise _error(str(exc), force.span) from None
+        contacts = [_Contact(low, inter, t) for t in tangents]
+        w = [c.speed for c in contacts]
+        mu = mu_k
+        if force.arg("stribeck_speed") is not None:
+            mu = mu_k + (mu_s - mu_k) * sp.exp(-(slip_speed(w) ** 2) / arg("stribeck_speed") ** 2)
+        mode = parameter_symbol(mode_name(force.name))
+        e = [parameter_symbol(n) for n in direction_names(force.name)]
+        placeholders = []
+        for k, (contact, d) in enumerate(zip(contacts, kinetic_directions(w, e))):
+            placeholder = sp.Symbol(f"friction.{force.name}.{k + 1}")
+            contact.apply(placeholder)
+            placeholders.append(placeholder)
+            self.elements.append(_Element(force, -1, None, contact.acceleration, contact.speed, placeholder, mode,
+                                          contact.speed, sp.Integer(1), mu_k, mu_s, mu, normal, None, d, k + 1))
+        return sp.sqrt(placeholders[0] ** 2 + placeholders[1] ** 2)
 
     def resolve(self) -> tuple[dict, tuple[LoweredEvent, ...]]:
         """({placeholder: friction force}, events): the forces replace the placeholders on the kinematics."""
@@ -131,29 +171,38 @@ class FrictionLowering:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
-            raise _error("switched friction in a model with a closed kinematic loop is not supported yet (the "
-                         "locking force needs the loop's multipliers); use 'smoothing = ..'", elements[0].force.span)
+            values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
+            return values, events
         loaded = [e for e in elements if e.load is not None]
-        if loaded and len(elements) > 1:
-            raise _error("a friction element whose normal force is the joint's reaction must be the model's only "
-                         "switched friction element (for now)", loaded[0].force.span)
         kin = low.kin
         tape = kin.tape
         tape.section("friction: accelerations with the friction forces as placeholders")
         vdot = dynamics.forward_dynamics(kin)
         targets = [e.locked(vdot) for e in elements]
         if loaded:
-            targets += _across_axis(tape, kin, loaded[0].body, dynamics.transmitted_loads(kin, vdot))
+            transmitted = dynamics.transmitted_loads(kin, vdot)
+            for e in loaded:
+                targets += _across_axis(tape, kin, e.body, transmitted)
         tape.section("friction: accelerations without friction and their response to the friction forces")
         zero, slope = affine_split(tape, targets, [e.placeholder for e in elements])
-        if loaded:
+        n = len(elements)
+        if loaded and n == 1:
             forces, required, limits = _bearing(tape, elements[0], zero[0], slope[0][0], zero[1:],
                                                 [row[0] for row in slope[1:]])
+        elif loaded:
+            forces, required, limits = _several_loaded(tape, elements, zero[:n], slope[:n], zero[n:], slope[n:])
         else:
             forces, required, limits = _locked(tape, elements, zero, slope)
         mapping = {e.placeholder: f for e, f in zip(elements, forces)}
         kin.substitute_loads(mapping)
-        events = tuple(ev for e, req, lim in zip(elements, required, limits) for ev in _events(e, req, lim))
+        events = []
+        for i, (e, req, lim) in enumerate(zip(elements, required, limits)):
+            if e.plane == 1:
+                events += plane_events(e.force.name, e.force.span, e.mode, _directions(e), (e.speed,
+                                       elements[i + 1].speed), (req, required[i + 1]), lim)
+            elif e.plane == 0:
+                events += _events(e, req, lim)
+        events = tuple(events)
         return mapping, events
 
 
@@ -162,12 +211,11 @@ class _Contact:
     frame a).  The slip speed is the tangential velocity of that point relative to the point of a's part at the
     same place; the friction force acts on both parts there."""
 
-    def __init__(self, low, inter: M.Interaction, tangent):
+    def __init__(self, low, inter: M.Interaction, axis):
         kin, tape = low.kin, low.kin.tape
         self.kin = kin
         self.ba, _, _, Ra = low.frame_world(inter.a)
         self.bb, self.pb_local, pb, _ = low.frame_world(inter.b)
-        axis = [low.geometry(c) for c in tangent]
         self.t = [tape.temp(dot(Ra[k], axis), "fric_t") for k in range(3)]
         self.pa_local = ZERO3
         if self.ba >= 0:  # the point of a's part where b's origin is
@@ -246,17 +294,60 @@ def _locked(tape, elements, a0, W) -> tuple[list, list, list]:
     """Forces, holding forces F_req and static limits of elements with given normal forces: rows of sticking
     elements lock their joint (a0_i + W_i. F = 0), rows of slipping ones hold the kinetic force."""
     n = len(elements)
-    kinetic = [-e.mode * e.mu * e.normal * e.lever for e in elements]
+    kinetic = [-e.mode * e.mu * e.normal * (e.lever if e.direction is None else e.direction) for e in elements]
     A = [[add(mul(_sticks(e), W[i][j]), (1 - _sticks(e)) if i == j else 0) for j in range(n)]
          for i, e in enumerate(elements)]
     b = [add(-_sticks(e) * a0[i], (1 - _sticks(e)) * kinetic[i]) for i, e in enumerate(elements)]
     forces = _solve(tape, A, b)
-    required = []
-    for i in range(n):
-        others = add(a0[i], *(mul(W[i][j], forces[j]) for j in range(n) if j != i))
-        required.append(tape.temp(-others * tape.inverse(W[i][i], f"friction_iW{i}"), f"friction_required{i}"))
+    required = _required(tape, elements, a0, W, forces)
     limits = [tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}") for i, e in enumerate(elements)]
     return forces, required, limits
+
+
+def _several_loaded(tape, elements, a0, W, R0, B) -> tuple[list, list, list]:
+    """Forces, holding forces and static limits with several load-dependent elements (compiler/friction_bearing.py);
+    R0, B: the load vectors' components (three per loaded element, in order) and their slopes in the forces."""
+    forces, loaded = solve_loaded(tape, elements, a0, W, [R0[3 * l:3 * l + 3] for l in range(len(R0) // 3)],
+                                  [B[3 * l:3 * l + 3] for l in range(len(B) // 3)], _solve, _sticks, affine_split)
+    required = _required(tape, elements, a0, W, forces)
+    limits = []
+    for i, e in enumerate(elements):
+        if e.load is None:
+            limits.append(tape.temp(e.mu_s * e.normal * e.lever, f"friction_limit{i}"))
+            continue
+        l = loaded.index(i)  # its load with its own force at the holding force
+        held = [add(R0[3 * l + c], *(mul(B[3 * l + c][j], required[i] if j == i else forces[j])
+                                     for j in range(len(elements)))) for c in range(3)]
+        limits.append(tape.temp(e.mu_s * e.load * e.lever * sp.sqrt(dot(held, held)), f"friction_limit{i}"))
+    return forces, required, limits
+
+
+def _required(tape, elements, a0, W, forces) -> list:
+    """Per element (a plane contact: per row) the force that would hold it, the others' forces as they are."""
+    n = len(elements)
+    required = []
+    for i in range(n):
+        if elements[i].plane == 2:
+            continue
+        if elements[i].plane == 1:  # the plane contact's two rows together: a 2 x 2 block
+            required += _required_pair(tape, a0, W, forces, i)
+            continue
+        others = add(a0[i], *(mul(W[i][j], forces[j]) for j in range(n) if j != i))
+        required.append(tape.temp(-others * tape.inverse(W[i][i], f"friction_iW{i}"), f"friction_required{i}"))
+    return required
+
+
+def _required_pair(tape, a0, W, forces, i) -> list:
+    """The forces of rows i, i + 1 (a plane contact) that hold both, the other elements' forces as they are."""
+    n, j = len(a0), i + 1
+    r = [add(a0[k], *(mul(W[k][l], forces[l]) for l in range(n) if l not in (i, j))) for k in (i, j)]
+    inv = tape.inverse(tape.temp(W[i][i] * W[j][j] - W[i][j] * W[j][i], f"friction_det{i}"), f"friction_idet{i}")
+    return [tape.temp((-W[j][j] * r[0] + W[i][j] * r[1]) * inv, f"friction_required{i}"),
+            tape.temp((W[j][i] * r[0] - W[i][i] * r[1]) * inv, f"friction_required{j}")]
+
+
+def _directions(e: _Element) -> list:
+    return [parameter_symbol(n) for n in direction_names(e.force.name)]
 
 
 def _solve(tape, A, b) -> list:
@@ -298,15 +389,15 @@ def _bearing(tape, e: _Element, a0, W, R0, B) -> tuple[list, list, list]:
     return [force], [required], [limit]
 
 
-def _events(e: _Element, required, limit) -> tuple[LoweredEvent, LoweredEvent]:
+def _events(e: _Element, required, limit, after_grip=None) -> tuple[LoweredEvent, LoweredEvent]:
     """slip: |F_req| rises through the limit while sticking; grip: the slip speed falls through zero while
-    slipping."""
+    slipping, and the element takes the mode `after_grip` (default: sticks when |F_req| is within the limit)."""
     stick = _sticks(e)
     direction_held = sp.Piecewise((-1, required > 0), (1, True))  # where the system accelerates when let go
     start = sp.Piecewise((1, e.speed > 0), (-1, e.speed < 0), (direction_held, True))
     slip = LoweredEvent(f"{e.force.name}.slip", stick * (sp.Abs(required) - limit) - e.mode ** 2, 1, False,
                         (("set", mode_name(e.force.name), start),), e.force.span)
-    after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True))
+    after = sp.Piecewise((0, sp.Abs(required) <= limit), (direction_held, True)) if after_grip is None else after_grip
     reinit = (("speed", e.coordinate, sp.S.Zero),) if e.coordinate is not None else ()
     grip = LoweredEvent(f"{e.force.name}.grip", e.mode * e.speed + stick, -1, False,
                         reinit + (("set", mode_name(e.force.name), after),), e.force.span)

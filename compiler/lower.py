@@ -45,6 +45,7 @@ class Lowered:
     events: tuple[LoweredEvent, ...] = ()      # the model's events (compiler/events.py)
     switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
     state_rates: tuple = ()                    # z' of the extra states (tree.states), language/states.py
+    friction_rows: tuple = ()                  # sticking friction as constraint rows (compiler/friction_loops.py)
 
     @property
     def tree(self) -> Tree:
@@ -397,7 +398,8 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     rates += tuple(lowering.element_rates[s] for s in lowering.kin.tree.states[len(rates):])
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
-                   lowering.acceleration_terms.inputs(), events, switches, rates)
+                   lowering.acceleration_terms.inputs() + lowering.friction.inputs, events, switches, rates,
+                   lowering.friction.rows)
 
 
 def state_symbols(model: M.Model, inputs=None) -> list[sp.Symbol]:

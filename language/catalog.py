@@ -114,6 +114,9 @@ FRICTION_ARGS = (
         doc="no stick/slip switch: the smoothed law mu N tanh(w / smoothing) (for comparison)"),
     Arg("tangent", "axis", optional=True,
         doc="a point contact instead of a joint: sliding along this axis of frame a, at frame b's origin"),
+    Arg("surface_normal", "axis", optional=True,
+        doc="a point contact sliding in the plane normal to this axis of frame a (isotropic friction, two "
+            "tangential directions), at frame b's origin"),
 )
 
 FORCES: dict[str, ElementKind] = {k.name: k for k in (

@@ -151,6 +151,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
     from mbs.compiler.ccode import generate_c
     from mbs.compiler.constraints import derive_constraints
+    from mbs.compiler.friction_loops import with_friction_rows
     from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
     from mbs.compiler.equations import derive_equations
     from mbs.compiler.events import FROZEN, event_code
@@ -162,6 +163,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     lowered = lower(model, scene)
     clock("lowered to a tree")
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
+    if constraints is not None:  # sticking friction elements lock their joints with rows of their own
+        constraints = with_friction_rows(constraints, lowered.friction_rows)
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)

@@ -4,7 +4,10 @@ An element's events only see transitions (the static limit exceeded, the slip sp
 starts sliding, or sticking under a load beyond the static limit, would keep the wrong mode forever. Before the
 first step every element still in its default stick mode is therefore let go as its slip event would do it, when it
 slides (in its joint or at its contact) or its holding force exceeds the limit; the new mode is that event's own
-action value (the sign of the slip speed, or the direction the system accelerates in).
+action value (the sign of the slip speed, or the direction the system accelerates in). After every event the
+sticking elements are checked again (held beyond the limit only): in a model with closed loops a grip always
+sticks first (compiler/friction_loops.py), and an event that jumps the loads can break a stick. Elements let go
+from rest at the same moment get directions that agree with the motion they start together (_settle_directions).
 """
 
 from __future__ import annotations
@@ -15,13 +18,16 @@ from .events import EventRecord
 
 #: Names the compiler gives an element's events and mode (compiler/friction.py, language/friction.py).
 SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
+#: Time step [s] (relative to t beyond 1 s) of the look ahead that tells which way elements let go together move.
+SETTLE_STEP = 1e-9
 
 
-def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventRecord]:
+def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = True) -> list[EventRecord]:
     """Set data.p's friction modes for the state (t, x); returns the log entries of the elements let go (their
-    slip event with the direction 'start')."""
+    slip event with the direction 'start'). moving=False: only elements held beyond their limit are let go (the
+    check right after an event: a grip in a loop model, which sticks first, or a jump of the loads)."""
     index = {spec.name: k for k, spec in enumerate(model.events)}
-    starting, g = [], None
+    starting, g, at_rest, changes = [], None, [], {}
     for k, spec in enumerate(model.events):
         base = spec.name[:-len(SLIP)] if spec.name.endswith(SLIP) else None
         if base is None or base + GRIP not in index or base + MODE_SUFFIX not in model.p_names:
@@ -30,26 +36,54 @@ def start_friction_modes(model, data, t: float, x: np.ndarray) -> list[EventReco
         if data.p[mode] != 0:
             continue  # the user started it sliding
         g = np.asarray(data.function("events")(t, x), dtype=float) if g is None else g
-        if g[k] > 0 or _slip_speed(data, t, x, mode, index[base + GRIP]) != 0:
+        speed = _slip_speed(model, data, t, x, mode, index[base + GRIP])
+        if g[k] > 0 or (moving and speed != 0):
             starting.append(k)
+            if speed == 0 and base + ".e1" not in model.p_names:  # from rest, along a line
+                at_rest.append((index[base + GRIP], mode))
     records = []
     if starting:
         values = data.function("event_actions")(t, x)
         for k in starting:
-            changes = []
             for array, i, slot in model.events[k].assignments:
                 if array == "p":
-                    changes.append(f"{model.p_names[i]}: {data.p[i]:.6g} -> {values[slot]:.6g}")
+                    changes.setdefault(k, []).append((i, data.p[i]))
                     data.p[i] = values[slot]
-            records.append(EventRecord(t, model.events[k].name, "start", "; ".join(changes)))
+        if len(at_rest) > 1:
+            _settle_directions(data, t, x, at_rest)
+        for k in starting:
+            text = "; ".join(f"{model.p_names[i]}: {old:.6g} -> {data.p[i]:.6g}" for i, old in changes.get(k, ()))
+            records.append(EventRecord(t, model.events[k].name, "start", text))
     return records
 
 
-def _slip_speed(data, t: float, x: np.ndarray, mode: int, grip: int) -> float:
+def _settle_directions(data, t: float, x: np.ndarray, at_rest: list) -> None:
+    """Several elements let go from rest at once: each one's direction was chosen with the others held, but
+    together they may move otherwise (a double pendulum's two pins). An element whose slip speed departs against
+    its mode would be driven by its own friction force, so its mode is flipped, one at a time, until every one
+    departs along its mode (at most twice per element: the directions are a finite set)."""
+    step = SETTLE_STEP * max(1.0, abs(t))
+    for _ in range(2 * len(at_rest)):
+        x1 = x + step * np.asarray(data.rhs(t, x), dtype=float)
+        g1 = np.asarray(data.function("events")(t + step, x1), dtype=float)
+        wrong = [mode for grip, mode in at_rest if g1[grip] < 0]  # the grip indicator reads mode * w
+        if not wrong:
+            return
+        data.p[wrong[0]] = -data.p[wrong[0]]
+
+
+def _slip_speed(model, data, t: float, x: np.ndarray, mode: int, grip: int) -> float:
     """The element's slip speed: its grip indicator reads mode * w while slipping, so with the mode set to +1 for
-    a moment it is w itself (of a joint or of a point contact alike)."""
+    a moment it is w itself (of a joint or of a point contact alike); a plane contact's reads |w| while its slip
+    direction (the values after the mode, compiler/friction_plane.py) is unset."""
+    names = model.p_names
+    direction = [mode + k for k in (1, 2) if mode + k < len(names) and names[mode + k] in
+                 (names[mode][:-len(MODE_SUFFIX)] + ".e1", names[mode][:-len(MODE_SUFFIX)] + ".e2")]
+    kept = [data.p[i] for i in direction]
     data.p[mode] = 1.0
+    data.p[direction] = 0.0
     try:
         return float(data.function("events")(t, x)[grip])
     finally:
         data.p[mode] = 0.0
+        data.p[direction] = kept

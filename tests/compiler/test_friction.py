@@ -158,10 +158,13 @@ def test_a_normal_force_the_compiler_cannot_solve_is_an_error(tmp_path, model, o
         system.simulate(t_end=0.1)
 
 
-def test_switched_friction_in_a_closed_loop_is_refused_with_the_way_out(tmp_path):
+@pytest.mark.parametrize("interaction, law, message", [
+    ("wrist_pin \"closes the loop\"", "coulomb(mu_k = 0.1, normal = 10 N, radius = 1 cm)", "closes a kinematic loop"),
+    ("guide", "coulomb(mu_k = 0.1, normal = reaction)", "bearing friction"),
+])
+def test_what_switched_friction_cannot_do_in_a_closed_loop_is_refused(tmp_path, interaction, law, message):
     example = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
-    path = edited(tmp_path, "interact guide {\n        connect inertial -> slider\n",
-                  "interact guide {\n        connect inertial -> slider\n"
-                  "        force friction = coulomb(mu_k = 0.1, normal = 10 N)\n", source=example)
-    with pytest.raises(MbsError, match="closed kinematic loop"):
-        mbs.load(path).simulate(t_end=0.1)
+    head = f"interact {interaction} {{\n"
+    new = f"{head}        force friction = {law}\n"
+    with pytest.raises(MbsError, match=message):
+        mbs.load(edited(tmp_path, head, new, source=example)).simulate(t_end=0.1)
