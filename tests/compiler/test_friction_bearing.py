@@ -6,7 +6,6 @@ of the two links falls by exactly the work of the two friction torques."""
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

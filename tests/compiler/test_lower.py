@@ -14,7 +14,6 @@ from mbs.compiler.equations import derive_equations, display_equations
 from mbs.compiler.lower import lower
 from mbs.compiler.topology import build_topology
 from mbs.compiler.tree import t
-from mbs.language.diagnostics import MbsError
 from mbs.language.frontend import load, load_text
 
 
