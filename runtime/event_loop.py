@@ -16,7 +16,7 @@ import numpy as np
 from .errors import EvaluationError
 from .events import (DEPARTURE_STEP, ZENO_WINDOW, EventRecord, against_motion, apply_events, crossings,
                      init_switches, is_zeno, resolution_message, zeno_message)
-from .friction import start_friction_modes
+from .friction import is_friction_event, start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
 
@@ -156,7 +156,8 @@ def c_restart_tables(model):
     None when no event qualifies."""
     handled, flag, first, index, slot = [], [], [0], [], []
     for spec in model.events:
-        ok = not spec.terminal and all(array == "p" for array, _, _ in spec.assignments)
+        ok = (not spec.terminal and all(array == "p" for array, _, _ in spec.assignments)
+              and not is_friction_event(model, spec.name))  # Python checks the held forces after those
         handled.append(int(ok))
         flag.append(spec.switch)
         for _, target, value_slot in (spec.assignments if ok else ()):

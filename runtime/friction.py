@@ -22,6 +22,15 @@ SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
 SETTLE_STEP = 1e-9
 
 
+def is_friction_event(model, name: str) -> bool:
+    """Whether an event is the slip or grip of a switched friction element: after it the Python loop checks the
+    held forces (start_friction_modes with moving=False), so the C sampling loop must not apply it itself."""
+    for suffix in (SLIP, GRIP):
+        if name.endswith(suffix) and name[:-len(suffix)] + MODE_SUFFIX in model.p_names:
+            return True
+    return False
+
+
 def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = True) -> list[EventRecord]:
     """Set data.p's friction modes for the state (t, x); returns the log entries of the elements let go (their
     slip event with the direction 'start'). moving=False: only elements held beyond their limit are let go (the
