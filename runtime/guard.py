@@ -48,6 +48,14 @@ class RunGuard:
         self.started = time.monotonic()
         self._mark = (self.started, t0, 0, 0)  # (wall time, t, steps, rejected) where the stall window began
         self._previous: dict = {}
+        self.watched = False    # a C integrator checked between budgets of steps (watch)
+
+    @property
+    def chunks(self) -> int | None:
+        """How many output chunks the driver should run between progress checks (None: its default). A watched C
+        integrator is checked between its budgets of steps already (signals, wall time, stalls), so it runs the
+        samples in one call unless the user asked for progress reports."""
+        return 1 if (self.watched and self.user_progress is None) else None
 
     # -- signals
     def __enter__(self):
@@ -115,6 +123,7 @@ class RunGuard:
         c = getattr(solver, "_c", None)
         if c is None or not hasattr(c, "budget"):
             return
+        self.watched = True
         limit = solver.max_steps
         too_many = _too_many_status()
 

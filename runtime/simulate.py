@@ -108,7 +108,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     guard.watch(solver)
     states = np.empty((times.size, model.nx))
     with guard:
-        status, filled = _run(solver, times, states, guard.progress, t_end)
+        status, filled = _run(solver, times, states, guard.progress, t_end, guard.chunks or PROGRESS_CHUNKS)
     message = explain_failure(model, data, solver.message, solver.t, solver.y) if status == FAILED else ""
     loops = "project" in model.functions
     if loops:  # closed loops: store the samples projected onto the constraints
@@ -206,13 +206,14 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
 
 
-def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float):
+def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
+         chunks: int = PROGRESS_CHUNKS):
     """Sample all times (in chunks when reporting progress).  Returns (status, rows filled)."""
     if progress is None:
         filled = solver.sample(times, states, 0)
         return (FINISHED if filled == times.size and solver.status != FAILED else solver.status), filled
     filled = 0
-    chunk = max(1, math.ceil(times.size / PROGRESS_CHUNKS))
+    chunk = max(1, math.ceil(times.size / chunks))
     while filled < times.size:
         stop = min(times.size, filled + chunk)
         filled = solver.sample(times[:stop], states[:stop], filled)
