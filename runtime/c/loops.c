@@ -801,6 +801,26 @@ static int mbs_loop_state_rates(double t, const double *x, const double *p, doub
 #endif
 }
 
+/* Project x onto the constraints (mode as mbs_loop_project_state) and solve for the accelerations there; r is the
+ * rank the solve used. The projection leaves G factored at the projected state w->xc. */
+static int mbs_loop_project_and_solve(double t, const double *x, const double *p, mbs_loop_work *w, int mode, int *r)
+{
+    mbs_loop_info info;
+    int s = mbs_loop_project_state(t, x, p, w, mode, &info);
+    *r = info.rank;
+    if (s == 0) s = mbs_loop_solve_accelerations(t, p, w, mode, r, &info);
+    return s;
+}
+
+/* x' = [q'; v'; z'] at the projected state after mbs_loop_project_and_solve. */
+static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot, mbs_loop_work *w)
+{
+    int s = mbs_qdot(t, w->xc, p, xdot, w->tree);
+    if (s == 0) memcpy(xdot + MBS_NQ, w->vd, MBS_NV * sizeof(double));
+    if (s == 0) s = mbs_loop_state_rates(t, w->xc, p, xdot, w);
+    return s;
+}
+
 /* ---- the functions of the model table (exported: a standalone library offers them too) ------------- */
 
 /* x' at the projected state: robust for integrators that cannot project (scipy's), and the mbs_rhs of every
@@ -808,13 +828,8 @@ static int mbs_loop_state_rates(double t, const double *x, const double *p, doub
 int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
-    mbs_loop_info info;
-    int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
-    r = info.rank;  /* the projection leaves G factored at the projected state */
-    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
-    if (s == 0) s = mbs_qdot(t, w.xc, p, xdot, w.tree);
-    if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
-    if (s == 0) s = mbs_loop_state_rates(t, w.xc, p, xdot, &w);
+    int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
+    if (s == 0) s = mbs_loop_rates_at_projection(t, p, xdot, &w);
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
         int i;
         for (i = 0; i < MBS_NX; i++) xdot[i] += MBS_LOOP_STABILIZE * (w.xc[i] - x[i]);
@@ -873,10 +888,7 @@ static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
 int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
-    mbs_loop_info info;
-    int r, s = mbs_loop_project_state(t, x, p, &w, 0, &info);
-    r = info.rank;
-    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
+    int r, s = mbs_loop_project_and_solve(t, x, p, &w, 0, &r);
     return s != 0 ? s : mbs_loop_lambda(&w, r, lambda);
 }
 
@@ -885,12 +897,8 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
-    mbs_loop_info info;
-    int r, s = mbs_loop_project_state(t, x, p, &w, 1, &info);
-    r = info.rank;
-    if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
-    if (s == 0) s = mbs_qdot(t, w.xc, p, out, w.tree);
-    if (s == 0) memcpy(out + MBS_NQ, w.vd, MBS_NV * sizeof(double));
+    int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
+    if (s == 0) s = mbs_loop_rates_at_projection(t, p, out, &w);
     return s != 0 ? s : mbs_loop_lambda(&w, r, out + MBS_NX);
 }
 
