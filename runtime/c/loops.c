@@ -471,6 +471,22 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
     return r;
 }
 
+/* One Newton step on g(q) = 0 with the factors at hand: the correction solved in speeds (minimum norm over the
+ * kept partition of rank r), mapped to the coordinates by q' = qdot(q, dv), w->dq the step taken; w->g is the
+ * residual at the new q. */
+static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_work *w, int r)
+{
+    int i;
+    memset(w->dv, 0, MBS_NV * sizeof(double));
+    mbs_loop_solve(w, r, w->g, w->dv);
+    memcpy(w->xt, q, MBS_NQ * sizeof(double));
+    memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
+    if ((i = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return i;
+    for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
+    mbs_loop_normalize_q(q);
+    return mbs_constraints(t, q, p, w->g, w->tree);
+}
+
 /* Project the positions of w->xc onto g = 0 (velocities of w->xc untouched as a state, used as scratch). */
 static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
@@ -489,14 +505,7 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
             if (info->rank == 0) return MBS_LOOP_NOT_ASSEMBLED;
         }
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        mbs_loop_solve(w, info->rank, w->g, w->dv);
-        memcpy(w->xt, q, MBS_NQ * sizeof(double));
-        memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
-        if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return s;
-        for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
-        mbs_loop_normalize_q(q);
-        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank)) != 0) return s;
         res = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
         info->iterations++;
         if (!keep && !(res < 0.5 * previous) && res <= MBS_LOOP_FLOOR) break;  /* round-off floor */
@@ -512,14 +521,7 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
             info->jacobians++;
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) <= 0) return 0;
         }
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        mbs_loop_solve(w, info->rank, w->g, w->dv);
-        memcpy(w->xt, q, MBS_NQ * sizeof(double));
-        memcpy(w->xt + MBS_NQ, w->dv, MBS_NV * sizeof(double));
-        if ((s = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return s;
-        for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
-        mbs_loop_normalize_q(q);
-        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank)) != 0) return s;
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res < before)) {  /* at the round-off floor: undo this step */
             for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
