@@ -162,12 +162,13 @@ class System:
         return data, settings
 
     def accuracy(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
-                 t_end: float | None = None, **options):
+                 t_end: float | None = None, hooks: Mapping | None = None, **options):
         """The work-precision table of a scene (mbs.runtime.accuracy.work_precision; options: integrators,
-        tolerances, repeats), built with the generated Jacobian for the stiff integrators."""
+        tolerances, repeats), built with the generated Jacobian for the stiff integrators. hooks: as for
+        simulate."""
         from mbs.runtime.accuracy import work_precision
         from mbs.runtime.simulate import output_times
-        data, settings = self.start(scene, params=params, jacobian=True)
+        data, settings = self.start(scene, params=params, jacobian=True, hooks=hooks)
         t_end = settings["t_end"] if t_end is None else t_end
         times = output_times(data.t, t_end, sample=settings.get("sample"))
         return work_precision(data.model, data, t_end, t_eval=times, **options)
@@ -203,10 +204,12 @@ class System:
             binding.attach(compiled)
         return compiled, self.generate(scene), values
 
-    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
+                 hooks: Mapping | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
-        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
-        return self._start(*self._scene_parameters(scene, params))[1]
+        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops. hooks: as
+        for simulate."""
+        return self._start(*self._scene_parameters(scene, params, hooks))[1]
 
     def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                     hooks: Mapping | None = None):

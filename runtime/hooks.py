@@ -29,12 +29,13 @@ from typing import Callable, Mapping
 
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from mbs.language.hooks import DIFFERENCE_STEP, derivative_name
+
 from .errors import UsageError
 
 #: How a run supplies a hook, for messages.
-HOW_TO_SUPPLY = ("give its implementation when running: `mbs simulate ... --hook {name}=file.c` (or "
-                 "`--hook {name}=module.py:function`), or `System.simulate(..., hooks={{'{name}': function or "
-                 "'file.c'}})`")
+HOW_TO_SUPPLY = ("give its implementation with the run: `--hook {name}=file.c` (or `--hook {name}=module.py:function`) "
+                 "on the command line, or `hooks={{'{name}': function, 'file.c' or 'module.py:function'}}` in Python")
 _CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double))
 
 
@@ -71,6 +72,10 @@ class HookBinding:
                             + [(n, "c", p, hashlib.sha256(text.encode()).hexdigest()) for n, (p, text)
                                in self.c_files.items()]))
 
+    def c_paths(self) -> list[str]:
+        """The C files, each once (one file may implement several hooks)."""
+        return list({os.path.realpath(path): path for path, _ in self.c_files.values()}.values())
+
     def c_source(self) -> str:
         """The text appended to the generated C: the C files, then one trampoline per Python hook."""
         parts, seen = [], set()
@@ -83,10 +88,13 @@ class HookBinding:
         if self.python:
             parts.append("#line 1 \"<python hooks: runtime/hooks.py>\"\n"
                          "/* Python hooks: a ctypes callback per hook, set by runtime/hooks.py before a run */")
-            for name in self.python:
-                parts.append(f"int (*mbs_hook_python_{name})(const double *, double *) = NULL;\n"
-                             f"int {name}(const double *arg, double *res)\n{{\n"
-                             f"    return mbs_hook_python_{name} != NULL ? mbs_hook_python_{name}(arg, res) : -1;\n}}\n")
+            for name, fn in self.python.items():
+                functions = [name] + ([f"{name}_derivative"] if derivative_of(fn) is not None else [])
+                for function in functions:
+                    parts.append(f"int (*mbs_hook_python_{function})(const double *, double *) = NULL;\n"
+                                 f"int {function}(const double *arg, double *res)\n{{\n"
+                                 f"    return mbs_hook_python_{function} != NULL ? "
+                                 f"mbs_hook_python_{function}(arg, res) : -1;\n}}\n")
         return "\n".join(parts)
 
     # -- before a run ---------------------------------------------------------------------------------
@@ -96,31 +104,47 @@ class HookBinding:
         backend = compiled.backend
         if backend.kind == "numpy":
             for spec in self.specs:
-                for k in range(len(spec.results)):
-                    setattr(backend.module, f"mbs_hook__{spec.name}__{k}__{len(spec.results)}",
-                            self._numpy_helper(spec, k))
+                n = len(spec.results)
+                for k in range(n):
+                    setattr(backend.module, f"mbs_hook__{spec.name}__{k}__{n}", self._numpy_helper(spec, k))
+                    for j in range(len(spec.args)):
+                        setattr(backend.module, derivative_name(spec.name, k, n, j), self._numpy_partial(spec, k, j))
             return
         lib = _library(backend.module)
         for spec in self.specs:
             if spec.name in self.python:
-                callback = _CALLBACK(self._c_callback(spec))
-                # kept alive while the library points to it (until the next attach replaces it): the binding
-                # itself may be gone long before the last call of a model function
-                _CALLBACKS[(backend.module.__file__, spec.name)] = callback
-                pointer = ctypes.c_void_p.in_dll(lib, f"mbs_hook_python_{spec.name}")
-                pointer.value = ctypes.cast(callback, ctypes.c_void_p).value
+                fn = _loaded(self.python[spec.name])
+                self._point(lib, backend.module.__file__, spec.name, self._c_callback(spec, fn, len(spec.results)))
+                derivative = derivative_of(fn)
+                if derivative is not None:
+                    self._point(lib, backend.module.__file__, f"{spec.name}_derivative",
+                                self._c_callback(spec, derivative, len(spec.results) * len(spec.args), jacobian=True))
         lib.mbs_hook_reset()
 
-    def _c_callback(self, spec) -> Callable:
-        fn, nargs, nres, record = self.python[spec.name], len(spec.args), len(spec.results), self._record
+    @staticmethod
+    def _point(lib, path: str, function: str, python) -> None:
+        """Set the library's pointer mbs_hook_python_<function> to a ctypes callback of `python`."""
+        callback = _CALLBACK(python)
+        # kept alive while the library points to it (until the next attach replaces it): the binding
+        # itself may be gone long before the last call of a model function
+        _CALLBACKS[(path, function)] = callback
+        pointer = ctypes.c_void_p.in_dll(lib, f"mbs_hook_python_{function}")
+        pointer.value = ctypes.cast(callback, ctypes.c_void_p).value
+
+    def _c_callback(self, spec, fn, nres: int, jacobian: bool = False) -> Callable:
+        """The Python side of a ctypes callback: fn's results (or, jacobian, its derivative's row-major
+        matrix) into res; a failure kept for the message and reported to C as status -1."""
+        nargs, record = len(spec.args), self._record
+        call = _call_derivative if jacobian else _call
 
         def callback(arg, res) -> int:
             values = [arg[i] for i in range(nargs)]
             try:
-                results = _call(spec, fn, values)
+                results = call(spec, fn, values)
             except BaseException as exc:  # noqa: BLE001 - nothing may cross the C boundary; reported after the run
                 if record.failure is None:
-                    record.failure = HookFailure(spec.name, math.nan, tuple(values), _describe(exc))
+                    what = "its derivative: " if jacobian else ""
+                    record.failure = HookFailure(spec.name, math.nan, tuple(values), what + _describe(exc))
                 return -1
             for i in range(nres):
                 res[i] = results[i]
@@ -128,7 +152,7 @@ class HookBinding:
         return callback
 
     def _numpy_helper(self, spec, k: int) -> Callable:
-        fn, record = self.python.get(spec.name), self._record
+        fn, record = _loaded(self.python.get(spec.name)), self._record
 
         def helper(t, *args):
             values = tuple(float(a) for a in args)
@@ -142,6 +166,32 @@ class HookBinding:
                 return math.nan
             return results[k]
         return helper
+
+    def _numpy_partial(self, spec, k: int, j: int) -> Callable:
+        """d(result k)/d(argument j) for the NumPy back end: the hook's derivative, else the central difference
+        the C helpers take (compiler/hooks.py)."""
+        value = self._numpy_helper(spec, k)
+        derivative, record, nargs = derivative_of(self.python.get(spec.name)), self._record, len(spec.args)
+
+        def partial(t, *args):
+            if derivative is not None:
+                values = tuple(float(a) for a in args)
+                try:
+                    d = _call_derivative(spec, derivative, values)[k * nargs + j]
+                    if not math.isfinite(d):
+                        raise ArithmeticError(f"returned a non-finite derivative {d}")
+                    return d
+                except BaseException as exc:  # noqa: BLE001 - reported after the run
+                    if record.failure is None:
+                        record.failure = HookFailure(spec.name, float(t), values, "its derivative: " + _describe(exc))
+                    return math.nan
+            a = float(args[j])
+            h = DIFFERENCE_STEP * max(abs(a), 1.0)
+            h = (a + h) - a
+            up, down = list(args), list(args)
+            up[j], down[j] = a + h, a - h
+            return (value(t, *up) - value(t, *down)) / (2.0 * h)
+        return partial
 
     # -- after a run ----------------------------------------------------------------------------------
     def failure(self, compiled) -> HookFailure | None:
@@ -193,6 +243,34 @@ def _call(spec, fn, values) -> list[float]:
     return values
 
 
+def derivative_of(fn) -> Callable | None:
+    """A Python hook's own derivative: the callable's attribute ``derivative`` (None: central differences)."""
+    if isinstance(fn, PythonFileHook):
+        fn = fn.load()
+    derivative = getattr(fn, "derivative", None)
+    return derivative if callable(derivative) else None
+
+
+def _call_derivative(spec, fn, values) -> list[float]:
+    """A Python derivative's matrix d res[i]/d arg[j] as floats, row-major (one result: a flat row is fine)."""
+    rows = fn(*values)
+    nres, nargs = len(spec.results), len(spec.args)
+    flat = [float(v) for v in _flatten(rows)]
+    if len(flat) != nres * nargs:
+        raise ValueError(f"the derivative returned {len(flat)} values; {nres} result(s) x {nargs} argument(s) = "
+                         f"{nres * nargs} expected")
+    return flat
+
+
+def _flatten(rows):
+    if hasattr(rows, "ravel"):
+        return list(rows.ravel())
+    out = []
+    for row in (rows if isinstance(rows, (list, tuple)) else [rows]):
+        out.extend(row if isinstance(row, (list, tuple)) else [row])
+    return out
+
+
 def _describe(exc: BaseException) -> str:
     text = str(exc)
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
@@ -238,19 +316,109 @@ def bind(specs: tuple, supplied: Mapping[str, object] | None, model_name: str = 
         return None
     python, c_files = {}, {}
     for name, given in supplied.items():
+        given = implementation(name, given)
         if callable(given):
             python[name] = given
-        elif isinstance(given, (str, os.PathLike)) and os.fspath(given).endswith(".c"):
-            path = Path(given)
-            try:
-                c_files[name] = (os.fspath(given), path.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError) as exc:
-                raise UsageError(f"hook '{name}': cannot read the C file {os.fspath(given)} "
-                                 f"({getattr(exc, 'strerror', None) or exc})") from None
         else:
-            raise UsageError(f"hook '{name}': expected a Python callable or the path of a C source file (.c), got "
-                             f"{given!r}")
+            c_files[name] = (os.fspath(given), _read(name, given, "C file"))
     return HookBinding(tuple(specs), python, c_files)
+
+
+def implementation(name: str, given):
+    """What a run is given for hook `name`, resolved once for every command and API entry: a Python callable as
+    it is; 'module.py:function' as a PythonFileHook (imported now, so a broken file is an error before any
+    build); 'file.c' (or a path) as the path of a C file, checked to exist."""
+    if callable(given):
+        return given
+    if isinstance(given, (str, os.PathLike)):
+        text = os.fspath(given)
+        if text.endswith(".c"):
+            if not Path(text).is_file():
+                raise UsageError(f"hook '{name}': no C file {text}")
+            return given
+        path, sep, function = text.rpartition(":")
+        if sep and path.endswith(".py"):
+            if not function.isidentifier():
+                raise UsageError(f"hook '{name}': '{function}' in {text} is not a Python function name")
+            hook = PythonFileHook(path, function, _read(name, path, "Python file"))
+            hook.load(name)
+            return hook
+    raise UsageError(f"hook '{name}': expected a Python callable, the path of a C source file (file.c) or "
+                     f"module.py:function, got {given!r}")
+
+
+def _read(name: str, path, what: str) -> str:
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise UsageError(f"hook '{name}': no {what} {os.fspath(path)}") from None
+        raise UsageError(f"hook '{name}': cannot read the {what} {os.fspath(path)} "
+                         f"({getattr(exc, 'strerror', None) or exc})") from None
+
+
+class PythonFileHook:
+    """A Python hook named as ``module.py:function``: called like the function; pickled as the file's path, its
+    text and the function's name, so that every process that runs the model (a Dask worker, here or on another
+    machine) imports the file itself, once. The module gets a private name: it cannot shadow an installed
+    package. A file is imported only because the caller named it (a model file never can)."""
+
+    def __init__(self, path: str, function: str, source: str):
+        self.path, self.function, self.source = os.fspath(path), function, source
+        self._fn = None
+
+    def load(self, name: str = "") -> Callable:
+        """The function (the module imported on the first call in this process)."""
+        if self._fn is None:
+            key = (os.path.abspath(self.path), hashlib.sha256(self.source.encode()).hexdigest(), self.function)
+            fn = _FILE_FUNCTIONS.get(key)
+            if fn is None:
+                fn = _FILE_FUNCTIONS[key] = _import(self, name or self.function)
+            self._fn = fn
+        return self._fn
+
+    def __call__(self, *args):
+        return self.load()(*args)
+
+    @property
+    def derivative(self):
+        return derivative_of(self.load())
+
+    def __reduce__(self):
+        return PythonFileHook, (self.path, self.function, self.source)
+
+    def __repr__(self) -> str:
+        return f"{self.path}:{self.function}"
+
+
+_FILE_FUNCTIONS: dict[tuple, Callable] = {}
+
+
+def _loaded(fn):
+    """The function itself (a PythonFileHook imported), for the calls of a run."""
+    return fn.load() if isinstance(fn, PythonFileHook) else fn
+
+
+def _import(hook: PythonFileHook, name: str) -> Callable:
+    import types
+    module = types.ModuleType(f"mbs_user_hook_{name}")
+    module.__file__ = hook.path
+    try:
+        exec(compile(hook.source, hook.path, "exec"), module.__dict__)
+    except Exception as exc:  # noqa: BLE001 - the user's module: its failure is a message, not our traceback
+        raise UsageError(f"hook '{name}': importing {hook.path} failed: {type(exc).__name__}: {exc}") from None
+    fn = getattr(module, hook.function, None)
+    if not callable(fn):
+        raise UsageError(f"hook '{name}': {hook.path} has no function '{hook.function}'")
+    return fn
+
+
+def require_c(binding: HookBinding | None, why: str) -> None:
+    """Refuse Python hooks where the model runs without Python (an FMU, a standalone library)."""
+    if binding is not None and binding.python:
+        names = ", ".join(binding.python)
+        raise UsageError(f"hook(s) {names}: a Python implementation cannot go there, {why}; give the hook as a C "
+                         f"file (--hook {next(iter(binding.python))}=file.c)")
 
 
 def check_numpy(binding: HookBinding | None) -> None:
