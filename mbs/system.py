@@ -68,8 +68,7 @@ class System:
                 dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate.
         hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
                binding.key if binding is not None else None)
         if key not in self._compiled:
@@ -146,8 +145,7 @@ class System:
         # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
         if binding is not None:
             binding.attach(compiled)

@@ -76,15 +76,27 @@ class HookBinding:
         """The C files, each once (one file may implement several hooks)."""
         return list({os.path.realpath(path): path for path, _ in self.c_files.values()}.values())
 
-    def c_source(self) -> str:
-        """The text appended to the generated C: the C files, then one trampoline per Python hook."""
-        parts, seen = [], set()
-        for name, (path, text) in self.c_files.items():
-            if os.path.realpath(path) in seen:  # one file may implement several hooks
-                continue
-            seen.add(os.path.realpath(path))
-            shown = path.replace("\\", "\\\\").replace('"', '\\"')
-            parts.append(f'#line 1 "{shown}"\n{text}\n')
+    def c_file_names(self) -> dict[str, tuple[str, str]]:
+        """{file name: (path, text)} of the C files under names unique among them (an FMU's sources/)."""
+        out: dict[str, tuple[str, str]] = {}
+        for path in self.c_paths():
+            stem, name, k = Path(path).stem, Path(path).name, 2
+            while name in out:
+                name, k = f"{stem}_{k}.c", k + 1
+            out[name] = (path, next(text for p, text in self.c_files.values() if p == path))
+        return out
+
+    def c_source(self, include: bool = False) -> str:
+        """The text appended to the generated C: the C files, then one trampoline per Python hook. include:
+        `#include "NAME.c"` of each file under its name in c_file_names (to build beside copies of them), else
+        the files' text itself (compiler messages name the files through #line)."""
+        parts = []
+        for name, (path, text) in self.c_file_names().items():
+            if include:
+                parts.append(f'#include "{name}"')
+            else:
+                shown = path.replace("\\", "\\\\").replace('"', '\\"')
+                parts.append(f'#line 1 "{shown}"\n{text}\n')
         if self.python:
             parts.append("#line 1 \"<python hooks: runtime/hooks.py>\"\n"
                          "/* Python hooks: a ctypes callback per hook, set by runtime/hooks.py before a run */")
@@ -299,7 +311,10 @@ def _library(module) -> ctypes.CDLL:
 def bind(specs: tuple, supplied: Mapping[str, object] | None, model_name: str = "model") -> HookBinding | None:
     """The binding of the hooks a caller supplies, checked against the model's declarations; None when the
     model declares none and none are given. A hook the model does not declare is a usage error; a declared
-    hook without an implementation is an error located at its declaration (before anything is compiled)."""
+    hook without an implementation is an error located at its declaration (before anything is compiled).
+    A binding given again is returned as it is."""
+    if isinstance(supplied, HookBinding):
+        return supplied
     supplied = dict(supplied or {})
     declared = {s.name: s for s in specs}
     unknown = [name for name in supplied if name not in declared]
