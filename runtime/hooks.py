@@ -205,6 +205,14 @@ class HookBinding:
             return (value(t, *up) - value(t, *down)) / (2.0 * h)
         return partial
 
+    def value(self, name: str, result: int, args) -> float:
+        """Result `result` of the Python hook `name` at `args` (a failure raises, naming the hook)."""
+        spec = next(s for s in self.specs if s.name == name)
+        try:
+            return _call(spec, _loaded(self.python[name]), list(args))[result]
+        except Exception as exc:  # noqa: BLE001 - the user's code: a message naming the hook
+            raise UsageError(self.message(HookFailure(name, math.nan, tuple(args), _describe(exc)))) from None
+
     # -- after a run ----------------------------------------------------------------------------------
     def failure(self, compiled) -> HookFailure | None:
         """The first hook failure since `attach`, or None."""
@@ -426,6 +434,14 @@ def _import(hook: PythonFileHook, name: str) -> Callable:
     if not callable(fn):
         raise UsageError(f"hook '{name}': {hook.path} has no function '{hook.function}'")
     return fn
+
+
+def require_python(binding: HookBinding | None, why: str) -> None:
+    """Refuse C hooks where nothing is compiled (the equations evaluated by sympy)."""
+    if binding is not None and binding.c_files:
+        names = ", ".join(binding.c_files)
+        raise UsageError(f"hook(s) {names}: a C file cannot be used there, {why}; give the hook as a Python "
+                         f"function (--hook {next(iter(binding.c_files))}=module.py:function)")
 
 
 def require_c(binding: HookBinding | None, why: str) -> None:
