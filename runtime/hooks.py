@@ -67,8 +67,9 @@ class HookBinding:
 
     @property
     def key(self) -> tuple:
-        """What decides the compiled library: which hooks are Python and each C file's name and text."""
-        return tuple(sorted([(n, "python") for n in self.python]
+        """What decides the compiled library: which hooks are Python (with a derivative or not) and each C file's
+        name and text."""
+        return tuple(sorted([(n, "python", derivative_of(fn) is not None) for n, fn in self.python.items()]
                             + [(n, "c", p, hashlib.sha256(text.encode()).hexdigest()) for n, (p, text)
                                in self.c_files.items()]))
 
