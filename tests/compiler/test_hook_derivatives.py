@@ -42,8 +42,8 @@ def plain():
     return jacobians(C_LAW, plain=1, backend="c" if have_c_compiler() else "numpy")
 
 
-def python(path: Path) -> object:
-    return implementation("friction_law", f"{path}:friction_law")
+def python(path: Path, function: str = "friction_law") -> object:
+    return implementation("friction_law", f"{path}:{function}")
 
 
 @needs_c
@@ -68,7 +68,7 @@ def test_the_hooks_own_derivative_is_used_exactly(plain, impl):
 
 @needs_c
 def test_a_wrong_derivative_shows_it_is_the_one_used(plain):
-    J, _ = jacobians(str(HOOKS / "friction_law_wrong_derivative.c"))
+    J, _ = jacobians(python(HOOKS / "friction_law_derivative.py", "wrong_law"))
     assert relative(J, plain[0]) > 0.1
 
 

@@ -61,8 +61,8 @@ def test_sensitivities_through_the_hooks_own_derivative_match_to_the_tolerance(b
 
 
 def test_a_wrong_derivative_gives_wrong_sensitivities(belt, plain):
-    table = sensitivities(belt, "cycles", hooks={"friction_law": str(HOOKS / "friction_law_wrong_derivative.c")},
-                          **OPTIONS)
+    wrong = implementation("friction_law", f"{HOOKS / 'friction_law_derivative.py'}:wrong_law")
+    table = sensitivities(belt, "cycles", hooks={"friction_law": wrong}, **OPTIONS)
     assert worst(table, plain)[1] > 0.1
 
 

@@ -1,12 +1,7 @@
 /* The friction law of library/examples/hook_friction.mbs with its derivative (tests of the hook derivatives):
  * f = n (mu_k + (mu_s - mu_k) exp(-(w/vs)^2)) tanh(w/eps), and jac[j] = d f / d arg[j] for arg = {w, n, mu_s,
- * mu_k}, differentiated by hand. GAIN scales the derivative (1: exact; the tests build a wrong one with 2 to
- * see that it is the one used). */
+ * mu_k}, differentiated by hand. */
 #include <math.h>
-
-#ifndef GAIN
-#define GAIN 1.0
-#endif
 
 int friction_law(const double *arg, double *res)
 {
@@ -22,9 +17,9 @@ int friction_law_derivative(const double *arg, double *jac)
     const double w = arg[0], n = arg[1], mu_s = arg[2], mu_k = arg[3];
     const double e = exp(-(w / vs) * (w / vs)), th = tanh(w / eps), g = mu_k + (mu_s - mu_k) * e;
     const double dg = (mu_s - mu_k) * e * (-2.0 * w / (vs * vs));
-    jac[0] = GAIN * n * (dg * th + g * (1.0 - th * th) / eps);
-    jac[1] = GAIN * g * th;
-    jac[2] = GAIN * n * e * th;
-    jac[3] = GAIN * n * (1.0 - e) * th;
+    jac[0] = n * (dg * th + g * (1.0 - th * th) / eps);
+    jac[1] = g * th;
+    jac[2] = n * e * th;
+    jac[3] = n * (1.0 - e) * th;
     return 0;
 }

@@ -18,3 +18,11 @@ def friction_law_derivative(w, n, mu_s, mu_k):
 
 
 friction_law.derivative = friction_law_derivative
+
+
+def wrong_law(w, n, mu_s, mu_k):
+    """The same law with twice its derivative, on purpose: the tests see that a hook's own derivative is used."""
+    return friction_law(w, n, mu_s, mu_k)
+
+
+wrong_law.derivative = lambda *args: [2.0 * d for d in friction_law_derivative(*args)]
