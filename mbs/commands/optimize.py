@@ -75,7 +75,8 @@ class Optimize:
             source = Path(args.file).read_text(encoding="utf-8")
             write_text_atomic(args.output, source.rstrip("\n") + "\n\n" + opt.scene_text)
             name = f"{scene}_optimum" if scene else "optimum"
-            print(f"optimum written to {args.output}: mbs simulate {args.output} --scene {name}")
+            hooks = "".join(f" --hook {text}" for text in args.hook)
+            print(f"optimum written to {args.output}: mbs simulate {args.output} --scene {name}{hooks}")
         else:
             print("\n" + opt.scene_text)
         if not opt.feasible:
