@@ -10,7 +10,12 @@ is named by the caller of a run. A C file is appended to the generated model's b
 of the cache key; compiler messages name the file and line through ``#line``). A Python callable reaches
 the C back end through a ctypes callback stored in a pointer the binding exports (one per loaded library:
 fine for prototyping, slow, and not for parallel runs of one model with different callables); the NumPy
-back end calls it directly. Values cross in the units the hook declares.
+back end calls it directly. Values cross in the units the hook declares. What is given (a callable,
+'file.c', 'module.py:function') is resolved by hook_implementations.py, the same for every command.
+
+Derivatives (for the generated Jacobians, compiler/hooks.py): a C file may define NAME_derivative, a Python
+callable may carry `.derivative`; the binding adds a trampoline for the latter. The NumPy back end gets the
+same central differences as the C helpers when there is none.
 
 A failing hook (a Python exception, a C status other than 0, a non-finite result) ends the run: the
 generated helper returns NaN, the model function reports a non-finite value, the integrator stops with the
@@ -32,6 +37,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.hooks import DIFFERENCE_STEP, derivative_name
 
 from .errors import UsageError
+from .hook_implementations import derivative_of, implementation, loaded, read_source
 
 #: How a run supplies a hook, for messages.
 HOW_TO_SUPPLY = ("give its implementation with the run: `--hook {name}=file.c` (or `--hook {name}=module.py:function`) "
@@ -126,7 +132,7 @@ class HookBinding:
         lib = _library(backend.module)
         for spec in self.specs:
             if spec.name in self.python:
-                fn = _loaded(self.python[spec.name])
+                fn = loaded(self.python[spec.name])
                 self._point(lib, backend.module.__file__, spec.name, self._c_callback(spec, fn, len(spec.results)))
                 derivative = derivative_of(fn)
                 if derivative is not None:
@@ -165,7 +171,7 @@ class HookBinding:
         return callback
 
     def _numpy_helper(self, spec, k: int) -> Callable:
-        fn, record = _loaded(self.python.get(spec.name)), self._record
+        fn, record = loaded(self.python.get(spec.name)), self._record
 
         def helper(t, *args):
             values = tuple(float(a) for a in args)
@@ -210,7 +216,7 @@ class HookBinding:
         """Result `result` of the Python hook `name` at `args` (a failure raises, naming the hook)."""
         spec = next(s for s in self.specs if s.name == name)
         try:
-            return _call(spec, _loaded(self.python[name]), list(args))[result]
+            return _call(spec, loaded(self.python[name]), list(args))[result]
         except Exception as exc:  # noqa: BLE001 - the user's code: a message naming the hook
             raise UsageError(self.message(HookFailure(name, math.nan, tuple(args), _describe(exc)))) from None
 
@@ -262,14 +268,6 @@ def _call(spec, fn, values) -> list[float]:
         raise ValueError(f"returned {len(values)} values; the hook declares {n} result(s) "
                          f"({', '.join(r.name for r in spec.results)})")
     return values
-
-
-def derivative_of(fn) -> Callable | None:
-    """A Python hook's own derivative: the callable's attribute ``derivative`` (None: central differences)."""
-    if isinstance(fn, PythonFileHook):
-        fn = fn.load()
-    derivative = getattr(fn, "derivative", None)
-    return derivative if callable(derivative) else None
 
 
 def _call_derivative(spec, fn, values) -> list[float]:
@@ -344,97 +342,8 @@ def bind(specs: tuple, supplied: Mapping[str, object] | None, model_name: str = 
         if callable(given):
             python[name] = given
         else:
-            c_files[name] = (os.fspath(given), _read(name, given, "C file"))
+            c_files[name] = (os.fspath(given), read_source(name, given, "C file"))
     return HookBinding(tuple(specs), python, c_files)
-
-
-def implementation(name: str, given):
-    """What a run is given for hook `name`, resolved once for every command and API entry: a Python callable as
-    it is; 'module.py:function' as a PythonFileHook (imported now, so a broken file is an error before any
-    build); 'file.c' (or a path) as the path of a C file, checked to exist."""
-    if callable(given):
-        return given
-    if isinstance(given, (str, os.PathLike)):
-        text = os.fspath(given)
-        if text.endswith(".c"):
-            if not Path(text).is_file():
-                raise UsageError(f"hook '{name}': no C file {text}")
-            return given
-        path, sep, function = text.rpartition(":")
-        if sep and path.endswith(".py"):
-            if not function.isidentifier():
-                raise UsageError(f"hook '{name}': '{function}' in {text} is not a Python function name")
-            hook = PythonFileHook(path, function, _read(name, path, "Python file"))
-            hook.load(name)
-            return hook
-    raise UsageError(f"hook '{name}': expected a Python callable, the path of a C source file (file.c) or "
-                     f"module.py:function, got {given!r}")
-
-
-def _read(name: str, path, what: str) -> str:
-    try:
-        return Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise UsageError(f"hook '{name}': no {what} {os.fspath(path)}") from None
-        raise UsageError(f"hook '{name}': cannot read the {what} {os.fspath(path)} "
-                         f"({getattr(exc, 'strerror', None) or exc})") from None
-
-
-class PythonFileHook:
-    """A Python hook named as ``module.py:function``: called like the function; pickled as the file's path, its
-    text and the function's name, so that every process that runs the model (a Dask worker, here or on another
-    machine) imports the file itself, once. The module gets a private name: it cannot shadow an installed
-    package. A file is imported only because the caller named it (a model file never can)."""
-
-    def __init__(self, path: str, function: str, source: str):
-        self.path, self.function, self.source = os.fspath(path), function, source
-        self._fn = None
-
-    def load(self, name: str = "") -> Callable:
-        """The function (the module imported on the first call in this process)."""
-        if self._fn is None:
-            key = (os.path.abspath(self.path), hashlib.sha256(self.source.encode()).hexdigest(), self.function)
-            fn = _FILE_FUNCTIONS.get(key)
-            if fn is None:
-                fn = _FILE_FUNCTIONS[key] = _import(self, name or self.function)
-            self._fn = fn
-        return self._fn
-
-    def __call__(self, *args):
-        return self.load()(*args)
-
-    @property
-    def derivative(self):
-        return derivative_of(self.load())
-
-    def __reduce__(self):
-        return PythonFileHook, (self.path, self.function, self.source)
-
-    def __repr__(self) -> str:
-        return f"{self.path}:{self.function}"
-
-
-_FILE_FUNCTIONS: dict[tuple, Callable] = {}
-
-
-def _loaded(fn):
-    """The function itself (a PythonFileHook imported), for the calls of a run."""
-    return fn.load() if isinstance(fn, PythonFileHook) else fn
-
-
-def _import(hook: PythonFileHook, name: str) -> Callable:
-    import types
-    module = types.ModuleType(f"mbs_user_hook_{name}")
-    module.__file__ = hook.path
-    try:
-        exec(compile(hook.source, hook.path, "exec"), module.__dict__)
-    except Exception as exc:  # noqa: BLE001 - the user's module: its failure is a message, not our traceback
-        raise UsageError(f"hook '{name}': importing {hook.path} failed: {type(exc).__name__}: {exc}") from None
-    fn = getattr(module, hook.function, None)
-    if not callable(fn):
-        raise UsageError(f"hook '{name}': {hook.path} has no function '{hook.function}'")
-    return fn
 
 
 def require_python(binding: HookBinding | None, why: str) -> None:

@@ -18,7 +18,7 @@ def hook_arg(p) -> None:
 def hooks_from_args(args) -> dict:
     """{name: 'file.c' or the Python function} from the --hook options, each file read and each Python file
     imported once, here (bad usage: exit status 2)."""
-    from mbs.runtime.hooks import implementation
+    from mbs.runtime.hook_implementations import implementation
     hooks: dict = {}
     for text in getattr(args, "hook", None) or []:
         name, sep, impl = text.partition("=")

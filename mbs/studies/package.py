@@ -98,7 +98,7 @@ def _check_picklable(binding) -> None:
     import cloudpickle
 
     from mbs.runtime.errors import UsageError
-    from mbs.runtime.hooks import PythonFileHook
+    from mbs.runtime.hook_implementations import PythonFileHook
     for name, fn in binding.python.items():
         if isinstance(fn, PythonFileHook):
             continue

@@ -12,7 +12,7 @@ import pytest
 
 import mbs
 from mbs.runtime.build import have_c_compiler
-from mbs.runtime.hooks import implementation
+from mbs.runtime.hook_implementations import implementation
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "library" / "examples" / "hook_friction.mbs"

@@ -11,7 +11,7 @@ import pytest
 import mbs
 from mbs.cli import main
 from mbs.runtime.build import have_c_compiler
-from mbs.runtime.hooks import implementation
+from mbs.runtime.hook_implementations import implementation
 from mbs.sensitivity import sensitivities
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,7 +15,7 @@ import mbs
 from mbs.cli import main
 from mbs.runtime.build import have_c_compiler
 from mbs.runtime.errors import UsageError
-from mbs.runtime.hooks import implementation
+from mbs.runtime.hook_implementations import implementation
 from mbs.studies import sweep
 from mbs.studies.optimize import optimize
 
