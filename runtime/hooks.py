@@ -33,7 +33,6 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from mbs.language.diagnostics import Diagnostic, MbsError
-
 from mbs.language.hooks import DIFFERENCE_STEP, derivative_name
 
 from .errors import UsageError
