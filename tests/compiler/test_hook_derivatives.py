@@ -77,3 +77,17 @@ def test_the_numpy_back_end_differentiates_a_python_hook_the_same_way(plain):
     assert relative(J, plain[0]) < 1.3e-7 and relative(P, plain[1]) < 1.3e-7
     J, P = jacobians(python(HOOKS / "friction_law_derivative.py"), backend="numpy")
     assert relative(J, plain[0]) < 1e-14 and relative(P, plain[1]) < 1e-13
+
+
+@needs_c
+def test_a_derivative_of_the_wrong_shape_stops_the_run_naming_the_hook():
+    law = python(HOOKS / "friction_law_derivative.py").load()
+
+    def hook(*args):
+        return law(*args)
+    hook.derivative = lambda *args: [1.0, 2.0, 3.0]  # four arguments: four values
+    res = mbs.load(EXAMPLE).simulate("cycles", integrator="rodasp", hooks={"friction_law": hook})
+    assert not res.success
+    assert "hook 'friction_law' failed" in res.message
+    assert "its derivative: ValueError: the derivative returned 3 values; 1 result(s) x 4 argument(s)" in res.message
+
