@@ -1,8 +1,8 @@
 """User hooks in the generated code: a call in an expression becomes a helper that calls the implementation.
 
-In the equations a hook call is an undefined sympy function ``mbs_hook__NAME__K__N(t, arg...)`` (result K
-of N): sympy keeps it opaque, the tape shares equal calls, and the generated Jacobian, which cannot
-differentiate it, falls back to finite differences (compiler/differentiate.py raises NotDifferentiable).
+In the equations a hook call is a sympy function ``mbs_hook__NAME__K__N(t, arg...)`` (result K of N, a
+HookCall): sympy keeps it opaque, the tape shares equal calls, and its partial derivatives are helpers of
+their own (below, "Derivatives"), so the generated Jacobians exist for models with hooks.
 
 **C.** Each helper used is a static function returning one result:
 
