@@ -167,17 +167,17 @@ def c_helpers(calls: dict[str, int]) -> list[str]:
                   f" * central difference with the step h = {DIFFERENCE_STEP!r} * max(|arg[j]|, 1) (cbrt(DBL_EPSILON):",
                   " * truncation and rounding error balanced). NaN (and the failure recorded) when a call fails. */",
                   "static double mbs_hook_partial(int (*fn)(const double *, double *), int (*dfn)(const double *, double *),",
-                  "                               const char *name, double t, double *arg, int narg, double *res, int k,",
-                  "                               int n, int j)",
+                  "                               const char *name, const char *dname, double t, double *arg, int narg,",
+                  "                               double *res, int k, int n, int j)",
                   "{",
                   "    double jac[MBS_HOOK_MAXJAC], a = arg[j], h, up, down;",
                   "    volatile double moved;",
                   "    int status;",
-                  "    if (dfn != NULL) {",
+                  "    if (dfn != NULL) {  /* a failure of the derivative is recorded under its own name */",
                   "        status = dfn(arg, jac);",
                   "        if (status == 0 && !isfinite(jac[k * narg + j]))",
                   "            status = -2;",
-                  "        return status == 0 ? jac[k * narg + j] : mbs_hook_fail(name, status, t, arg, narg);",
+                  "        return status == 0 ? jac[k * narg + j] : mbs_hook_fail(dname, status, t, arg, narg);",
                   "    }",
                   f"    h = {DIFFERENCE_STEP!r} * fmax(fabs(a), 1.0);",
                   "    moved = a + h;  /* the step as the machine represents it */",
@@ -201,7 +201,8 @@ def c_helpers(calls: dict[str, int]) -> list[str]:
         else:
             name, k, n, j = partial
             comment = f"d(result {k} of {n})/d(argument {j})"
-            call = (f"mbs_hook_partial({name}, {name}_derivative, \"{name}\", t, arg, {nargs}, res, {k}, {n}, {j})")
+            call = (f"mbs_hook_partial({name}, {name}_derivative, \"{name}\", \"{name}_derivative\", t, arg, "
+                    f"{nargs}, res, {k}, {n}, {j})")
         lines += [f"/* {name}: {comment} */",
                   f"static double {helper}(double t{params})",
                   "{",

@@ -234,13 +234,15 @@ class HookBinding:
             return python
         name = name.decode()
         values = tuple(args[i] for i in range(narg.value))
+        derivative = name not in {s.name for s in self.specs}  # NAME_derivative (compiler/hooks.py)
+        name = name.removesuffix("_derivative") if derivative else name
         if python is not None and python.name == name:
             reason = python.reason
         elif status.value == -2:
             reason = "returned a non-finite result"
         else:
             reason = f"returned status {status.value}"
-        return HookFailure(name, t.value, values, reason)
+        return HookFailure(name, t.value, values, ("its derivative " if derivative and python is None else "") + reason)
 
     def message(self, failure: HookFailure) -> str:
         """``hook 'friction_law' failed at t = 0.5 s (w = 0.2 m/s, n = 9.81 N): ValueError: ...``"""

@@ -91,3 +91,12 @@ def test_a_derivative_of_the_wrong_shape_stops_the_run_naming_the_hook():
     assert "hook 'friction_law' failed" in res.message
     assert "its derivative: ValueError: the derivative returned 3 values; 1 result(s) x 4 argument(s)" in res.message
 
+
+
+@needs_c
+def test_a_c_derivative_that_fails_stops_the_run_naming_the_hook():
+    res = mbs.load(EXAMPLE).simulate("cycles", integrator="rodasp",
+                                     hooks={"friction_law": str(HOOKS / "failing_derivative.c")})
+    assert not res.success
+    assert "hook 'friction_law' failed at t = 0 s (w = 0.2 m/s, n = 9.81 N, mu_s = 0.6, mu_k = 0.4): its derivative " \
+           "returned status 3" in res.message
