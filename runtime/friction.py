@@ -12,6 +12,8 @@ from rest at the same moment get directions that agree with the motion they star
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from .events import EventRecord
@@ -20,6 +22,30 @@ from .events import EventRecord
 SLIP, GRIP, MODE_SUFFIX = ".slip", ".grip", ".mode"
 #: Time step [s] (relative to t beyond 1 s) of the look ahead that tells which way elements let go together move.
 SETTLE_STEP = 1e-9
+
+
+def friction_modes(model) -> list[int]:
+    """Indices in p of the switched friction elements' modes (an element: a mode with a slip and a grip event)."""
+    events = {spec.name for spec in model.events}
+    return [i for i, name in enumerate(model.p_names) if name.endswith(MODE_SUFFIX)
+            and name[:-len(MODE_SUFFIX)] + SLIP in events and name[:-len(MODE_SUFFIX)] + GRIP in events]
+
+
+@contextmanager
+def stick_rows_released(model, data):
+    """Within: every sticking friction element of data.p slips (+1), as far as the loop functions see it. In a
+    model with closed loops a sticking element is a constraint row (compiler/friction_loops.py); assembling the
+    loops with those rows would lock the joints they hold, so that positions given a little off the loops could
+    not be closed and initial speeds along them would be taken away. The loops are assembled without them, and
+    the run then decides each element's mode from the assembled state (start_friction_modes)."""
+    held = [i for i in friction_modes(model) if data.p[i] == 0]
+    for i in held:
+        data.p[i] = 1.0
+    try:
+        yield
+    finally:
+        for i in held:
+            data.p[i] = 0.0
 
 
 def is_friction_event(model, name: str) -> bool:

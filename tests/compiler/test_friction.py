@@ -159,7 +159,6 @@ def test_a_normal_force_the_compiler_cannot_solve_is_an_error(tmp_path, model, o
 
 
 @pytest.mark.parametrize("interaction, law, message", [
-    ("wrist_pin \"closes the loop\"", "coulomb(mu_k = 0.1, normal = 10 N, radius = 1 cm)", "closes a kinematic loop"),
     ("guide", "coulomb(mu_k = 0.1, normal = reaction)", "bearing friction"),
 ])
 def test_what_switched_friction_cannot_do_in_a_closed_loop_is_refused(tmp_path, interaction, law, message):
