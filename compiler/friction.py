@@ -77,6 +77,8 @@ class _Element:
     load: sp.Expr | None     # k of normal = k * reaction
     direction: sp.Expr | None = None  # a plane contact's row: the kinetic force's direction component (else: mode)
     plane: int = 0           # 0 one row per element; a plane contact's rows are 1 and 2 (compiler/friction_plane.py)
+    cut: int = -1            # a joint that closes a loop: its index in the lowering's cuts ...
+    axis: tuple = ()         # ... and its axis (world components), across which it carries its load
 
 
 class FrictionLowering:
@@ -88,6 +90,7 @@ class FrictionLowering:
         self.elements: list[_Element] = []
         self.rows: tuple = ()    # closed loops: the sticking elements' constraint rows (compiler/friction_loops.py)
         self.inputs: tuple = ()  # ... and their multipliers as run-time inputs
+        self.bearing = None      # ... and bearing friction there (compiler/friction_loops.py LoadedFriction)
 
     def attach(self, inter: M.Interaction, force: M.Force) -> sp.Expr:
         """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
@@ -109,12 +112,17 @@ class FrictionLowering:
                 contact = _Pin(low, inter, [low.geometry(c) for c in inter.joint.axes[0]])
             rate, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
             speed = lever * rate
+            cut, axis = -1, ()
+            if inter.joint is not None:
+                cut = next(k for k, c in enumerate(low.cuts) if c.name == inter.name)
+                axis = contact.t if isinstance(contact, _Contact) else contact.n
         else:
             slot = low.kin.tree.v_slots[body][0]
             rate, coordinate = low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
             speed = lever * rate
             locked = lambda vdot: vdot[slot]
             apply = lambda value: low.kin.add_generalized_force(body, 0, value)
+            cut, axis = -1, ()
         mu = mu_k
         if force.arg("stribeck_speed") is not None:
             mu = mu_k + (mu_s - mu_k) * sp.exp(-(speed / arg("stribeck_speed")) ** 2)
@@ -137,7 +145,7 @@ class FrictionLowering:
         apply(placeholder)
         self.elements.append(_Element(force, body, coordinate, locked, rate, placeholder,
                                       parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
-                                      load))
+                                      load, cut=cut, axis=tuple(axis)))
         return placeholder
 
     def _attach_plane(self, inter, force, arg, mu_k, mu_s, normal) -> sp.Expr:
@@ -173,7 +181,7 @@ class FrictionLowering:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
-            values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
+            values, events, self.rows, self.inputs, self.bearing = resolve_in_loops(low, elements, _sticks, _events)
             return values, events
         loaded = [e for e in elements if e.load is not None]
         kin = low.kin
