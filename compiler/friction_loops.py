@@ -26,7 +26,25 @@ the system then accelerates in.
 A plane contact (compiler/friction_plane.py) is two rows, one per tangent, its holding force the pair of
 multipliers, checked against the cone.
 
-Not here: bearing friction (normal = reaction) in a loop model, friction in a loop-closing joint.
+**A joint that closes a loop** has no coordinate: its relative motion is a function of the tree state. A prismatic
+one is a contact of frame b's origin along its axis (compiler/friction.py _Contact), a revolute one a torque about
+its axis on both parts with the slip rate n.(omega_b - omega_a) (_Pin); the row and the events are the same.
+
+**Bearing friction** (normal = reaction): the load R of the joint across its axis comes from the accelerations
+and the multipliers (a tree joint's by the inverse dynamics with the cut joints' loads, a cut joint's from its
+rows' multipliers), and those come from the loop solve, in which the kinetic force F acts: coupled. Everything is
+affine in F, though: with the loaded element's force F_l put on its own row's multiplier (0 there while slipping,
+the row being zero), R_l = R0_l + sum_j B_lj F_j where R0 comes from the solve without the bearings' kinetic
+forces and B from the solve's response to each bearing's generalized force E_j. runtime/c/loops.c makes both
+solves with the same factors; mbs_friction_loads (generated here, `bearing_routines`) solves F_l = k_l |R_l|
+(k_l = -mode mu load lever) exactly, as the tree case does: the quadratic of one element, Newton's method for
+several (compiler/friction_bearing.py loads_by_newton). mbs_forces leaves the bearings' kinetic forces out
+(loops.c adds E F). While sticking the row holds the joint and F is 0; the static limit is mu_s load lever |R| at
+the holding force. A model with bearing friction in its loops has no exact loop Jacobian (its residuals would not
+know that f depends on the solve): the stiff integrators difference the right-hand side.
+
+A loop model is assembled without the stick rows (runtime/friction.py stick_rows_released): the run then decides
+each element's mode from the assembled state, slip if it moves, else by its holding force against the limit.
 """
 
 from __future__ import annotations
