@@ -957,7 +957,8 @@ static int mbs_loop_multipliers_of(mbs_loop_work *w, int r, double *lambda)
     int s = mbs_loop_lambda(w, r, lambda);
 #ifdef MBS_NLOADED
     {
-        const double *F = mbs_loop_friction_area(w) + MBS_NX + MBS_NV + MBS_NC + (MBS_NV + MBS_NC + MBS_NV) * MBS_NLOADED;
+        const double *F = mbs_loop_friction_area(w) + MBS_NX + MBS_NV + MBS_NC
+                          + (MBS_NV + MBS_NC + MBS_NV) * MBS_NLOADED;  /* after [x; a0; lambda0; Wv; Wl] and E */
         int l;
         for (l = 0; l < MBS_NLOADED; l++) lambda[mbs_loaded_row[l]] += F[l];
     }

@@ -166,9 +166,11 @@ def test_bearing_friction_in_a_slider_of_a_closed_loop_is_mu_times_its_reaction(
     text = example.read_text()
     for old, new in (("init der(phi) = 10 rad/s", "init phi = 30 deg\n            init der(phi) = 10 rad/s"),
                      ("init phi = 0 deg", ""), ("init s = 0.5 m", ""),
-                     ("interact guide {\n", "interact guide {\n        force friction = coulomb(mu_s = 0.3, mu_k = 0.2, "
-                      "normal = reaction)\n        sensor f = force(element = friction)\n        sensor R = reaction()\n"),
-                     ("    }\n}", "    }\n    output f = guide.f\n    output fy = guide.R.fy\n    output fz = guide.R.fz\n}")):
+                     ("interact guide {\n", "interact guide {\n        force friction = coulomb(mu_s = 0.3, "
+                      "mu_k = 0.2, normal = reaction)\n        sensor f = force(element = friction)\n"
+                      "        sensor R = reaction()\n"),
+                     ("    }\n}", "    }\n    output f = guide.f\n    output fy = guide.R.fy\n"
+                      "    output fz = guide.R.fz\n}")):
         assert old in text
         text = text.replace(old, new, 1)
     path = tmp_path / "slider_crank_bearing.mbs"
