@@ -158,3 +158,41 @@ def test_the_generated_c_compiles_without_warnings(tmp_path):
     source = mbs.load(MODEL).generate().c_source
     result = build.build(source, filename="bearing_loops.c", cache_dir=tmp_path)
     assert not result.cached and result.warnings == "", result.warnings
+
+
+def test_two_coupled_bearings_in_a_loop_each_carry_mu_times_their_load(tmp_path):
+    """Friction in the main bearing and in the wrist pin at once: each one's torque changes the other's load
+    (through the loop's constraint forces), solved by Newton's method on the tape (compiler/friction_bearing.py).
+    Each torque against its own reaction sensor, and the energy balance with both torques' work."""
+    text = MODEL.read_text()
+    element = ("        force friction = coulomb(mu_s = mu_s, mu_k = mu_k, normal = reaction, radius = r_pin)\n"
+               "        sensor f = force(element = friction)\n")
+    head = "        joint revolute(axis = y, cut = true)\n"
+    text = text.replace(head, head + element).replace("output torque = main_bearing.f",
+                                                       "output torque = main_bearing.f\n    output wrist = wrist_pin.f")
+    path = tmp_path / "both.mbs"
+    path.write_text(text)
+    t_end = 0.3
+    res = mbs.load(path).simulate(t_end=t_end, t_eval=np.linspace(0.0, t_end, 1501), params={"r_pin": 0.03},
+                                  rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    first = [(e["event"], e["time"]) for e in res.events][:4]
+    assert first[:2] == [("main_bearing.friction.slip", 0.0), ("wrist_pin.friction.slip", 0.0)]
+    # both slip rates are the crank's times a factor: they reach zero together, and both grip there
+    assert {name for name, _ in first[2:]} == {"main_bearing.friction.grip", "wrist_pin.friction.grip"}
+    assert first[2][1] == first[3][1]
+    m = mechanism()
+    phi, w = res["main_bearing.phi"], res["der(main_bearing.phi)"]
+    rate = np.array([m["dtheta"](a) for a in phi]) * w
+    grips = [e["time"] for e in res.events if e["event"].endswith("grip")]
+    assert grips and grips[0] > 0.1  # the first reversal; both slip until then
+    before = res.t < grips[0] - 1e-9
+    for torque, load, speed in ((res["torque"], np.hypot(res["main_fx"], res["main_fz"]), w),
+                                (res["wrist"], np.hypot(res["wrist_fx"], res["wrist_fz"]), rate)):
+        np.testing.assert_allclose(np.abs(torque[before]), 0.3 * 0.03 * load[before], rtol=1e-10)
+        assert np.all(torque[before][1:] * speed[before][1:] < 0)  # against the motion
+    power = np.abs(res["torque"] * w) + np.abs(res["wrist"] * rate)
+    rows = np.flatnonzero(before)
+    energy = np.array([0.5 * m["mass"](a) * b * b + 0.5 * K * (m["xs"](a) - L0) ** 2
+                       - M_ROD * G * R * math.sin(a) / 2 for a, b in zip(phi[rows], w[rows])])
+    assert energy[0] - energy[-1] == pytest.approx(simpson(power[rows], x=res.t[rows]), rel=1e-6)
