@@ -60,13 +60,15 @@ def is_friction_event(model, name: str) -> bool:
     return False
 
 
-def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = True) -> list[EventRecord]:
+def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = True,
+                         fired: tuple = ()) -> list[EventRecord]:
     """Set data.p's friction modes for the state (t, x); returns the log entries of the elements let go (their
     slip event with the direction 'start'). moving=False: the check right after an event: a slipping element
     that the event brought to rest as well grips (`_grip_stopped`), and elements held beyond their limit are let
     go (a grip in a loop model, which sticks first, or a jump of the loads), again while letting one go loads
-    another beyond its limit (two locks of one loop share its load)."""
-    records = [] if moving else _grip_stopped(model, data, t, x)
+    another beyond its limit (two locks of one loop share its load). fired: the names of the events just
+    applied (their elements' modes are as those events set them)."""
+    records = [] if moving else _grip_stopped(model, data, t, x, fired)
     for _ in range(len(friction_modes(model)) + 1):
         new = _let_go(model, data, t, x, moving)
         records += new
@@ -76,7 +78,7 @@ def start_friction_modes(model, data, t: float, x: np.ndarray, moving: bool = Tr
     return records
 
 
-def _grip_stopped(model, data, t: float, x: np.ndarray) -> list[EventRecord]:
+def _grip_stopped(model, data, t: float, x: np.ndarray, fired) -> list[EventRecord]:
     """Slipping elements (along a line) whose slip speed the event made zero (below STOPPED_SPEED: another
     element's grip locked the motion they slide with, as two bearings of one loop stop together) grip as their
     own grip event would have: they stick, and the check that follows lets them go if they cannot hold."""
@@ -84,8 +86,8 @@ def _grip_stopped(model, data, t: float, x: np.ndarray) -> list[EventRecord]:
     records = []
     for mode in friction_modes(model):
         base = model.p_names[mode][:-len(MODE_SUFFIX)]
-        if data.p[mode] == 0 or base + ".e1" in model.p_names:
-            continue
+        if data.p[mode] == 0 or base + ".e1" in model.p_names or base + SLIP in fired or base + GRIP in fired:
+            continue  # sticking, a plane contact, or its own event just set its mode (a slip from rest)
         old = data.p[mode]
         if abs(_slip_speed(model, data, t, x, mode, index[base + GRIP])) <= STOPPED_SPEED:
             records.append(EventRecord(t, base + GRIP, "with the event", f"{model.p_names[mode]}: {old:.6g} -> 0"))

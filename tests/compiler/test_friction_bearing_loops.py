@@ -187,8 +187,9 @@ def test_two_coupled_bearings_in_a_loop_each_carry_mu_times_their_load(tmp_path)
     grips = [e["time"] for e in res.events if e["event"].endswith("grip")]
     assert grips and grips[0] > 0.1  # the first reversal; both slip until then
     before = res.t < grips[0] - 1e-9
+    # the wrist pin's slip rate is the slider's (b) turning against the rod's (a): -theta'
     for torque, load, speed in ((res["torque"], np.hypot(res["main_fx"], res["main_fz"]), w),
-                                (res["wrist"], np.hypot(res["wrist_fx"], res["wrist_fz"]), rate)):
+                                (res["wrist"], np.hypot(res["wrist_fx"], res["wrist_fz"]), -rate)):
         np.testing.assert_allclose(np.abs(torque[before]), 0.3 * 0.03 * load[before], rtol=1e-10)
         assert np.all(torque[before][1:] * speed[before][1:] < 0)  # against the motion
     power = np.abs(res["torque"] * w) + np.abs(res["wrist"] * rate)
