@@ -119,13 +119,16 @@ class CEmitter:
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                  constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-                 dynamics=None, events=(), actions=()):
+                 dynamics=None, events=(), actions=(), friction=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = self.parameter_jacobian = None
         self.loop_jacobian = None
+        # bearing friction in loops (compiler/friction_loops.py bearing_routines): (routines, inputs, definitions,
+        # work); f then depends on the loop solve itself, which the loop Jacobian's residuals do not know
+        self.friction = friction
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
-        elif jacobian and not equations.zdot:  # with extra states: differences of mbs_rhs over all of x
+        elif jacobian and not equations.zdot and friction is None:  # extra states: differences of mbs_rhs
             self.eqs, self.loop_jacobian = loop_jacobian_or_none(equations, constraints)
         if parameter_jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
@@ -145,6 +148,7 @@ class CEmitter:
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, self.constraints, self.run_time_inputs)
         loop_inputs = self.loop_jacobian.inputs if self.loop_jacobian else ()
+        loop_inputs += tuple(friction[1]) if friction else ()
         self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs) + loop_inputs)
         self.names = self.naming.names
 
@@ -175,7 +179,8 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r])
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r]
+                + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -215,7 +220,9 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
-                      loop_definitions(self.constraints, self.constraint_matrix is not None)]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+            if self.friction:
+                lines.append(self.friction[2])
             if self.loop_jacobian:
                 lines.append(self.loop_jacobian.definitions)
         lines += ["",
@@ -276,10 +283,14 @@ class CEmitter:
     def _work(self) -> int:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) if nc else 0
+        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return tree.nv * tree.nv + loops + self._output_scratch()
+
+    def _friction_work(self) -> int:
+        """Doubles at the end of the loop solver's work for bearing friction in the loops (MBS_FRICTION_NWORK)."""
+        return self.friction[3] if self.friction else 0
 
     def _output_scratch(self) -> int:
         """Doubles at the start of work in which the output function keeps x' and the multipliers."""
@@ -356,7 +367,7 @@ def _array(name: str, values) -> str:
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-               dynamics=None, events=(), actions=()) -> str:
+               dynamics=None, events=(), actions=(), friction=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -372,7 +383,8 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()
+                    run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
+                    dynamics=dynamics, friction=friction).source()
 
 
 def generate_loop_c(equations: Equations, constraints: Constraints, parameters: Sequence[sp.Symbol],

@@ -46,6 +46,7 @@ class Lowered:
     switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
     state_rates: tuple = ()                    # z' of the extra states (tree.states), language/states.py
     friction_rows: tuple = ()                  # sticking friction as constraint rows (compiler/friction_loops.py)
+    bearing_friction: object = None            # bearing friction in a loop model (friction_loops.LoadedFriction)
 
     @property
     def tree(self) -> Tree:
@@ -399,7 +400,7 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs() + lowering.friction.inputs, events, switches, rates,
-                   lowering.friction.rows)
+                   lowering.friction.rows, lowering.friction.bearing)
 
 
 def state_symbols(model: M.Model, inputs=None) -> list[sp.Symbol]:

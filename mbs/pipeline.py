@@ -178,6 +178,10 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
     clock("derived the equations of motion")
+    friction = None
+    if lowered.bearing_friction is not None and constraints is not None:  # bearing friction in the loops
+        from mbs.compiler.friction_loops import bearing_routines
+        equations, friction = bearing_routines(equations, lowered.bearing_friction, constraints.nc)
     asked = None
     if dynamics:  # of the spanning tree; with loops, tau = G^T lambda (mbs_constraint_jacobian, multipliers)
         routines, inputs = dynamics_routines(lowered.kinematics)
@@ -208,7 +212,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
         options["parameter_jacobian"] = True
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
-    c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
+    c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction, **options)
     clock("generated C and NumPy code")
     symbolic = Symbolic(lowered, equations, constraints)
     return Generated(model, scene, c_source, numpy_source,
