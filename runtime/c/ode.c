@@ -29,6 +29,8 @@ typedef struct mbs_ode_restarts {
     double window;          /* an event this close after the previous one goes back to the caller (chattering) */
     double last_t;          /* time of the last event handled here */
     double h_cut;           /* size of the step in which the pending event was located */
+    double t_next;          /* the next crossing located in that step after the event (HUGE_VAL: none) */
+    double h_resume;        /* > 0: the step size to go on with after the short step to t_next */
     long capacity, count;   /* log entries: room for, and taken */
     size_t width;           /* doubles per entry: t, y before [n], x after [n], g before [nev], g at [nev], values */
     double *log;            /* [capacity * width] */
@@ -256,22 +258,29 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
 static void mbs_ode_find_event(mbs_ode *o)
 {
     int k, s, found = 0;
-    double t_event = o->t, *swap;
+    double t_event = o->t, t_next = HUGE_VAL, *swap;
+    mbs_ode_restarts *r = o->restarts;
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
     for (k = 0; k < o->nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
             double tk = mbs_ode_locate(o, k, o->t_old, o->t, o->g_old[k], o->g_new[k]);
-            if (!found || tk < t_event) t_event = tk;
+            if (!found || tk < t_event) {
+                if (found) t_next = t_event;
+                t_event = tk;
+            } else if (tk > t_event && tk < t_next) {
+                t_next = tk;
+            }
             found = 1;
         }
     }
     if (!found) {
         swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;
+        if (r && r->h_resume > 0) { o->h = r->h_resume; r->h_resume = 0; }  /* the next crossing was not there */
         return;
     }
-    if (o->restarts) o->restarts->h_cut = o->t - o->t_old;
+    if (r) { r->h_cut = o->t - o->t_old; r->t_next = t_next; }
     o->dense(o, t_event, o->y);
     o->t = t_event;
     o->status = MBS_ODE_EVENT;
@@ -290,6 +299,7 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     mbs_ode_restarts *r = calloc(1, sizeof *r);
     if (!r) return -1;
     r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window; r->last_t = -HUGE_VAL;
+    r->t_next = HUGE_VAL;
     r->capacity = capacity > 0 ? capacity : 1;
     r->width = 1 + 2 * (size_t)o->n + 2 * (size_t)nev + (size_t)nvalues;
     r->handled = calloc((size_t)nev + 1, sizeof(int));
@@ -391,7 +401,7 @@ static int mbs_ode_restart(mbs_ode *o)
     memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
     r->count++;
     r->last_t = o->t;
-    h_step = r->h_cut;
+    h_step = r->h_resume > 0 ? r->h_resume : r->h_cut;
     o->t_old = o->t;
     for (pass = 0;; pass++) {
         if (mbs_ode_eval(o, o->t, o->y, o->f) != MBS_OK) {
@@ -402,8 +412,19 @@ static int mbs_ode_restart(mbs_ode *o)
         if (pass == 1 || !mbs_ode_settle(o, o->g_old)) break;
     }
     /* the method goes on with the step size it had: the one its controller proposed, but no larger than the step
-     * just taken (that proposal was made across the switch, where the solution's derivatives jump) */
-    if (h_step > 0 && o->h > h_step) o->h = h_step;
+     * just taken (that proposal was made across the switch, where the solution's derivatives jump); after a short
+     * step to a second crossing, the step size from before it */
+    if (r->h_resume > 0) o->h = r->h_resume;
+    else if (h_step > 0 && o->h > h_step) o->h = h_step;
+    r->h_resume = 0;
+    /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
+     * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
+     * branch (rejected) and then be cut short by it */
+    if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && 2.0 * (r->t_next - o->t) >= o->h_min
+        && r->t_next > o->t) {
+        r->h_resume = o->h;
+        o->h = 2.0 * (r->t_next - o->t);
+    }
     o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
     return 1;
 }
