@@ -32,22 +32,30 @@ class Segments:
     p: list = field(default_factory=list)
 
     def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
-        rows = len(times)
-        if rows == 0:
-            return
+        if len(times):
+            self.append(times, states, self.in_force(p))
+
+    def in_force(self, p: np.ndarray) -> int:
+        """The index of the p copy equal to ``p``, the last one or a new copy."""
         if not self.p or not np.array_equal(self.p[-1], p):
             self.p.append(p.copy())
-        self.times.append(times)
-        self.states.append(states)
-        self.counts.append((rows, len(self.p) - 1))
+        return len(self.p) - 1
+
+    def append(self, times, states: np.ndarray, which: int) -> None:
+        """Rows in the p copy ``which`` (from in_force): ``times`` a sequence, ``states`` one row or rows."""
+        if len(times):
+            self.times.append(times)
+            self.states.append(states)
+            self.counts.append((len(times), which))
 
     def arrays(self, nx: int):
-        if not self.times:
-            return np.empty(0), np.empty((0, nx)), np.empty(0, dtype=int)
-        rows, which = zip(*self.counts)
-        times = np.concatenate([np.asarray(t, dtype=float).reshape(-1) for t in self.times])
-        states = np.vstack([np.asarray(x, dtype=float).reshape(-1, nx) for x in self.states])
-        return times, states, np.repeat(which, rows)
+        rows = sum(n for n, _ in self.counts)
+        times, states, which = np.empty(rows), np.empty((rows, nx)), np.empty(rows, dtype=int)
+        i = 0
+        for t, x, (n, k) in zip(self.times, self.states, self.counts):
+            times[i:i + n], states[i:i + n], which[i:i + n] = t, x, k
+            i += n
+        return times, states, which
 
 
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks=100):
@@ -188,16 +196,19 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
     fired_rows = crossing_rows(g_old, g_event, directions)
     split = np.maximum(np.searchsorted(times, log[:, 0], side="left"), start)  # first sample row at or after it
+    which = segments.in_force(p_now)
     for row, fired, j, g_before, g_at in zip(log, fired_rows, split.tolist(), g_old, g_event):
         t_event = float(row[0])
-        segments.add(times[start:j], states[start:j], p_now)
-        segments.add((t_event,), row[1:1 + nx], p_now)
+        segments.append(times[start:j], states[start:j], which)
+        segments.append((t_event,), row[1:1 + nx], which)
         _, new = apply_events(model, data, np.flatnonzero(fired), g_before, g_at, t_event, row[1:1 + nx],
                               model.x_names, values=row[1 + 2 * nx + 2 * nev:], p=p_now)
         records += new
         fired_times += [t_event] * len(new)
+        segments.p.append(p_now.copy())  # the values after the event (an event always changes one)
+        which = len(segments.p) - 1
         if j >= times.size or times[j] != t_event:
-            segments.add((t_event,), row[1 + nx:1 + 2 * nx], p_now)
+            segments.append((t_event,), row[1 + nx:1 + 2 * nx], which)
         start = j
     return start
 
