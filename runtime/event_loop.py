@@ -127,9 +127,9 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
                 x = y_event
                 break
             x, new = apply_events(model, data, fired, solver.g_old, g_event, t_event, y_event, names)
+            if "project" in model.functions:  # closed loops: new speeds consistent with the constraints
+                x = data.project(t_event, x)
             jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
-            if jumped and "project" in model.functions:  # closed loops: new speeds consistent with the constraints
-                x = data.project(t_event, x)  # (without a jump the state stays as integrated: see c/ode.c)
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
             # integrator had; after a jump (an impact) it chooses its own first step
             hint = None if jumped else solver.step_hint
@@ -159,7 +159,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     return segments, status, message, records, stats
 
 
-#: Events the C sampling loop handles between two returns to Python (the log's rows).
+#: Rows of the C event log to start with (it grows as needed until Python takes it, c/ode.c).
 C_LOG_CAPACITY = 64
 
 
