@@ -289,8 +289,7 @@ static void mbs_ode_find_event(mbs_ode *o)
 /* Handle events in C: ``handled[k]`` marks the indicators whose actions only assign parameters (the
  * ``nassign`` pairs index[j] <- actions output slot[j], grouped per event by first[]) or flip a switch's branch
  * flag (flag[k] >= 0); ``capacity`` log entries to start with (the log grows as needed until the caller
- * takes it).  Returns 0, or -1
- * without memory (the solver then returns every event, as without this call). */
+ * takes it).  Returns 0, or -1 without memory (the solver then returns every event, as without this call). */
 static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalues, const int *handled,
                                 const int *flag, const int *first, const int *index, const int *slot,
                                 long capacity, double window)
