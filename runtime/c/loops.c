@@ -724,8 +724,8 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
             T[e] = 1.0;
             Ti[e++] = cpi[r + j];
             for (k = 0; k < r; k++)
-                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order: the sums below then add in the */
-                    int at = e++;                 /* order of the dense products they replace, term for term */
+                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order (the sums below read M along */
+                    int at = e++;                 /* its rows in order) */
                     for (; at > first && Ti[at - 1] > cpi[k]; at--) {
                         T[at] = T[at - 1];
                         Ti[at] = Ti[at - 1];
@@ -749,8 +749,10 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         memset(w->c0, 0, MBS_NV * sizeof(double));
         for (k = 0; k < r; k++) w->c0[cpi[k]] = w->y[k];
     }
-    /* b = f - M c0 (c0 is zero on the independent velocities), then column by column: M T_j into w->vd (M is
-     * symmetric: row Ti[e] of M is its column Ti[e]), the lower triangle of A = T^T M T and a_j = T_j^T b */
+    /* b = f - M c0 (c0 is zero on the independent velocities), a_j = T_j^T b and the lower triangle of
+     * A = T^T M T entry by entry from the nonzeros of T: A_ij = sum over the nonzeros T_f of column i and T_e of
+     * column j of T_f M(Ti_f, Ti_e) T_e, which costs nnz_i nnz_j (a suspension's column moves its loop's few
+     * velocities, a free body's one) rather than an nv-long product M T_j per column */
     memcpy(w->b, w->f, MBS_NV * sizeof(double));
     for (k = 0; k < MBS_NV; k++) {
         const double c = w->c0[k];
@@ -759,20 +761,20 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        int e;
-        memset(w->vd, 0, MBS_NV * sizeof(double));
-        for (e = start[j]; e < start[j + 1]; e++) {
-            const double *Mrow = M + Ti[e] * MBS_NV, tk = T[e];
-            for (i = 0; i < MBS_NV; i++) w->vd[i] += Mrow[i] * tk;
-            sum += tk * w->b[Ti[e]];
-        }
+        int e, f;
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->b[Ti[e]];
         w->a[j] = sum;
         for (i = j; i < m; i++) {
             sum = 0.0;
-            for (e = start[i]; e < start[i + 1]; e++) sum += T[e] * w->vd[Ti[e]];
+            for (f = start[i]; f < start[i + 1]; f++) {
+                const double *Mrow = M + Ti[f] * MBS_NV;
+                double column = 0.0;
+                for (e = start[j]; e < start[j + 1]; e++) column += Mrow[Ti[e]] * T[e];
+                sum += T[f] * column;
+            }
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
-        dmax = fmax(dmax, A[j * MBS_NV + j]);
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
     for (j = 0; j < m; j++) {
@@ -959,7 +961,8 @@ int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, dou
     mbs_loop_work w = mbs_loop_layout(work);
     int s = mbs_loop_jacobian_at(t, x, p, &w, 0);
     memcpy(G, w.G, MBS_NC * MBS_NV * sizeof(double));
-    return s;
+    /* the generated G does not test its entries (the solver's scan for the largest does) */
+    return s != 0 ? s : isfinite(mbs_loop_maxabs(G, MBS_NC * MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
 int mbs_loop_normalize(double t, const double *x, const double *p, double *out, double *work)
