@@ -56,10 +56,7 @@
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
  * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs), and the driver stores
- * mbs_project(x) at output points.  DOPRI5 then evaluates mbs_loop_rhs_direct at its stages (the glue
- * substitutes it for mbs_rhs): the stages lie within the step's error of the constraints, and projecting each
- * of them again cost two thirds of the integration; rodasp keeps mbs_loop_rhs, whose Jacobian
- * loop_jacobian.c assembles.  For integrators that cannot project (scipy's), compiling with
+ * mbs_project(x) at output points.  For integrators that cannot project (scipy's), compiling with
  * -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds k (x_c - x) to x', which leaves the motion on the
  * constraints unchanged and pulls the drift back.
  */
