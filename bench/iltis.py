@@ -137,7 +137,7 @@ def main() -> None:
         print(f"\nrhs per call inside C at the equilibrium (medians of {args.repeat} interleaved rounds):")
         print(f"  constrained rhs (projected)  {rhs * 1e6:8.2f} us  {ratio:5.1f} x the open chain")
         print(f"  constrained rhs (no projection) {direct * 1e6:5.2f} us  {ratio_direct:5.1f} x the open chain "
-              f"(what DOPRI5 calls; target <= {TARGET_RHS_RATIO:g} x)")
+              f"(the rhs without the projection; target <= {TARGET_RHS_RATIO:g} x)")
         print(f"  open chain of {compiled.nv} links     {open_rhs * 1e6:8.2f} us")
 
         print(f"\n{'scene':8s} {'t_end':>5s} {'wall':>8s} {'RTF':>6s} {'equil.':>8s} {'integr.':>8s} "

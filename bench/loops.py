@@ -12,8 +12,8 @@ For each closed-loop model of the library:
   matrix and the null-space solve (runtime/c/loops.c) instead of the tree's articulated-body recursion. Both
   are evaluated at the same states (samples of a closed-loop run), one Python call per state ("py") and
   inside C without Python ("C", `Workspace.time_rhs`: the projecting rhs, which scipy's integrators and the
-  outputs call), and inside C the rhs without the projection ("direct", `loop_rhs`: what DOPRI5 and the other
-  C integrators call, which project only the accepted states). Shared machines are noisy: each figure is the median
+  outputs call, and so do DOPRI5 and rodasp in C, which project the accepted states besides), and inside C the
+  rhs without the projection ("direct", `loop_rhs`, the loop algebra alone). Shared machines are noisy: each figure is the median
   over --rounds rounds in which the two models' batches are interleaved, and the ratio is the median of the
   per-round ratios (the stable figure).
 * drift: one long run per model (slider-crank 20 s at 10 rad/s; quarter car 10 s over the 5 m/s bump, its
@@ -224,7 +224,7 @@ def main() -> None:
         print(f"{name:13s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}"
               f" {cd * 1e6:9.2f} {rd:6.1f}")
     print("(ratio = closed / open tree, the loop overhead; issue 12's target: under 3; closed C projects the state at "
-          "every call, direct C is the rhs the C integrators call)")
+          "every call, direct C does not project)")
 
     print("\nconstraint residuals of the long runs (DOPRI5 in C): max |g| [m] of the stored (projected) samples and"
           " of the raw integrated state")
