@@ -20,13 +20,18 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
   real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
   and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
-  with --rk45 also scipy's RK45 on the same compiled model, as a ratio.
+  with --rk45 also scipy's RK45 on the same compiled model, as a ratio;
+* per scene, both forms of the model's kinks (unless --no-switches): the smooth form (`switches = false`: the
+  tyre contact, leaf stop and damper kinks as min/max inside the rhs, which the step size control meets as
+  rejections) and the event form (`switches = true`: each kink a located event, the integrator restarted there),
+  the whole `simulate` each, with steps, rejections and rhs calls; the ratio is event / smooth wall time.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -92,6 +97,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--rk45", action="store_true", help="also run scipy's RK45 as a baseline")
+    ap.add_argument("--no-switches", action="store_true", help="leave out the smooth / event form comparison")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
@@ -131,7 +137,7 @@ def main() -> None:
         print(f"\nrhs per call inside C at the equilibrium (medians of {args.repeat} interleaved rounds):")
         print(f"  constrained rhs (projected)  {rhs * 1e6:8.2f} us  {ratio:5.1f} x the open chain")
         print(f"  constrained rhs (no projection) {direct * 1e6:5.2f} us  {ratio_direct:5.1f} x the open chain "
-              f"(what DOPRI5 calls; target <= {TARGET_RHS_RATIO:g} x)")
+              f"(the rhs without the projection; target <= {TARGET_RHS_RATIO:g} x)")
         print(f"  open chain of {compiled.nv} links     {open_rhs * 1e6:8.2f} us")
 
         print(f"\n{'scene':8s} {'t_end':>5s} {'wall':>8s} {'RTF':>6s} {'equil.':>8s} {'integr.':>8s} "
@@ -154,6 +160,37 @@ def main() -> None:
             print(line + ("" if res.success else f"  ({res.message})"))
         print(f"(RTF = simulated / wall time, from the start of simulate to the results with every output; "
               f"target >= {TARGET_RTF:g})")
+        if not args.no_switches:
+            compare_forms(cache, args.scenes, args.repeat)
+
+
+def compare_forms(cache: str, scenes, repeat: int) -> None:
+    """Each scene's whole simulate() with the kinks smooth (switches = false) and as events (switches = true),
+    medians of interleaved runs, with the step counts of each form."""
+    text = MODEL.read_text()
+    header = re.search(r"^model [^\n]*\{[^\n]*\n", text, re.M)
+    forms = {flag: mbs.loads(text[:header.end()] + f"    switches = {flag}\n" + text[header.end():], path=str(MODEL),
+                             cache_dir=cache) for flag in ("false", "true")}
+    print(f"\nkinks smooth (switches = false) or as events (switches = true), whole simulate(), medians of {repeat}:")
+    print(f"{'scene':8s} {'form':>7s} {'wall':>8s} {'RTF':>6s} {'steps':>6s} {'reject':>6s} {'rhs':>6s} {'events':>6s}"
+          f" {'events/smooth':>13s}")
+    for scene in scenes:
+        t_end = forms["false"].scene(scene).t_end
+        walls: dict[str, list] = {"false": [], "true": []}
+        last = {}
+        for flag in forms:
+            forms[flag].simulate(scene)  # compile and warm up
+        for _ in range(repeat):
+            for flag, system in forms.items():
+                start = time.perf_counter()
+                last[flag] = system.simulate(scene)
+                walls[flag].append(time.perf_counter() - start)
+        wall = {flag: statistics.median(w) for flag, w in walls.items()}
+        for flag, name in (("false", "smooth"), ("true", "events")):
+            stats, res = last[flag].metadata["stats"], last[flag]
+            print(f"{scene:8s} {name:>7s} {wall[flag] * 1e3:6.0f}ms {t_end / wall[flag]:6.1f} {stats.get('nsteps', 0):6d} "
+                  f"{stats.get('nreject', 0):6d} {stats.get('nfev', 0):6d} {len(res.events):6d}"
+                  + (f" {wall['true'] / wall['false']:13.2f}" if flag == "true" else ""))
 
 
 def cli_times(cache: str, scene: str, repeat: int) -> tuple[float, float]:

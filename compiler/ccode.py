@@ -33,8 +33,8 @@ from pathlib import Path
 import sympy as sp
 
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
-from .ccode_loops import (constraint_matrix_routine, loop_definitions, loop_functions, loop_routines, loop_work_size,
-                          state_rates_routine, unchecked_mass_matrix)
+from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
+                          loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -347,7 +347,8 @@ class CEmitter:
         else:
             lines.append("    return 0;")
         lines.append("}\n")
-        return "\n".join(lines)
+        text = "\n".join(lines)
+        return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
 
 
 #: The length of each contract function's output, as the file's size macros.
