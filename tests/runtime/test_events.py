@@ -134,7 +134,7 @@ def test_a_stepped_set_point_is_a_time_event_every_integrator_passes(arm, integr
 
 
 def test_without_switches_the_stiff_integrator_collapses_at_the_step():
-    text = ARM.read_text().replace("switches = true", "switches = false")
+    text = ARM.read_text().replace("    gravity =", "    switches = false\n    gravity =")
     res = mbs.loads(text).simulate(t_end=1.0, sample=0.01, integrator="rodasp")
     assert not res.success and "t = 0.5 s" in res.message and "collapsed" in res.message
 
