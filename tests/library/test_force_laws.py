@@ -69,7 +69,8 @@ def probe():
     system = mbs.loads(LAWS)
     compiled = system.compile()
     data = Workspace(compiled)
-    data.p = [{"k": K, "k3": K3, "d": D, "l0": L0, "f0": F0, "gap": GAP, "m": 1.0}[n] for n in compiled.p_names]
+    values = {"k": K, "k3": K3, "d": D, "l0": L0, "f0": F0, "gap": GAP, "m": 1.0}
+    data.p = [values.get(n, 0.0) if n.startswith("switch.") else values[n] for n in compiled.p_names]  # as written
 
     def evaluate(s, rate):
         x = np.array(data.x)
