@@ -223,6 +223,12 @@ def run_parameters(model: M.Model, lowered) -> list:
     return [parameter_symbol(p.name) for p in model.parameters] + flags + ([FROZEN] if flags else [])
 
 
+def parameter_vector(p_names, values: Mapping[str, float]) -> list[float]:
+    """p in run-time order from the parameters' values: the switches' branch flags and the frozen flag (not
+    parameters of the model) start at 0, every comparison evaluated as written until a run freezes them."""
+    return [values[n] if not n.startswith("switch.") else values.get(n, 0.0) for n in p_names]
+
+
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by
 #: the command line unless -q, so a compile of half a minute says what it is doing even without a terminal.
 NOTE = 25
