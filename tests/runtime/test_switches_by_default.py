@@ -88,16 +88,6 @@ def test_every_integrator_passes_the_step_and_matches_the_hand_written_arm(arm, 
     assert abs(res["shoulder.phi"][-1] + math.pi / 4) < 1e-5  # held at -45 deg, sag ~1e-6 rad at this kp
 
 
-def test_switches_false_is_the_smooth_form_the_stiff_integrators_fail_on():
-    """The documented opt-out: the comparison evaluated as written, and rodasp collapses at the step (the issue's
-    report)."""
-    text = ARM.read_text().replace("    gravity =", "    switches = false\n    gravity =")
-    system = mbs.loads(text, path=str(ARM))
-    assert system.compile().events == ()
-    res = system.simulate(t_end=1.0, sample=0.01, integrator="rodasp")
-    assert not res.success and "t = 0.5 s" in res.message and "collapsed" in res.message
-
-
 @pytest.mark.parametrize("path", ["library/examples/pendulum.mbs", "library/examples/double_pendulum.mbs",
                                   "library/examples/slider_crank.mbs"])
 def test_a_model_without_comparisons_or_kinks_generates_the_code_it_did_without_switches(path):
