@@ -8,6 +8,12 @@ time's DOPRI5 in C. modelDescription.xml lists the states and their derivatives,
 with units and descriptions) and the scene's outputs. The start state is the scene's: joint and scene inits,
 closed loops assembled, the static equilibrium when the scene starts there (for the default parameters; an
 importer that changes a parameter may set the states' start values too).
+
+Events: the model's switches (comparisons and kinks, on by default) and events that `set` modes or parameters are
+event indicators (numberOfEventIndicators): Model Exchange importers locate their crossings and the FMU applies
+them in event mode; Co-Simulation locates them inside fmi2DoStep (runtime/c/mbs_fmu.c).  The branch flags are
+not listed as parameters.  A model with an event the FMU cannot apply (`reinit`, `terminate`, friction's stick/slip
+check) is refused with a message (event_table).
 """
 
 from __future__ import annotations

@@ -503,6 +503,8 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
                                     MBS_FMU_ZENO_WINDOW)) return fmi2Fatal;
         memcpy(m->ode.g_old, m->g_prev, sizeof(double) * MBS_NEV);  /* an indicator at zero: the side it leaves to */
     }
+#else
+    (void)mbs_ode_set_events; (void)mbs_ode_set_restarts;  /* ode.c's event set-up: not needed without events */
 #endif
     m->ode_stale = 0;
     return fmi2OK;
