@@ -98,3 +98,13 @@ def test_a_model_without_comparisons_or_kinks_generates_the_code_it_did_without_
     default, smooth = (mbs.loads(t, path=path).generate() for t in (text, off))
     assert default.c_source == smooth.c_source and default.numpy_source == smooth.numpy_source
     assert default.p_names == smooth.p_names and not default.events
+
+
+def test_the_numpy_back_end_holds_the_same_switch(reference):
+    """The NumPy module of the same model (no C compiler needed): the same event, the same motion."""
+    res = mbs.load(ARM, backend="numpy").simulate(t_end=T_END, sample=0.01, integrator="DOP853", rtol=1e-8,
+                                                  atol=1e-10)
+    assert res.success and [e["time"] for e in res.events] == [STEP]
+    expected = reference(res.t)
+    np.testing.assert_allclose(res["shoulder.phi"], expected[:, 0], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(res["elbow.phi"], expected[:, 1], rtol=0, atol=1e-4)
