@@ -40,6 +40,7 @@ import numpy as np
 from .errors import SimulationError, UsageError
 from .event_loop import departing, settle_switches
 from .events import crossings, init_switches, locate_crossing
+from .friction import is_friction_event
 from .model import CompiledModel
 from .workspace import Workspace, check_workspace
 
@@ -128,11 +129,12 @@ def _across_events(model, data, augmented, z0, t_end, P, scales, options, t_eval
     from scipy.integrate import OdeSolution
     from scipy.integrate._ivp.ivp import METHODS as SCIPY
 
-    blocked = [e.name for e in model.events if e.terminal or any(a == "x" for a, _, _ in e.assignments)]
+    blocked = [e.name for e in model.events if e.terminal or any(a == "x" for a, _, _ in e.assignments)
+               or is_friction_event(model, e.name)]
     if blocked:
-        raise UsageError(f"model {model.name}: event {', '.join(repr(n) for n in blocked)} makes the state jump or "
-                         "ends the run; sensitivities across such events are not built (the rule for the jump of "
-                         "S is not implemented)")
+        raise UsageError(f"model {model.name}: event {', '.join(repr(n) for n in blocked)} makes the state jump, "
+                         "ends the run or switches friction between stick and slip; sensitivities across such "
+                         "events are not built (the rule for the jump of S is not implemented)")
     nx, k = len(data.x), P.shape[1]
     g = data.function("events")
     actions = data.function("event_actions") if "event_actions" in model.functions else None
