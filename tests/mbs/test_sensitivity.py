@@ -300,3 +300,10 @@ def test_sensitivities_jump_at_switches_whose_time_moves_with_the_parameters():
     for metric, key in (("final(slide.s)", "x"), ("final(der(slide.s))", "v")):
         for p in ("T", "d"):
             assert table.derivative(metric, p) == pytest.approx(ref[f"d{key}/d{p}"], rel=1e-7), (metric, p)
+
+
+def test_an_event_that_makes_the_state_jump_is_a_clear_error_not_a_wrong_answer():
+    from mbs.runtime.errors import UsageError
+    ball = mbs.load("library/examples/bouncing_ball.mbs")
+    with pytest.raises(UsageError, match="event 'impact' makes the state jump"):
+        sensitivities(ball, "drop", params=["e"], metrics=["final(fall.s)"], t_end=1.0)
