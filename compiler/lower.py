@@ -74,8 +74,8 @@ class _Lowering:
         self.element_rates: dict[sp.Symbol, sp.Expr] = {}  # rates of states force elements add (tyre relaxation)
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
-        # comparisons and kinks of min/max/abs/sign in the motion become switches in a model with events or modes,
-        # or with the setting `switches = true` (model.switches)
+        # comparisons and kinks of min/max/abs/sign in the motion become switches in every model, unless it says
+        # `switches = false` (model.switches)
         self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
         self.state = ToSympy(self._state_symbol, self.tables, self.switches)
         self.model_states = {s.name: s for s in model.states}

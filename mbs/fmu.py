@@ -12,6 +12,12 @@ importer that changes a parameter may set the states' start values too).
 sources/ holds everything the binary was built from (mbs_fmu.c includes the rest): an importer on another
 platform can rebuild it. User hooks go in as C only (`mbs fmu --hook NAME=file.c`): each file is compiled into
 the binary and shipped in sources/ under its name; a Python hook is refused, since an FMU runs without Python.
+
+Events: the model's switches (comparisons and kinks, on by default) and events that `set` modes or parameters are
+event indicators (numberOfEventIndicators): Model Exchange importers locate their crossings and the FMU applies
+them in event mode; Co-Simulation locates them inside fmi2DoStep (runtime/c/mbs_fmu.c).  The branch flags are
+not listed as parameters.  A model with an event the FMU cannot apply (`reinit`, `terminate`, friction's stick/slip
+check) is refused with a message (event_table).
 """
 
 from __future__ import annotations
@@ -102,10 +108,14 @@ def model_description(system, scene: str | None, guid: str, x0, p0, hooks=None) 
     for i, name in enumerate(compiled.x_names):
         variable(f"{name}'", nx + i, 'causality="local" variability="continuous" initial="calculated"',
                  f' derivative="{i + 1}"')
+    hidden = internal_parameters(compiled)
     for i, name in enumerate(compiled.p_names):
+        if i in hidden:
+            continue
         variable(name, 2 * nx + i, 'causality="parameter" variability="tunable" initial="exact"',
                  f' start="{_number(p0[i])}"')
-    index, outputs = 2 * nx + npar, [i + 1 for i in state_outputs]
+    listed = 2 * nx + npar - len(hidden)  # ScalarVariables so far (their 1-based index in ModelVariables)
+    index, outputs = listed, [i + 1 for i in state_outputs]
     for i, name in enumerate(compiled.y_names):
         if name not in compiled.x_names:
             variable(name, 2 * nx + npar + i, 'causality="output" variability="continuous" initial="calculated"',
@@ -113,14 +123,14 @@ def model_description(system, scene: str | None, guid: str, x0, p0, hooks=None) 
             index += 1
             outputs.append(index)
     derivatives = [nx + i + 1 for i in range(nx)]
-    unknowns = sorted(derivatives + [i for i in outputs if i > 2 * nx + npar])
+    unknowns = sorted(derivatives + [i for i in outputs if i > listed])
     step = settings["sample"] or settings["t_end"] / 500
     description = f" description={quoteattr(model.description)}" if model.description else ""
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model.name)} guid="{guid}"{description}',
         f'  generationTool="Baukasten {mbs.__version__}" variableNamingConvention="flat"'
-        ' numberOfEventIndicators="0">',
+        f' numberOfEventIndicators="{len(compiled.events)}">',
         f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true"'
         ' canNotUseMemoryManagementFunctions="true">',
         f'    <SourceFiles><File name="{SOURCE}"/></SourceFiles>',
@@ -144,14 +154,50 @@ def model_description(system, scene: str | None, guid: str, x0, p0, hooks=None) 
     return "\n".join(lines)
 
 
-def _defaults_header(guid: str, x0, p0, rtol: float, atol: float) -> str:
+def _defaults_header(guid: str, x0, p0, rtol: float, atol: float, events=None) -> str:
     def array(name, values):
         body = ", ".join(_number(v) for v in values) or "0.0"
         return f"static const double {name}[] = {{{body}}};"
-    return "\n".join(["/* start values and settings of this FMU, written by mbs/fmu.py */",
-                      f'#define MBS_FMU_GUID "{guid}"', f"#define MBS_FMU_RTOL {_number(rtol)}",
-                      f"#define MBS_FMU_ATOL {_number(atol)}", array("MBS_FMU_X0", x0), array("MBS_FMU_P0", p0),
-                      ""])
+
+    def integers(name, values):
+        return f"static const int {name}[] = {{{', '.join(str(int(v)) for v in values) or '0'}}};"
+    lines = ["/* start values and settings of this FMU, written by mbs/fmu.py */",
+             f'#define MBS_FMU_GUID "{guid}"', f"#define MBS_FMU_RTOL {_number(rtol)}",
+             f"#define MBS_FMU_ATOL {_number(atol)}", array("MBS_FMU_X0", x0), array("MBS_FMU_P0", p0)]
+    if events is not None:  # the event table (event_table): what mbs_fmu.c applies at each indicator's crossing
+        lines += [f"#define MBS_FMU_FROZEN {events['frozen']}"]
+        lines += [integers(f"MBS_FMU_{key.upper()}", events[key])
+                  for key in ("directions", "flag", "inclusive", "first", "index", "slot")]
+    return "\n".join(lines + [""])
+
+
+def event_table(compiled) -> dict | None:
+    """The events as mbs_fmu.c applies them: switch branches (flag: p index), `set` of modes and parameters
+    (index <- slot of mbs_event_actions, grouped per event by first); None without events.  An event the FMU
+    cannot apply (a jump of the state, the end of the run, a friction element's stick/slip check, which the
+    Python run loop makes) is an error, never a silently different answer."""
+    from mbs.runtime.event_loop import c_restart_tables
+    if not compiled.events:
+        return None
+    tables = c_restart_tables(compiled)
+    refused = [e.name for e, ok in zip(compiled.events, tables[0] if tables is not None else ()) if not ok]
+    if tables is None or refused:
+        names = ", ".join(f"'{n}'" for n in (refused or [e.name for e in compiled.events]))
+        raise MbsError([Diagnostic("error", f"mbs fmu: the FMU applies switches and `set` actions of events only; "
+                                            f"event {names} jumps the state, ends the run or checks friction, "
+                                            f"which the FMU does not do yet (simulate the model with mbs "
+                                            f"simulate, or write the model without it)", None)])
+    _, flag, first, index, slot = tables
+    return dict(frozen=compiled.p_names.index("switch.frozen") if "switch.frozen" in compiled.p_names else -1,
+                directions=[e.direction for e in compiled.events], flag=flag,
+                inclusive=[int(e.inclusive) for e in compiled.events], first=first, index=index, slot=slot)
+
+
+def internal_parameters(compiled) -> set[int]:
+    """p indices that are run-time machinery, not the model's parameters: the switches' branch flags and the
+    frozen flag (compiler/events.py); the FMU sets them itself and does not list them."""
+    flags = {e.switch for e in compiled.events if e.switch >= 0}
+    return flags | ({compiled.p_names.index("switch.frozen")} if "switch.frozen" in compiled.p_names else set())
 
 
 #: The one translation unit of the binary; it includes model.c, fmu_defaults.h and the run time's files.
@@ -202,7 +248,7 @@ def export_fmu(system, scene: str | None, path: str | Path, hooks=None) -> Path:
     guid = f"{{{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}}}"
     ident = identifier(system.model.name)
     suffix = {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so")
-    defaults = _defaults_header(guid, x0, p0, settings["rtol"], settings["atol"])
+    defaults = _defaults_header(guid, x0, p0, settings["rtol"], settings["atol"], event_table(compiled))
     files = sources(model_c, defaults, hook_files)
     with tempfile.TemporaryDirectory() as tmp:
         binary = _compile(files, ident + suffix, Path(tmp))

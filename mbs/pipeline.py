@@ -154,10 +154,9 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     from mbs.compiler.friction_loops import with_friction_rows
     from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
     from mbs.compiler.equations import derive_equations
-    from mbs.compiler.events import FROZEN, event_code
+    from mbs.compiler.events import event_code
     from mbs.compiler.lower import lower
     from mbs.compiler.pycode import generate_numpy
-    from mbs.compiler.symbolic import parameter_symbol
     what = model.name + (f", scene {scene.name}" if scene is not None else "")
     clock = _Phases(what)
     lowered = lower(model, scene)
@@ -188,10 +187,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
         if frames:
             routines += frame_routines(lowered.kinematics, named_frames(lowered, frames))
         asked = (routines, inputs, tuple(frames))
-    switch_flags = [s.symbol for s in lowered.switches]
-    # switch flags and the frozen flag are run-time values after the parameters (compiler/events.py)
-    parameters = ([parameter_symbol(p.name) for p in model.parameters] + switch_flags
-                  + ([FROZEN] if switch_flags else []))
+    parameters = run_parameters(model, lowered)
     used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
     extra = [s for s in used if s not in set(parameters)]
     if extra:
@@ -220,6 +216,21 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
                      tuple(display_name(s.name) for s in tree.v_symbols),
                      p_names, tuple(name for name, _ in outputs), StateLayout.of(tree, lowered.cuts, constraints),
                      event_table, lambda: symbolic)
+
+
+def run_parameters(model: M.Model, lowered) -> list:
+    """The symbols of the run-time vector p: the model's parameters, then the switches' branch flags and the frozen
+    flag (compiler/events.py; none in a model without comparisons or kinks of the motion)."""
+    from mbs.compiler.events import FROZEN
+    from mbs.compiler.symbolic import parameter_symbol
+    flags = [s.symbol for s in lowered.switches]
+    return [parameter_symbol(p.name) for p in model.parameters] + flags + ([FROZEN] if flags else [])
+
+
+def parameter_vector(p_names, values: Mapping[str, float]) -> list[float]:
+    """p in run-time order from the parameters' values: the switches' branch flags and the frozen flag (not
+    parameters of the model) start at 0, every comparison evaluated as written until a run freezes them."""
+    return [values[n] if not n.startswith("switch.") else values.get(n, 0.0) for n in p_names]
 
 
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by

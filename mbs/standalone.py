@@ -81,7 +81,7 @@ def standalone_c(gen: Generated) -> str:
     body, public = _internal(standalone_source(gen))
     prefix = prefix_of(gen)
     values = pipeline.parameter_values(gen.model, pipeline.scene_overrides(gen.scene))
-    p_default = [values[n] for n in gen.p_names]
+    p_default = pipeline.parameter_vector(gen.p_names, values)
     x0 = pipeline.initial_state(gen, values)
     out = [body, f"/* ---- the public interface of {gen.model.name} (prefix {prefix}_, declared in {prefix}.h) ---- */",
            f'#include "{prefix}.h"', ""]

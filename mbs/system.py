@@ -180,7 +180,7 @@ class System:
     def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]):
         """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops)."""
         data = Workspace(compiled)
-        data.p = [values.get(n, 0.0) for n in compiled.p_names]  # switch flags (compiler/events.py) start at 0
+        data.p = pipeline.parameter_vector(compiled.p_names, values)
         data.x = pipeline.initial_state(gen, values)
         rows = gen.layout.constraint_rows
         if rows is None:

@@ -92,7 +92,7 @@ class _Evaluator:
         values = dict(zip(self.names, map(float, x)))
         every = pipeline.parameter_values(self.system.model, {**pipeline.scene_overrides(self.sc), **self.fixed,
                                                               **values})
-        return Variant(index, values, np.array([every[p] for p in self.compiled.p_names]),
+        return Variant(index, values, np.array(pipeline.parameter_vector(self.compiled.p_names, every)),
                        pipeline.initial_state(self.gen, every), self.settings,
                        self.sc.start if self.sc is not None else "initial")
 

@@ -61,7 +61,8 @@ class ModelPackage:
         gen = system.generate(scene)
         info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names, z_names=compiled.z_names,
                     p_names=compiled.p_names, y_names=compiled.y_names, p_default=np.array(compiled.p_default),
-                    x0=np.array(compiled.x0), units=dict(compiled.units))
+                    x0=np.array(compiled.x0), units=dict(compiled.units),
+                    events=compiled.events)  # the events and switches: without them a variant ran as written
         rows = gen.layout.constraint_rows
         loops = dict(loops=rows is not None, fixed=tuple(pipeline.fixed_state_names(gen)) if rows is not None else (),
                      rows=tuple(rows or ()), hooks=binding)

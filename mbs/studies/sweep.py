@@ -65,7 +65,7 @@ def sweep(system, scene: str | None, params: Mapping[str, Sequence[float]], *, d
         except Exception as exc:  # a variant whose start cannot be computed is a row, not a lost study
             early.append(Outcome(index, values, {m.text: np.nan for m in parsed}, "failed", str(exc)))
             continue
-        variants.append(Variant(index, values, np.array([every[p] for p in compiled.p_names]), x0, settings,
+        variants.append(Variant(index, values, np.array(pipeline.parameter_vector(compiled.p_names, every)), x0, settings,
                                 start))
     rows = early + run_on_dask(package, variants, tuple(m.text for m in parsed), scheduler=scheduler,
                                client=client, workers=workers, progress=progress, done=len(early),
