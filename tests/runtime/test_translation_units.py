@@ -37,6 +37,8 @@ def test_the_generated_layout_is_read_back_whole(generated):
         # nothing lost, nothing twice: every line of the file (but trailing blank ones) is in the header or in
         # exactly one block
         pieces = [layout.header, *(b.text for b in layout.helpers + layout.functions)]
+        if layout.outputs is not None:  # the outputs' part, after its marker line
+            pieces.append(units.OUTPUTS_MARKER + "\n" + layout.outputs)
         assert sum(p.count("\n") + 1 for p in pieces) == code.rstrip("\n").count("\n") + 1
         for block in layout.helpers + layout.functions:
             assert code.split("\n")[block.line - 1:block.line - 1 + block.text.count("\n") + 1] == \
