@@ -22,7 +22,7 @@
  * calls mbs_module_init(name). MBS_OUTPUTS_UNIT (model.h of a split build): the outputs are compiled in a unit of
  * their own, which defines mbs_outputs and their number mbs_ny, so that this unit does not depend on them. */
 #ifdef MBS_SEPARATE_INIT
-#define MBS_TYPE_NAME(kind) "mbs_model." kind
+#define MBS_TYPE_NAME(kind) "mbs_model." kind  /* the module's own name is put in by mbs_module_init */
 #else
 #define MBS_TYPE_NAME(kind) MBS_STR(MBS_MODULE_NAME) "." kind
 #endif
@@ -763,6 +763,12 @@ fail:
 /* The module under `name` (a static string of the init unit): what its PyInit_<name> returns. */
 PyObject *mbs_module_init(const char *name)
 {
+    /* the types' qualified names tell which module a function belongs to (runtime/integrators/native.py) */
+    static char function_name[200], solver_name[200];
+    snprintf(function_name, sizeof function_name, "%s.Function", name);
+    snprintf(solver_name, sizeof solver_name, "%s.Solver", name);
+    FunctionType.tp_name = function_name;
+    SolverType.tp_name = solver_name;
     module_def.m_name = name;
     return module_create();
 }
