@@ -113,11 +113,12 @@ def _digest(*parts: tuple[str, str]) -> str:
 
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,
-             parameter_jacobian: bool = False, dynamics: bool = False,
-             frames: tuple[str, ...] = ()) -> pipeline.Generated:
+             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
+             equations_ready=None) -> pipeline.Generated:
     """pipeline.generate, taken from the derivation cache when the same content was derived before; when only
     the equations were (another scene's outputs), the outputs are derived on top of them
-    (pipeline.generate_outputs) and the equations' part of the code is taken from the cache."""
+    (pipeline.generate_outputs) and the equations' part of the code is taken from the cache. `equations_ready`:
+    called with the equations' part of the code before the outputs are derived (pipeline.generate)."""
     if jacobian is None:  # the scene's integrator decides; resolved here so the key holds what the code holds
         jacobian = pipeline.needs_jacobian(scene)
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
@@ -141,6 +142,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
         from mbs.compiler.ccode import NotSeparable
         _log.info("derivation of %s: the equations from the cache (%s), the scene's outputs derived on them",
                   model.name, eq_path.name)
+        if equations_ready is not None:
+            equations_ready(equations["c_source"])
         try:
             c_outputs, numpy_source, y_names, symbolic = pipeline.generate_outputs(
                 model, scene, equations["c_source"], **options)
@@ -151,7 +154,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
                        "numpy_source": numpy_source, "y_names": list(y_names)}
             _write(out_path, outputs, model, scene)
             return _joined(model, scene, equations, outputs, lambda: symbolic)
-    generated = pipeline.generate(model, scene, **options)
+    generated = pipeline.generate(model, scene, **options, equations_ready=equations_ready)
     payload = _payload(generated, out_key)
     if generated.outputs_at is not None:  # the equations apart, for scenes that ask for other outputs
         equations = {**payload, "key": eq_key, "kind": "equations",

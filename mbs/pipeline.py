@@ -142,7 +142,8 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
 
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
-             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = ()) -> Generated:
+             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
+             equations_ready: Callable[[str], None] | None = None) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
     functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
     them the positions, velocities and Jacobians of these frames ("part.frame").
@@ -155,12 +156,14 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     The C file is written in two parts where it can be: the equations (whatever the scene's outputs) and, at
     its end from Generated.outputs_at on, the outputs (compiler/ccode.py generate_c_outputs), lowered after the
     equations were written. The derivation cache keeps the parts apart and the build compiles the outputs as a
-    unit of their own, so a scene asking for other outputs derives and compiles only those."""
+    unit of their own, so a scene asking for other outputs derives and compiles only those. `equations_ready` is
+    called with the equations' part as soon as it is written (runtime/build.py prebuild starts compiling it
+    while the outputs are derived)."""
     from mbs.compiler.ccode import NotSeparable
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames)
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else ""))
     try:
-        return _generate(model, scene, clock, separate=True, **options)
+        return _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
     except NotSeparable as exc:  # (outputs that call a hook or add a switch) the file whole
         _log.info("%s: the outputs are written with the equations (%s)", clock.what, exc)
         return _generate(model, scene, clock, separate=False, **options)
@@ -278,7 +281,8 @@ def _code_options(model, scene, lowered, equations, constraints, parameters, jac
     return options, event_table
 
 
-def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobian, dynamics, frames) -> Generated:
+def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobian, dynamics, frames,
+              equations_ready=None) -> Generated:
     """generate, with the outputs written apart (`separate`) or with the rest of the file."""
     from mbs.compiler.ccode import generate_c, generate_c_outputs
     from mbs.compiler.lower import lower_outputs
@@ -292,6 +296,8 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, separate_outputs=True,
                               **options)
         clock("generated the equations' C")
+        if equations_ready is not None:
+            equations_ready(c_source)
         before, lowered = lowered, lower_outputs(lowered)
         _outputs_apart(before, lowered)
         clock("lowered the outputs")

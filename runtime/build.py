@@ -33,7 +33,8 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
-from concurrent.futures import ThreadPoolExecutor
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -219,27 +220,39 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
              module_name: str, tmp: Path, filename: str, cache: Path) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
     """Compile the files in `tmp` into tmp/module.so: (the compiler's messages, the units compiled, the units whose
     objects came from the cache). Raises BuildError."""
-    includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
     if list(files) == ["unit.c"]:
+        includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
         (tmp / "unit.c").write_text(files["unit.c"], encoding="utf-8")
         command = (*cc, *flags, f"-DMBS_MODULE_NAME={module_name}", *includes, "unit.c", "-o", "module.so", "-lm")
         return _run(command, tmp, filename), ("unit.c",), ()
-    compile_flags = tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
+    compile_flags = _compile_flags(flags)
     (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
-    sources = sorted((n for n in files if n.endswith(".c")), key=lambda n: -_weight(n, files))  # longest first
-    objects, todo = {}, []
-    for name in sources:
-        command = (*cc, *compile_flags, *(() if name == _units.GLUE_UNIT else model_flags), *includes, "-c", name)
-        cached = _cache.object_path(cache, _object_key(name, files, command, cc))
+    objects, todo, pending = {}, [], []
+    for name, command, cached in _unit_jobs(files, flags, model_flags, cc, cache):
+        if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
+            pending.append((name, command, cached))
+        elif cached.exists() and _cache.problem(cached) is None:
+            objects[name] = cached
+        else:
+            todo.append((name, command, cached))
+    (tmp / "init.c").write_text(_init_unit(module_name), encoding="utf-8")
+    with ThreadPoolExecutor(max_workers=build_jobs()) as pool:
+        outputs = list(pool.map(lambda job: _run(job[1], tmp, filename),
+                                [(None, (*cc, *compile_flags, "-c", "init.c", "-o", "init.o"))]
+                                + [_written(job, files, tmp) for job in todo]))
+    prebuilt = []
+    for name, command, cached in pending:
+        with _PREBUILD_LOCK:
+            job = _PREBUILDS.pop(cached, None)
+        if job is not None:
+            job.exception()  # wait for it (a failed one is compiled here, with its messages)
         if cached.exists() and _cache.problem(cached) is None:
             objects[name] = cached
-            continue
-        (tmp / name).write_text(files[name], encoding="utf-8")
-        todo.append((name, (*command, "-o", name[:-2] + ".o"), cached))
-    (tmp / "init.c").write_text(_init_unit(module_name), encoding="utf-8")
-    jobs = [(None, (*cc, *compile_flags, "-c", "init.c", "-o", "init.o"), None)] + todo
-    with ThreadPoolExecutor(max_workers=build_jobs()) as pool:
-        outputs = list(pool.map(lambda job: _run(job[1], tmp, filename), jobs))
+            prebuilt.append(name)
+        else:
+            outputs.append(_run(_written((name, command, cached), files, tmp)[1], tmp, filename))
+            todo.append((name, command, cached))
+    sources = [name for name, _, _ in _unit_jobs(files, flags, model_flags, cc, cache)]
     for name, _, cached in todo:  # kept by content for the next build that has the same unit
         objects[name] = tmp / (name[:-2] + ".o")
         try:
@@ -249,8 +262,86 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
             pass
     link = (*cc, *flags, "-fvisibility=hidden", "init.o", *(str(objects[n]) for n in sources), "-o", "module.so",
             "-lm")
-    compiled = tuple(name for name, _, _ in todo)
+    compiled = tuple(name for name, _, _ in todo) + tuple(prebuilt)
     return "".join(outputs) + _run(link, tmp, filename), compiled, tuple(n for n in sources if n not in compiled)
+
+
+def _compile_flags(flags: tuple[str, ...]) -> tuple[str, ...]:
+    """The flags of a split build's compile steps (-c): the link's without -shared, hidden visibility."""
+    return tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
+
+
+def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path) -> list[tuple[str, tuple, Path]]:
+    """(unit, compile command, where its object is kept) of a split build's units, the longest compile first."""
+    includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
+    jobs = []
+    for name in sorted((n for n in files if n.endswith(".c")), key=lambda n: -_weight(n, files)):
+        command = (*cc, *_compile_flags(flags), *(() if name == _units.GLUE_UNIT else model_flags), *includes,
+                   "-c", name)
+        jobs.append((name, command, _cache.object_path(cache, _object_key(name, files, command, cc))))
+    return jobs
+
+
+def _written(job, files: dict[str, str], tmp: Path) -> tuple[str, tuple]:
+    """(unit, its full compile command) with the unit's text written into `tmp`."""
+    name, command, _ = job
+    (tmp / name).write_text(files[name], encoding="utf-8")
+    return name, (*command, "-o", name[:-2] + ".o")
+
+
+# ------------------------------------------------------------------------------------------ prebuild
+#: Objects being compiled by prebuild in this process (their cache path -> the job), which build waits for.
+_PREBUILDS: dict[Path, Future] = {}
+_PREBUILD_LOCK = threading.Lock()
+_PREBUILD_POOL: list[ThreadPoolExecutor] = []
+
+
+def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
+             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> int:
+    """Start compiling, in the background, the units of a file whose equations' part is known and whose outputs'
+    part is not yet (pipeline.generate writes the equations' C, then lowers the outputs): the model units and
+    the glue unit of a split build do not depend on the outputs, so their objects can be made while the outputs
+    are derived; build() (with the same options) then takes them from the cache, or waits for them. One compiler
+    process less than build() runs, so the derivation keeps a core. Returns how many units were started (0 for a
+    model built as one unit, without a compiler, or with every object cached). Never raises for the model's
+    sake: a unit that fails is compiled again by build(), which reports it."""
+    try:
+        cc = tuple(compiler_command())
+        model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
+    except BuildError:
+        return 0
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    files = _build_files(equations_code + "\n" + _units.OUTPUTS_MARKER + "\n", filename)
+    if "model.h" not in files:
+        return 0
+    files.pop(_units.OUTPUTS_UNIT, None)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    started = 0
+    with _PREBUILD_LOCK:
+        if not _PREBUILD_POOL:
+            _PREBUILD_POOL.append(ThreadPoolExecutor(max_workers=max(1, build_jobs() - 1)))
+        for job in _unit_jobs(files, flags, model_flags, cc, cache):
+            if job[2] in _PREBUILDS or job[2].exists():
+                continue
+            _PREBUILDS[job[2]] = _PREBUILD_POOL[0].submit(_prebuild_one, job, files, cache, filename)
+            started += 1
+    return started
+
+
+def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> None:
+    """Compile one unit in a folder of its own and keep its object in the cache."""
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".prebuild-", dir=cache))
+    except OSError:  # build() reports an unusable cache
+        return
+    try:
+        (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
+        name, command = _written(job, files, tmp)
+        _run(command, tmp, filename)
+        _cache.store_object(tmp / (name[:-2] + ".o"), job[2], f"{name} of {_cache.model_label(files['model.h'])}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 #: The glue unit's compile time in characters of model code (its text is short, what it includes is not): about

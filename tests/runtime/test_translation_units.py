@@ -112,3 +112,22 @@ def test_compiler_messages_name_the_line_of_the_generated_file(generated, tmp_pa
     lines.insert(at, "    int unused_here;")
     result = build.build("\n".join(lines), filename="qc.c", cache_dir=tmp_path)
     assert f"qc.c:{at + 1}:" in result.warnings and "unused_here" in result.warnings
+
+
+def test_prebuild_compiles_the_equations_units_before_the_outputs_are_known(generated, tmp_path, monkeypatch):
+    """prebuild (started with the equations' part while the outputs are derived) leaves the objects that build
+    then links; every unit but outputs.c is compiled once, for this build."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    gen = mbs.load(TABLES).generate()
+    assert gen.outputs_at is not None and gen.y_names
+    started = build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path)
+    files = build._build_files(gen.c_source, "model.c")
+    assert started == len([n for n in files if n.endswith(".c")]) - 1  # all but outputs.c
+    result = build.build(gen.c_source, cache_dir=tmp_path)
+    assert sorted(result.compiled) == sorted(n for n in files if n.endswith(".c")) and result.reused == ()
+    assert not build._PREBUILDS and result.warnings == ""
+    fresh = build.build(gen.c_source, cache_dir=tmp_path / "fresh")
+    assert fresh.module_name == result.module_name
+    a = build.load(result)
+    assert a.NY == len(gen.y_names) and dict(a.FUNCTIONS)["outputs"] == (len(gen.y_names),)
