@@ -126,15 +126,18 @@ class CEmitter:
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                  constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-                 dynamics=None, events=(), actions=(), separate_outputs: bool = False):
+                 dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = self.parameter_jacobian = None
         self.loop_jacobian = None
+        # bearing friction in loops (compiler/friction_loops.py bearing_routines): (routines, inputs, definitions,
+        # work); f then depends on the loop solve itself, which the loop Jacobian's residuals do not know
+        self.friction = friction
         # the outputs in a part of their own (generate_c_outputs): the rest of the file must not depend on them
         self.separate_outputs = separate_outputs
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
-        elif jacobian and not equations.zdot:  # with extra states: differences of mbs_rhs over all of x
+        elif jacobian and not equations.zdot and friction is None:  # extra states: differences of mbs_rhs
             self.eqs, self.loop_jacobian = loop_jacobian_or_none(equations, constraints)
         if parameter_jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
@@ -154,6 +157,7 @@ class CEmitter:
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, self.constraints, self.run_time_inputs)
         loop_inputs = self.loop_jacobian.inputs if self.loop_jacobian else ()
+        loop_inputs += tuple(friction[1]) if friction else ()
         self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs) + loop_inputs)
         self.names = self.naming.names
 
@@ -184,7 +188,8 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r])
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r]
+                + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -224,7 +229,9 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
-                      loop_definitions(self.constraints, self.constraint_matrix is not None)]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+            if self.friction:
+                lines.append(self.friction[2])
             if self.loop_jacobian:
                 lines.append(self.loop_jacobian.definitions)
         lines += ["",
@@ -295,10 +302,14 @@ class CEmitter:
     def _work(self) -> int:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) if nc else 0
+        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return tree.nv * tree.nv + loops + self._output_scratch()
+
+    def _friction_work(self) -> int:
+        """Doubles at the end of the loop solver's work for bearing friction in the loops (MBS_FRICTION_NWORK)."""
+        return self.friction[3] if self.friction else 0
 
     def _output_scratch(self) -> int:
         """Doubles at the start of work in which the output function keeps x' and the multipliers (with the
@@ -390,7 +401,7 @@ def _array(name: str, values) -> str:
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-               dynamics=None, events=(), actions=(), separate_outputs: bool = False) -> str:
+               dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -409,12 +420,12 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
-                    dynamics=dynamics, separate_outputs=separate_outputs).source()
+                    dynamics=dynamics, friction=friction, separate_outputs=separate_outputs).source()
 
 
 def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], equations_source: str,
                        first_table: int, *, outputs, tables=(), constraints=None, run_time_inputs=(),
-                       inline_max_chars: int = INLINE_MAX_CHARS) -> str:
+                       friction=None, inline_max_chars: int = INLINE_MAX_CHARS) -> str:
     """The outputs' part of a file whose rest is `equations_source` (generate_c with separate_outputs and the
     same equations, parameters and constraints, before the outputs were lowered onto the tape): appended to
     it, the whole file. `first_table`: how many lookup tables that rest defines (the outputs' own come after).
@@ -423,7 +434,7 @@ def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], eq
         return ""
     defined = set(re.findall(r"^static (?:inline )?(?:int|double|void) (mbs_\w+)\(", equations_source, re.MULTILINE))
     return CEmitter(equations, parameters, outputs=outputs, tables=tables, constraints=constraints,
-                    run_time_inputs=run_time_inputs, inline_max_chars=inline_max_chars,
+                    run_time_inputs=run_time_inputs, friction=friction, inline_max_chars=inline_max_chars,
                     separate_outputs=True).outputs_source(defined, first_table)
 
 

@@ -94,12 +94,13 @@ def constraint_matrix_routine(equations: Equations, constraints: Constraints) ->
     return dataclasses.replace(equations, kinematics=kinematics), routine
 
 
-def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) -> str:
+def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0) -> str:
     """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
-    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`)."""
+    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`); extra_work: doubles
+    the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
-    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz)
+    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz) + extra_work
     colours = constraint_colours(constraints)
     ncol = max(colours.ncolours, 1)
     table = [colours.column_of(i, c) for i in range(constraints.nc) for c in range(ncol)]

@@ -16,7 +16,7 @@ from importlib import metadata
 
 import sympy as sp
 
-from .hooks import HOOK_FUNCTION
+from .hooks import is_helper as is_hook_helper
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -249,7 +249,7 @@ class ExprPrinter:
                 raise CodegenError(f"{expr} calls lookup table {table.group(1)}, but only {self.n_tables} "
                                    f"table(s) were given")
             return self._call(name, expr.args)
-        if HOOK_FUNCTION.match(name):
+        if is_hook_helper(name):
             self.hook_calls[name] = len(expr.args) - 1
             return self._call(name, expr.args)
         target = self.FUNCTIONS.get(name)

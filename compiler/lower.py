@@ -46,6 +46,7 @@ class Lowered:
     switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
     state_rates: tuple = ()                    # z' of the extra states (tree.states), language/states.py
     friction_rows: tuple = ()                  # sticking friction as constraint rows (compiler/friction_loops.py)
+    bearing_friction: object = None            # bearing friction in a loop model (friction_loops.LoadedFriction)
     lowering: object = field(default=None, compare=False, repr=False)   # lower_outputs continues it
 
     @property
@@ -404,7 +405,7 @@ def lower_model(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, (), lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs() + lowering.friction.inputs, events, switches, rates,
-                   lowering.friction.rows, lowering)
+                   lowering.friction.rows, lowering.friction.bearing, lowering)
 
 
 def lower_outputs(lowered: Lowered) -> Lowered:

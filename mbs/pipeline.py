@@ -180,7 +180,7 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else "") + " (outputs only)")
-    lowered, constraints, equations, parameters = _derive(model, scene, dynamics, clock)
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock)
     # what generate does before it lowers the outputs, so that the tape they share is the same
     options, _ = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
                                parameter_jacobian, dynamics, frames)
@@ -189,7 +189,7 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
     clock("lowered the outputs")
     c_outputs = generate_c_outputs(equations, parameters, equations_source, first_table,
                                    outputs=with_outputs.outputs, tables=with_outputs.tables, constraints=constraints,
-                                   run_time_inputs=with_outputs.run_time_inputs)
+                                   run_time_inputs=with_outputs.run_time_inputs, friction=friction)
     numpy_source = ""
     if constraints is None:
         options.update(outputs=with_outputs.outputs, tables=with_outputs.tables,
@@ -215,8 +215,8 @@ def _outputs_apart(before, after):
 
 
 def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False):
-    """(lowered, constraints, equations, parameters): the model lowered (with its outputs only if `outputs`)
-    and its equations of motion derived."""
+    """(lowered, constraints, equations, parameters, friction): the model lowered (with its outputs only if
+    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None)."""
     from mbs.compiler.constraints import derive_constraints
     from mbs.compiler.equations import derive_equations
     from mbs.compiler.events import FROZEN
@@ -243,6 +243,10 @@ def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, out
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
     clock("derived the equations of motion")
+    friction = None
+    if lowered.bearing_friction is not None and constraints is not None:  # bearing friction in the loops
+        from mbs.compiler.friction_loops import bearing_routines
+        equations, friction = bearing_routines(equations, lowered.bearing_friction, constraints.nc)
     switch_flags = [s.symbol for s in lowered.switches]
     # switch flags and the frozen flag are run-time values after the parameters (compiler/events.py)
     parameters = ([parameter_symbol(p.name) for p in model.parameters] + switch_flags
@@ -251,7 +255,7 @@ def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, out
     extra = [s for s in used if s not in set(parameters)]
     if extra:
         raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
-    return lowered, constraints, equations, parameters
+    return lowered, constraints, equations, parameters, friction
 
 
 def _code_options(model, scene, lowered, equations, constraints, parameters, jacobian, parameter_jacobian,
@@ -287,13 +291,15 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
     from mbs.compiler.ccode import generate_c, generate_c_outputs
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
-    lowered, constraints, equations, parameters = _derive(model, scene, dynamics, clock, outputs=not separate)
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock,
+                                                                    outputs=not separate)
     options, event_table = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
                                          parameter_jacobian, dynamics, frames)
     outputs_at = None
     if separate:
         first_table = len(lowered.tables.tables)
-        c_source = generate_c(equations, parameters, model.name, constraints=constraints, separate_outputs=True,
+        c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
+                              separate_outputs=True,
                               **options)
         clock("generated the equations' C")
         if equations_ready is not None:
@@ -305,10 +311,12 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         c_source = join_parts(c_source, generate_c_outputs(equations, parameters, c_source, first_table,
                                                            outputs=lowered.outputs, tables=lowered.tables,
                                                            constraints=constraints,
-                                                           run_time_inputs=lowered.run_time_inputs))
+                                                           run_time_inputs=lowered.run_time_inputs,
+                                                           friction=friction))
         options.update(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
     else:
-        c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
+        c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
+                              **options)
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     clock("generated C and NumPy code")

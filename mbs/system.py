@@ -72,8 +72,7 @@ class System:
                 dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate.
         hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
                binding.key if binding is not None else None)
         if key not in self._compiled:
@@ -153,8 +152,7 @@ class System:
         # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
         if binding is not None:
             binding.attach(compiled)
@@ -169,12 +167,13 @@ class System:
         return data, settings
 
     def accuracy(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
-                 t_end: float | None = None, **options):
+                 t_end: float | None = None, hooks: Mapping | None = None, **options):
         """The work-precision table of a scene (mbs.runtime.accuracy.work_precision; options: integrators,
-        tolerances, repeats), built with the generated Jacobian for the stiff integrators."""
+        tolerances, repeats), built with the generated Jacobian for the stiff integrators. hooks: as for
+        simulate."""
         from mbs.runtime.accuracy import work_precision
         from mbs.runtime.simulate import output_times
-        data, settings = self.start(scene, params=params, jacobian=True)
+        data, settings = self.start(scene, params=params, jacobian=True, hooks=hooks)
         t_end = settings["t_end"] if t_end is None else t_end
         times = output_times(data.t, t_end, sample=settings.get("sample"))
         return work_precision(data.model, data, t_end, t_eval=times, **options)
@@ -210,10 +209,12 @@ class System:
             binding.attach(compiled)
         return compiled, self.generate(scene), values
 
-    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
+                 hooks: Mapping | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
-        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
-        return self._start(*self._scene_parameters(scene, params))[1]
+        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops. hooks: as
+        for simulate."""
+        return self._start(*self._scene_parameters(scene, params, hooks))[1]
 
     def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                     hooks: Mapping | None = None):

@@ -119,7 +119,8 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             # integrator had; after a jump (an impact) it chooses its own first step
             jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
             hint = None if jumped else solver.step_hint
-            new += start_friction_modes(model, data, t_event, x, moving=False)  # held beyond the limit: let go
+            new += start_friction_modes(model, data, t_event, x, moving=False,  # held beyond the limit: let go
+                                        fired=tuple(model.events[k].name for k in fired))
             records += new
             fired_times += [t_event] * len(new)
             t = t_event

@@ -172,7 +172,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
     if "project" in model.functions and len(ts):
-        projected = project_samples(data, ts, xs)
+        projected = _project_segments(data, segments.p, ts, xs, which)
         if projected < len(ts):
             ts, xs, which = ts[:projected], xs[:projected], which[:projected]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
@@ -204,6 +204,25 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
+
+
+def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
+    """project_samples for a run with events, each row with the run-time values p it was computed with (a
+    sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
+    the number of leading rows projected."""
+    saved, failed = data.p.copy(), len(ts)
+    try:
+        for k, p in enumerate(ps):
+            rows = np.flatnonzero(which == k)
+            data.p = p
+            part = xs[rows]
+            done = project_samples(data, ts[rows], part)
+            xs[rows] = part
+            if done < len(rows):
+                failed = min(failed, int(rows[done]))
+    finally:
+        data.p = saved
+    return failed
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,

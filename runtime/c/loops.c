@@ -640,6 +640,67 @@ static int mbs_loop_limit_rows(double t, const double *p, mbs_loop_work *w, int 
     return mbs_loop_factor(w, &pivot);
 }
 
+#ifdef MBS_NLOADED
+static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda);
+
+/* Bearing friction in the loops (compiler/friction_loops.py): the m kinetic forces F grow with the bearings'
+ * loads, which come from the accelerations and multipliers, which depend on F.  All of it is affine in F: the
+ * solve at F = 0 (f without them, mbs_forces) gives (a0, lambda0), the same factors give the response (Wv, Wl)
+ * to each bearing's generalized force E_j (mbs_friction_directions), and mbs_friction_loads solves the bearing
+ * laws exactly (a quadratic, or Newton's method on the tape for several); then f += E F, vdot += Wv F, and
+ * each F_l rides on its row's multiplier (mbs_loop_multipliers_of).  The room: MBS_FRICTION_NWORK doubles at
+ * the end of the loop solver's work, [x; a0; lambda0; Wv; Wl] first (the input of mbs_friction_loads). */
+static double *mbs_loop_friction_area(const mbs_loop_work *w)
+{
+    return w->tree + MBS_TREE_NWORK + MBS_LOOP_NWORK - MBS_FRICTION_NWORK;
+}
+
+static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w, int r, int dof, const int *start)
+{
+    const int m = MBS_NLOADED;
+    double *xin = mbs_loop_friction_area(w), *a0 = xin + MBS_NX, *l0 = a0 + MBS_NV, *Wv = l0 + MBS_NC;
+    double *Wl = Wv + MBS_NV * m, *E = Wl + MBS_NC * m, *F = E + MBS_NV * m, *g = F + m, *a = g + MBS_NV;
+    double *vj = a + MBS_NV, *f0 = vj + MBS_NV, *lj = f0 + MBS_NV;
+    const double *A = w->A, *T = w->T;
+    const int *Ti = w->Ti;
+    int i, j, k, l, e, s;
+    memcpy(xin, w->xc, MBS_NX * sizeof(double));
+    memcpy(a0, w->vd, MBS_NV * sizeof(double));
+    memcpy(f0, w->f, MBS_NV * sizeof(double));
+    if ((s = mbs_loop_lambda(w, r, l0)) != 0) return s;
+    if ((s = mbs_friction_directions(t, w->xc, p, E, w->tree)) != 0) return s;
+    for (l = 0; l < m; l++) {
+        mbs_loop_work wj = *w;
+        for (i = 0; i < MBS_NV; i++) g[i] = E[i * m + l];
+        for (j = 0; j < dof; j++) {  /* T^T g, then the factors of T^T M T (as mbs_loop_accelerations) */
+            double sum = 0.0;
+            for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * g[Ti[e]];
+            a[j] = sum;
+        }
+        for (j = 0; j < dof; j++)
+            for (k = 0; k < j; k++) a[j] -= A[j * MBS_NV + k] * a[k];
+        for (j = 0; j < dof; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
+        for (j = dof - 1; j >= 0; j--)
+            for (k = j + 1; k < dof; k++) a[j] -= A[k * MBS_NV + j] * a[k];
+        memset(vj, 0, MBS_NV * sizeof(double));
+        for (j = 0; j < dof; j++)
+            for (e = start[j]; e < start[j + 1]; e++) vj[Ti[e]] += T[e] * a[j];
+        wj.f = g;  /* the multipliers of that response: M vj = g + G^T lj */
+        wj.vd = vj;
+        if ((s = mbs_loop_lambda(&wj, r, lj)) != 0) return s;
+        for (i = 0; i < MBS_NV; i++) Wv[i * m + l] = vj[i];
+        for (i = 0; i < MBS_NC; i++) Wl[i * m + l] = lj[i];
+    }
+    if ((s = mbs_friction_loads(t, xin, p, F, w->tree)) != 0) return s;
+    for (i = 0; i < MBS_NV; i++)
+        for (l = 0; l < m; l++) {
+            w->f[i] += E[i * m + l] * F[l];
+            w->vd[i] += Wv[i * m + l] * F[l];
+        }
+    return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+#endif
+
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
  * position (mbs_loop_limit_rows). */
 static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
@@ -751,6 +812,9 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
     for (j = 0; j < m; j++)
         for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
+#ifdef MBS_NLOADED
+    if (isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL))) return mbs_loop_bearing_friction(t, p, w, r, m, start);
+#endif
     return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
@@ -887,11 +951,26 @@ static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
     return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
+/* The multipliers of the rows; with bearing friction in the loops each bearing's kinetic force on its row's. */
+static int mbs_loop_multipliers_of(mbs_loop_work *w, int r, double *lambda)
+{
+    int s = mbs_loop_lambda(w, r, lambda);
+#ifdef MBS_NLOADED
+    {
+        const double *F = mbs_loop_friction_area(w) + MBS_NX + MBS_NV + MBS_NC
+                          + (MBS_NV + MBS_NC + MBS_NV) * MBS_NLOADED;  /* after [x; a0; lambda0; Wv; Wl] and E */
+        int l;
+        for (l = 0; l < MBS_NLOADED; l++) lambda[mbs_loaded_row[l]] += F[l];
+    }
+#endif
+    return s;
+}
+
 int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     int r, s = mbs_loop_project_and_solve(t, x, p, &w, 0, &r);
-    return s != 0 ? s : mbs_loop_lambda(&w, r, lambda);
+    return s != 0 ? s : mbs_loop_multipliers_of(&w, r, lambda);
 }
 
 /* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
@@ -901,7 +980,7 @@ int mbs_loop_rates(double t, const double *x, const double *p, double *out, doub
     mbs_loop_work w = mbs_loop_layout(work);
     int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, out, &w);
-    return s != 0 ? s : mbs_loop_lambda(&w, r, out + MBS_NX);
+    return s != 0 ? s : mbs_loop_multipliers_of(&w, r, out + MBS_NX);
 }
 
 int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
