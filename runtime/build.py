@@ -228,7 +228,8 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     compile_flags = _compile_flags(flags)
     (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
     objects, todo, pending = {}, [], []
-    for name, command, cached in _unit_jobs(files, flags, model_flags, cc, cache):
+    jobs = _unit_jobs(files, flags, model_flags, cc, cache)
+    for name, command, cached in jobs:
         if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
             pending.append((name, command, cached))
         elif cached.exists() and _cache.problem(cached) is None:
@@ -252,7 +253,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
         else:
             outputs.append(_run(_written((name, command, cached), files, tmp)[1], tmp, filename))
             todo.append((name, command, cached))
-    sources = [name for name, _, _ in _unit_jobs(files, flags, model_flags, cc, cache)]
+    sources = [name for name, _, _ in jobs]
     for name, _, cached in todo:  # kept by content for the next build that has the same unit
         objects[name] = tmp / (name[:-2] + ".o")
         try:
