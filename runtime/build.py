@@ -297,6 +297,19 @@ _PREBUILD_LOCK = threading.Lock()
 _PREBUILD_POOL: list[ThreadPoolExecutor] = []
 
 
+def _forget_prebuilds() -> None:
+    """In a forked child: the parent's compiler threads are not there, so neither are its jobs (build compiles
+    what it does not find in the cache) nor its pool (a new one is made on first use)."""
+    global _PREBUILD_LOCK
+    _PREBUILD_LOCK = threading.Lock()
+    _PREBUILDS.clear()
+    _PREBUILD_POOL.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_prebuilds)
+
+
 def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
              extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> int:
     """Start compiling, in the background, the units of a file whose equations' part is known and whose outputs'

@@ -3,6 +3,7 @@ exactly one unit, helpers only where called; the split library computes what the
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -131,3 +132,20 @@ def test_prebuild_compiles_the_equations_units_before_the_outputs_are_known(gene
     assert fresh.module_name == result.module_name
     a = build.load(result)
     assert a.NY == len(gen.y_names) and dict(a.FUNCTIONS)["outputs"] == (len(gen.y_names),)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork")
+def test_a_forked_child_does_not_wait_for_the_parents_prebuilds(tmp_path, monkeypatch):
+    """A sweep's workers may be forked while a prebuild runs: the child compiles what is not cached itself."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    gen = mbs.load(TABLES).generate()
+    assert build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path / "parent") > 0
+    pid = os.fork()
+    if pid == 0:  # the child: a build into another cache, with the parent's jobs forgotten
+        code = 0 if not build._PREBUILDS and build.build(gen.c_source, cache_dir=tmp_path / "child").path.exists() else 1
+        os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    build.build(gen.c_source, cache_dir=tmp_path / "parent")  # the parent's own jobs are still waited for
+    assert not build._PREBUILDS
