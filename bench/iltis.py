@@ -6,10 +6,16 @@ the static equilibrium, and each bump scene's wall time and real-time factor wit
 Printed, all measured in this run (medians of --repeat; the machine is shared and noisy):
 
 * compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load), and of it
-  the derivation (to generated C) and the C build (split into units compiled in parallel, runtime/units.py);
+  the derivation (to generated C) and the rest of the C build (split into units compiled in parallel,
+  runtime/translation_units.py; the equations' units start while the outputs are derived, runtime/build.py
+  prebuild), against the same C built as one unit (how every model was built before the split) as the baseline;
 * the command line, `mbs -q simulate vehicle.mbs --scene S` in a subprocess (medians of --repeat): warm (the
   build and the derivation cached: a user's second call) against cold (the build cached, the derivation not:
-  every call before the derivation cache), as a ratio;
+  every call before the derivation cache), as a ratio; Python's bytecode cached, as in an installed package;
+* other outputs: text to loaded library of a scene that asks for other outputs than S (--other, default settle)
+  when S was derived and compiled before (the equations taken from the derivation cache, the outputs derived on
+  them, only outputs.c compiled, the other objects from the build cache), against the same scene's fresh compile
+  (whole derivation, every unit) in this run;
 * rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
   the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
@@ -98,14 +104,25 @@ def main() -> None:
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--rk45", action="store_true", help="also run scipy's RK45 as a baseline")
     ap.add_argument("--no-switches", action="store_true", help="leave out the smooth / event form comparison")
+    ap.add_argument("--other", default="settle", help="a scene with other outputs than the first of --scenes")
+    ap.add_argument("--no-one-unit", action="store_true", help="skip the one-unit C build (the slow baseline)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
         system = mbs.load(MODEL, cache_dir=cache)
-        system.generate(args.scenes[0])
-        derived = time.perf_counter()
+        marks = {}
+        generate = system.generate
+
+        def timed_generate(*a, **k):  # the derivation's end inside compile (the C compiler starts before it)
+            result = generate(*a, **k)
+            marks.setdefault("derived", time.perf_counter())
+            return result
+
+        system.generate = timed_generate
         compiled = system.compile(args.scenes[0])
         built = time.perf_counter()
+        derived = marks["derived"]
+        system.generate = generate
         compile_time = built - start
         gen = system.generate(args.scenes[0])
         open_system = mbs.loads(chain_text(compiled.nv), cache_dir=cache)
@@ -114,11 +131,19 @@ def main() -> None:
         x_start = data.x.copy()
         report = data.loop_report(0.0, x_start)
         print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache: derivation "
-              f"{derived - start:.1f} s, C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
+              f"{derived - start:.1f} s, then C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
               f"{len(gen.c_source) / 1024:.0f} KiB")
+        if not args.no_one_unit:
+            one = one_unit_build(gen.c_source)
+            former = derived - start + one
+            print(f"  baseline: the same C built as one unit after the derivation (the former way) {one:.1f} s, "
+                  f"compile {former:.1f} s: {former / compile_time:.1f} x the split, overlapped compile")
+        other, other_fresh = other_outputs_times(cache, args.other)
+        print(f"other outputs (scene {args.other} after {args.scenes[0]}): {other:.1f} s to the loaded library, "
+              f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x")
         warm, cold = cli_times(cache, args.scenes[0], args.repeat)
         print(f"command line `mbs simulate {MODEL.name} --scene {args.scenes[0]}`: warm {warm:.2f} s, cold "
-              f"(derivation not cached) {cold:.2f} s: {cold / warm:.1f} x")
+              f"(derivation not cached, baseline) {cold:.2f} s: {cold / warm:.1f} x")
         print(f"  nq = {compiled.nq}, nv = {compiled.nv}, constraint rows = {len(gen.constraints.names)}, "
               f"rank {int(report[5])}, degrees of freedom {int(report[6])}")
 
@@ -193,10 +218,37 @@ def compare_forms(cache: str, scenes, repeat: int) -> None:
                   + (f" {wall['true'] / wall['false']:13.2f}" if flag == "true" else ""))
 
 
+def one_unit_build(code: str) -> float:
+    """Seconds to build `code` as one translation unit into an empty cache (the split switched off)."""
+    from mbs.runtime import build, translation_units
+    saved = translation_units.SPLIT_MIN_CHARS
+    translation_units.SPLIT_MIN_CHARS = 1 << 62
+    try:
+        with tempfile.TemporaryDirectory() as empty:
+            start = time.perf_counter()
+            build.build(code, filename="vehicle.c", cache_dir=empty)
+            return time.perf_counter() - start
+    finally:
+        translation_units.SPLIT_MIN_CHARS = saved
+
+
+def other_outputs_times(cache: str, scene: str) -> tuple[float, float]:
+    """Seconds from text to loaded library of `scene` (its outputs differ from the scene compiled before in
+    `cache`): with that cache, and with an empty one (the fresh compile, the baseline)."""
+    times = []
+    for folder in (cache, None):
+        with tempfile.TemporaryDirectory() as empty:
+            start = time.perf_counter()
+            mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
+            times.append(time.perf_counter() - start)
+    return times[0], times[1]
+
+
 def cli_times(cache: str, scene: str, repeat: int) -> tuple[float, float]:
     """Median wall times [s] of the command line run of a scene: with both caches warm, and with the derivation
     cache emptied before each run (the build cache warm)."""
-    env = {**os.environ, "MBS_CACHE_DIR": cache}
+    # as installed: Python's bytecode cached (an environment that forbids writing it compiles every module anew)
+    env = {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}, "MBS_CACHE_DIR": cache}
     command = [sys.executable, "-m", "mbs", "-q", "simulate", str(MODEL), "--scene", scene]
 
     def run():
