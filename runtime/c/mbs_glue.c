@@ -380,6 +380,13 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     Py_INCREF(fn_obj);
     self->function = fn_obj;
     rhs = fn->entry->fn;
+#ifdef MBS_NC
+    /* the mechanism's own rhs in DOPRI5: x' at the integrated state itself (mbs_loop_rhs_direct, the kept
+     * partition), the accepted states projected below; the projecting mbs_loop_rhs at every stage would project
+     * each stage's state again (the bump: two thirds of the integration's work).  rodasp keeps the projecting
+     * rhs, whose Jacobian loop_jacobian.c assembles. */
+    if (fn->entry->fn == mbs_rhs && MBS_METHODS[i].init == mbs_dopri5_init) rhs = mbs_loop_rhs_direct;
+#endif
     rc = MBS_METHODS[i].init(&self->ode, MBS_NX, rhs, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);
