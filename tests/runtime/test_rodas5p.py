@@ -80,21 +80,24 @@ def test_dense_output_order_within_one_step(order_problems, method, dense_order)
 
 
 def test_stiff_van_der_pol_against_radau(order_problems):
-    """mu = 1e3 over 2000 s: two relaxation oscillations (slow drifts with jumps of about 1e-3 s between).  The
-    end state against scipy's Radau (an implicit Runge-Kutta method of order 5) at rtol 1e-12, and far fewer
-    steps than RODASP at the same tolerance."""
+    """Hairer and Wanner's VDPOL with epsilon = 1/mu = 1e-3 over 2 s: a relaxation oscillation, slow drifts
+    joined by jumps of about 1e-3 s.  The end state against scipy's Radau (an implicit Runge-Kutta method of
+    order 5, other code) at rtol 1e-10; the tolerance-controlled runs at rtol 1e-7 end within 10 rtol of it
+    (measured: 1e-7 for rodas5p, 1e-8 for rodasp, which overshoots its tolerance less), and rodas5p with far
+    fewer steps than RODASP (at 1e-6: 386 against 601)."""
     data = workspace(order_problems, [VAN_DER_POL, 1e3, 0.0])
-    t_end, x0 = 2000.0, [2.0, 0.0]
-    ref = solve_ivp(data.rhs, (0.0, t_end), x0, method="Radau", rtol=1e-12, atol=1e-12, jac=lambda t, x:
-                    data.function("jacobian")(t, x)[:, :2]).y[:, -1]
+    t_end, x0, rtol = 2.0, [2.0, 0.0], 1e-7
+    jacobian = data.function("jacobian")
+    ref = solve_ivp(data.rhs, (0.0, t_end), x0, method="Radau", rtol=1e-10, atol=1e-10,
+                    jac=lambda t, x: jacobian(t, x)[:, :2]).y[:, -1]
     runs = {}
     for method in ("rodasp", "rodas5p"):
-        solver = get_integrator(method)(data.rhs, 0.0, x0, t_end, rtol=1e-8, atol=1e-8)
+        solver = get_integrator(method)(data.rhs, 0.0, x0, t_end, rtol=rtol, atol=rtol)
         while solver.status == "running":
             solver.step()
         assert solver.status == "finished", solver.message
         runs[method] = solver
-        # relative error of the position; the velocity is O(1e-3) on the slow branch
-        assert abs(solver.y[0] - ref[0]) < 1e-5 * abs(ref[0]), (method, solver.y, ref)
+        assert np.all(np.abs(solver.y - ref) < 10 * rtol * np.abs(ref)), (method, solver.y, ref)
     assert runs["rodas5p"].nsteps < 0.8 * runs["rodasp"].nsteps
-    assert runs["rodas5p"].nfev <= 8 * runs["rodas5p"].nsteps + 2 and runs["rodasp"].nfev <= 6 * runs["rodasp"].nsteps + 2
+    assert runs["rodas5p"].nfev <= 8 * runs["rodas5p"].nsteps + 2
+    assert runs["rodasp"].nfev <= 6 * runs["rodasp"].nsteps + 2
