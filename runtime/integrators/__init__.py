@@ -1,8 +1,8 @@
 """Integrators: one base class (base.py), one file per method, and a registry of names.
 
 Built in: ``dopri5``, ``rodasp`` and ``rodas5p`` (in C, the fast path) and scipy's ``RK45``, ``DOP853``, ``Radau``,
-``BDF``, ``LSODA`` (driven from Python), ``auto`` (dopri5, rodasp once it finds stiffness), and SUNDIALS' ``cvode_adams``, ``cvode_bdf``, ``ida``
-(scikit-sundae, imported when first used).  Add a method by subclassing OdeSolver and calling ``register``.
+``BDF``, ``LSODA`` (driven from Python), ``auto`` (dopri5, rodas5p once it finds stiffness), and SUNDIALS'
+``cvode_adams``, ``cvode_bdf``, ``ida`` (scikit-sundae, imported when first used).  Add a method by subclassing OdeSolver and calling ``register``.
 """
 
 from .base import FAILED, FINISHED, RUNNING, DenseOutput, OdeSolver
@@ -17,5 +17,6 @@ from .cvode_adams import CvodeAdams
 from .cvode_bdf import CvodeBdf
 from .ida import Ida
 
-__all__ = ["OdeSolver", "DenseOutput", "NativeSolver", "ScipyMethod", "Dopri5", "Rodasp", "Rodas5p", "RK45", "DOP853",
-           "Radau", "BDF", "LSODA", "Auto", "CvodeAdams", "CvodeBdf", "Ida", "register", "get_integrator", "available", "RUNNING", "FINISHED", "FAILED"]
+__all__ = ["OdeSolver", "DenseOutput", "NativeSolver", "ScipyMethod", "Dopri5", "Rodasp", "Rodas5p", "RK45",
+           "DOP853", "Radau", "BDF", "LSODA", "Auto", "CvodeAdams", "CvodeBdf", "Ida", "register", "get_integrator",
+           "available", "RUNNING", "FINISHED", "FAILED"]
