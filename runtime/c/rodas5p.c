@@ -54,10 +54,6 @@ static const double R5P_H[3][8] = {
     {11.419903575922262, 2.8879645146136994, 72.92137995996029, 80.12511834622643, -52.072871366152654,
      -59.78993625266729, -0.15582684282751913, 4.883087185713722}};
 
-static void rodas5p_cont(mbs_ode *o, const ro_mem *m, double h, const double *y1, const double *f1);
-
-static const ro_method RODAS5P = {8, 6, 5, 0.21193756319429014, R5P_C, R5P_D, R5P_A, R5P_CC, rodas5p_cont};
-
 /* Dense output: y0, y1, w1, w2, w3 and h. */
 static void rodas5p_cont(mbs_ode *o, const ro_mem *m, double h, const double *y1, const double *f1)
 {
@@ -87,13 +83,13 @@ static void rodas5p_dense(const mbs_ode *o, double t, double *out)
         out[i] = s1 * c[i] + s * (c[n + i] + s1 * (c[2 * n + i] + s * (c[3 * n + i] + s * c[4 * n + i])));
 }
 
+static const ro_method RODAS5P = {8, 6, 5, 0.21193756319429014, R5P_C, R5P_D, R5P_A, R5P_CC, rodas5p_cont, 5,
+                                  rodas5p_dense};
+
 /* Set up a Rodas5P run; h0 <= 0 chooses the first step automatically.  Returns 0 or -1 (no memory). */
 static int mbs_rodas5p_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0,
                             const double *y0, double t_bound, double rtol, const double *atol, int natol,
                             double h0, double h_max, double h_min, long max_steps)
 {
-    if (ro_init(o, &RODAS5P, 5 * (size_t)n + 1, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max,
-                h_min, max_steps)) return -1;
-    o->dense = rodas5p_dense;
-    return 0;
+    return ro_init(o, &RODAS5P, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps);
 }

@@ -29,10 +29,6 @@ static const double RO_P_CC[36] = {
     34.19095006749805, 15.49671153726025, 54.74760875964147, 14.16005392148532, 0, 0,
     34.626058309306686, 15.300849761145368, 56.99955578662688, 18.408070097930906, -40.0 / 7, 0};
 
-static void rodasp_cont(mbs_ode *o, const ro_mem *m, double h, const double *y1, const double *f1);
-
-static const ro_method RODASP = {6, 5, 4, 0.25, RO_P_C, RO_P_D, RO_P_A, RO_P_CC, rodasp_cont};
-
 /* Dense output: y0, y1, h f0, h f1 and h (the cubic Hermite interpolant below). */
 static void rodasp_cont(mbs_ode *o, const ro_mem *m, double h, const double *y1, const double *f1)
 {
@@ -60,13 +56,12 @@ static void rodasp_dense(const mbs_ode *o, double t, double *out)
     for (i = 0; i < n; i++) out[i] = h00 * c[i] + h01 * c[n + i] + h10 * c[2 * n + i] + h11 * c[3 * n + i];
 }
 
+static const ro_method RODASP = {6, 5, 4, 0.25, RO_P_C, RO_P_D, RO_P_A, RO_P_CC, rodasp_cont, 4, rodasp_dense};
+
 /* Set up a RODASP run; h0 <= 0 chooses the first step automatically.  Returns 0 or -1 (no memory). */
 static int mbs_rodasp_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0,
                            const double *y0, double t_bound, double rtol, const double *atol, int natol,
                            double h0, double h_max, double h_min, long max_steps)
 {
-    if (ro_init(o, &RODASP, 4 * (size_t)n + 1, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max,
-                h_min, max_steps)) return -1;
-    o->dense = rodasp_dense;
-    return 0;
+    return ro_init(o, &RODASP, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps);
 }

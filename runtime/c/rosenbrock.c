@@ -51,6 +51,8 @@ typedef struct {
     /* dense-output coefficients of the accepted step [t, t + h] into o->cont, from y0 = o->y, f0 = o->f (still
      * those of the step's start), the stages k[0 .. stages), y1 and f1 = f(t + h, y1) */
     void (*cont)(mbs_ode *o, const ro_mem *m, double h, const double *y1, const double *f1);
+    int ncont;              /* o->cont holds ncont n + 1 doubles (the last: h) */
+    void (*dense)(const mbs_ode *, double t, double *out);  /* the o->dense hook */
 } ro_method;
 
 struct ro_mem {
@@ -228,18 +230,18 @@ static int ro_step(mbs_ode *o)
     return o->status;
 }
 
-/* Set up a run of `method`: the shared arrays (mbs_ode_setup), ncont doubles of dense output, the engine's
- * memory, and the first step when h0 <= 0.  Returns 0 or -1 (no memory). */
-static int ro_init(mbs_ode *o, const ro_method *method, size_t ncont, int n, mbs_fn fn, const double *p,
-                   double *work, double t0, const double *y0, double t_bound, double rtol, const double *atol,
-                   int natol, double h0, double h_max, double h_min, long max_steps)
+/* Set up a run of `method`: the shared arrays (mbs_ode_setup) with its dense output, the engine's memory, and
+ * the first step when h0 <= 0.  Returns 0 or -1 (no memory). */
+static int ro_init(mbs_ode *o, const ro_method *method, int n, mbs_fn fn, const double *p, double *work, double t0,
+                   const double *y0, double t_bound, double rtol, const double *atol, int natol, double h0,
+                   double h_max, double h_min, long max_steps)
 {
     ro_mem *m;
     double *a;
     size_t nn = (size_t)n * (size_t)n, nk = (size_t)method->stages * (size_t)n;
     int i;
-    if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps, ncont))
-        return -1;
+    if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
+                      (size_t)method->ncont * (size_t)n + 1)) return -1;
     m = calloc(1, sizeof(ro_mem) + (2 * nn + nk + 5 * (size_t)n + 1) * sizeof(double)
                   + ((size_t)n + 1) * sizeof(int));
     if (!m) return -1;
@@ -253,6 +255,7 @@ static int ro_init(mbs_ode *o, const ro_method *method, size_t ncont, int n, mbs
     m->piv = (int *)(a + 4 * n);
     m->need_jac = 1;
     o->step = ro_step;
+    o->dense = method->dense;
     if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, method->order, m->k[0]);
     return 0;
 }
