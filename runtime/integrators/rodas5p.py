@@ -8,25 +8,18 @@ mechanisms about as few as dopri5 (python bench/rodasp_order.py).
 
 from __future__ import annotations
 
-import numpy as np
-
-from .base import DenseOutput
-from .native import NativeSolver
+from .native import CoefficientDense, NativeSolver
 from .registry import register
 
 
-class Rodas5pDense(DenseOutput):
+class Rodas5pDense(CoefficientDense):
     """y(t) = s1 y0 + s (y1 + s1 (w1 + s (w2 + s w3))), s = (t - t_old)/h, s1 = 1 - s, as rodas5p_dense in C."""
 
-    def __init__(self, t_old, t, cont, n):
-        super().__init__(t_old, t)
-        self.c = np.asarray(cont[:5 * n]).reshape(5, n)
-        self.h = float(cont[5 * n])
+    rows = 5
 
     def _call_impl(self, t):
-        s = (t - self.t_old) / self.h
+        s, (y0, y1, w1, w2, w3) = self.coefficients(t)
         s1 = 1.0 - s
-        y0, y1, w1, w2, w3 = (ci[:, None] if t.ndim else ci for ci in self.c)
         return s1 * y0 + s * (y1 + s1 * (w1 + s * (w2 + s * w3)))
 
 
