@@ -78,8 +78,8 @@ def test_energy_drift_over_1000_s(integrator):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida", "Radau",
-                                        "BDF"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida",
+                                        "Radau", "BDF"])
 def test_closed_loop_through_its_singular_positions(integrator, tmp_path):
     """Three coupled four-bars fall from upright through the flat position (every loop singular: the rank of
     its constraint Jacobian drops) and back (1.5 s, two crossings). Every integrator finishes, and the crank
