@@ -42,7 +42,9 @@ extern const int mbs_ny;
 #include "ode.c"
 #include "dense_lu.c"
 #include "dopri5.c"
+#include "rosenbrock.c"
 #include "rodasp.c"
+#include "rodas5p.c"
 #ifdef MBS_NC
 #include "loops.c"  /* closed kinematic loops: projection, partitioning, constrained accelerations */
 #ifdef MBS_LOOP_JACOBIAN
@@ -117,6 +119,7 @@ typedef int (*mbs_init_fn)(mbs_ode *, int, mbs_fn, const double *, double *, dou
 static const struct { const char *name; mbs_init_fn init; } MBS_METHODS[] = {
     {"dopri5", mbs_dopri5_init},
     {"rodasp", mbs_rodasp_init},
+    {"rodas5p", mbs_rodas5p_init},
 };
 #define MBS_METHODS_SIZE ((int)(sizeof MBS_METHODS / sizeof MBS_METHODS[0]))
 

@@ -33,7 +33,7 @@ def mass_ratio():
     return mbs.load(MODELS / "mass_ratio.mbs")
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "auto", "cvode_bdf", "ida"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "auto", "cvode_bdf", "ida"])
 def test_tiny_part_next_to_a_heavy_one(mass_ratio, integrator):
     res = mass_ratio.simulate("swing", integrator=integrator, rtol=1e-10, atol=1e-12)
     assert res.metadata["status"] == "finished", res.message
@@ -63,7 +63,7 @@ def test_round_off_floor_rtol_1e_13():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "cvode_adams", "cvode_bdf", "DOP853"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "cvode_adams", "cvode_bdf", "DOP853"])
 def test_energy_drift_over_1000_s(integrator):
     system = mbs.load("library/examples/pendulum.mbs")
     res = system.simulate("swing", t_end=1000.0, sample=1.0, integrator=integrator, rtol=1e-8, atol=1e-10)
@@ -78,7 +78,8 @@ def test_energy_drift_over_1000_s(integrator):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "auto", "cvode_adams", "cvode_bdf", "ida", "Radau", "BDF"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida",
+                                        "Radau", "BDF"])
 def test_closed_loop_through_its_singular_positions(integrator, tmp_path):
     """Three coupled four-bars fall from upright through the flat position (every loop singular: the rank of
     its constraint Jacobian drops) and back (1.5 s, two crossings). Every integrator finishes, and the crank

@@ -284,7 +284,7 @@ def test_constraints_hold_after_a_long_run_without_drift(fb):
     assert max(np.max(np.abs(data.constraints(t, x))) for t, x in zip(times, raw)) < 1e-6
 
 
-@pytest.mark.parametrize("method", ["dopri5", "rodasp"])
+@pytest.mark.parametrize("method", ["dopri5", "rodasp", "rodas5p"])
 def test_the_c_integrators_keep_their_own_state_on_the_constraints(fb, method):
     """Every accepted step is projected onto the constraints (coordinate projection), so the integrated state
     itself does not drift away by the accumulated integration error: at every step of a 20 s run its residual
