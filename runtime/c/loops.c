@@ -62,9 +62,6 @@
  */
 #include <math.h>
 #include <string.h>
-#ifdef MBS_LOOP_DEBUG
-#include <stdio.h>
-#endif
 
 #if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK) \
     || !defined(MBS_NCOLOUR)
@@ -495,9 +492,6 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
             if (!w->newton) r = w->rband;
         }
     }
-#ifdef MBS_LOOP_DEBUG
-    fprintf(stderr, "partition q0=%.17g r=%d rband=%d pivot=%.3e singular=%d newton=%d valid=%d\n", q[0], r, w->rband, pivot, w->singular, w->newton, valid);
-#endif
     if (r > 0 && (adopt > 0 || (adopt == 0 && !valid)) && !w->singular) {
         mbs_loop_keep_store(w, r, pivot, w->rband == r);
         if (info) info->refreshed++;
