@@ -41,7 +41,12 @@
  * Singular positions (a four-bar stretched flat: the rank of G drops where two branches of motion cross) are
  * told from rows redundant everywhere by the rank a little way along the allowed motion; there the accelerations
  * are those of the limit of the motion through the position (mbs_loop_singular_rows), and such a partition is
- * never kept.
+ * never kept.  So is a band around such a position (pivots between MBS_LOOP_RANK_TOL and MBS_LOOP_BAND_TOL
+ * whose rank returns a little further along the motion): there the rows with small pivots fix the
+ * accelerations as the ratio of two small numbers, and the round-off of the positions bends them by about
+ * 1e-15 / d^3 at the distance d (docs/numerics.md, "Closed loops through singular positions"); the band drops
+ * those rows from the velocities and takes the limit rows for the accelerations, while the position Newton
+ * keeps all rows (w->newton).
  *
  * Newton on positions: dq = qdot(q, dv) with dv_I = 0 and G_D dv_D = -g (the pivot rows), quaternions
  * renormalised after each update; the Jacobian is refreshed when the residual falls by less than a factor
