@@ -4,13 +4,14 @@
 
 1. A model without events (the double pendulum example, dopri5 in C, 10 s): ``simulate()`` against the bare
    C sampling loop with no driver around it (``Solver.sample`` of the same compiled model), the median of R
-   runs each.  The ratio bounds what the event machinery costs a model that does not use it: it contains the
+   runs each, the two interleaved.  The ratio bounds what the event machinery costs a model that does not use it: it contains the
    driver's fixed cost (workspace, results table), and of the event machinery only one test per step in C
    (``nev == 0``) and one attribute test in Python.
 2. The bouncing ball example to its accumulation point: events per second of wall time.
 3. The Iltis quarter car and the full Iltis (library/iltis/vehicle.mbs) over the bump at 10 m/s with dopri5:
    the tyre contact, leaf stop and damper kinks as switches (events) against the smooth form of the same model
-   (``switches = false``, the baseline), median of R runs each, the two forms interleaved.  The event form's
+   (``switches = false``, the baseline), median of R runs each, the two forms interleaved; wall time and the
+   process's CPU time (the steadier figure when other jobs share the cores).  The event form's
    restarts run inside the C sampling loop (c/ode.c, mbs_ode_restart); ``--python-restarts`` times the Python
    loop's restarts (a new integrator after each event) as a third line for comparison.
 """
@@ -19,10 +20,11 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import time
 from pathlib import Path
 
 import numpy as np
-from timing import median_time  # bench/timing.py (the scripts run from bench/)
+from timing import interleaved_medians  # bench/timing.py (the scripts run from bench/)
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "library" / "examples"
@@ -54,8 +56,7 @@ def main(argv=None) -> int:
         fresh.p, fresh.x = data.p, x0
         simulate(compiled, fresh, 10.0, sample=0.01, rtol=1e-8, atol=1e-10)
 
-    base = median_time(bare, args.repeats)
-    driver = median_time(full, args.repeats)
+    base, driver = interleaved_medians((bare, full), args.repeats)
     print(f"double pendulum, 10 s, dopri5 in C, median of {args.repeats}:")
     print(f"  bare C sampling loop (baseline)          {base * 1e3:8.2f} ms")
     print(f"  simulate() of a model without events     {driver * 1e3:8.2f} ms   ratio {driver / base:.2f}")
@@ -83,26 +84,42 @@ def compare_forms(mbs, label: str, path: Path, header: str, repeats: int, python
     forms = {name: mbs.loads(text.replace(header, f"{header}\n    switches = {flag}"), path=str(path))
              for name, flag in (("smooth", "false"), ("events", "true"))}
     runs: dict[str, list] = {"smooth": [], "events": [], "python": []}
+    cpu: dict[str, list] = {"smooth": [], "events": [], "python": []}
     tables = event_loop.c_restart_tables
+
+    def run(name: str, form: str) -> None:
+        started = time.process_time()
+        runs[name].append(forms[form].simulate("bump_10"))
+        cpu[name].append(time.process_time() - started)
+
     for name in ("smooth", "events"):
         forms[name].simulate("bump_10")  # compile and warm up
     for _ in range(repeats):
-        runs["smooth"].append(forms["smooth"].simulate("bump_10"))
-        runs["events"].append(forms["events"].simulate("bump_10"))
+        run("smooth", "smooth")
+        run("events", "events")
         if python_restarts:
             event_loop.c_restart_tables = lambda model: None
             try:
-                runs["python"].append(forms["events"].simulate("bump_10"))
+                run("python", "events")
             finally:
                 event_loop.c_restart_tables = tables
     med = {k: statistics.median(r.metadata["wall_time"] for r in v) for k, v in runs.items() if v}
+    med_cpu = {k: statistics.median(v) for k, v in cpu.items() if v}
     smooth, events = runs["smooth"][0], runs["events"][0]
-    print(f"{label}, bump at 10 m/s, dopri5, median of {repeats}:")
-    print(f"  smooth form (baseline)        {med['smooth'] * 1e3:8.1f} ms   nfev {smooth.metadata['stats']['nfev']}")
-    print(f"  event form, restarts in C     {med['events'] * 1e3:8.1f} ms   nfev {events.metadata['stats']['nfev']}, "
-          f"{len(events.events)} events   ratio {med['events'] / med['smooth']:.2f}")
+
+    def counts(res) -> str:
+        stats = res.metadata["stats"]
+        return f"nfev {stats['nfev']:6d}, rejected {stats['nreject']:4d}"
+
+    print(f"{label}, bump at 10 m/s, dopri5, median of {repeats} (wall; process CPU, steadier on a busy machine):")
+    print(f"  smooth form (baseline)        {med['smooth'] * 1e3:8.1f} ms; {med_cpu['smooth'] * 1e3:7.1f} ms   "
+          f"{counts(smooth)}")
+    print(f"  event form, restarts in C     {med['events'] * 1e3:8.1f} ms; {med_cpu['events'] * 1e3:7.1f} ms   "
+          f"{counts(events)}, {len(events.events)} events   ratio {med['events'] / med['smooth']:.2f}; "
+          f"{med_cpu['events'] / med_cpu['smooth']:.2f}")
     if "python" in med:
-        print(f"  event form, restarts in Python{med['python'] * 1e3:8.1f} ms   ratio {med['python'] / med['smooth']:.2f}")
+        print(f"  event form, restarts in Python{med['python'] * 1e3:8.1f} ms; {med_cpu['python'] * 1e3:7.1f} ms   "
+              f"ratio {med['python'] / med['smooth']:.2f}; {med_cpu['python'] / med_cpu['smooth']:.2f}")
 
 
 if __name__ == "__main__":

@@ -6,10 +6,16 @@ the static equilibrium, and each bump scene's wall time and real-time factor wit
 Printed, all measured in this run (medians of --repeat; the machine is shared and noisy):
 
 * compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load), and of it
-  the derivation (to generated C) and the C build (split into units compiled in parallel, runtime/units.py);
+  the derivation (to generated C) and the rest of the C build (split into units compiled in parallel,
+  runtime/translation_units.py; the equations' units start while the outputs are derived, runtime/build.py
+  prebuild), against the same C built as one unit (how every model was built before the split) as the baseline;
 * the command line, `mbs -q simulate vehicle.mbs --scene S` in a subprocess (medians of --repeat): warm (the
   build and the derivation cached: a user's second call) against cold (the build cached, the derivation not:
-  every call before the derivation cache), as a ratio;
+  every call before the derivation cache), as a ratio; Python's bytecode cached, as in an installed package;
+* other outputs: text to loaded library of a scene that asks for other outputs than S (--other, default settle)
+  when S was derived and compiled before (the equations taken from the derivation cache, the outputs derived on
+  them, only outputs.c compiled, the other objects from the build cache), against the same scene's fresh compile
+  (whole derivation, every unit) in this run;
 * rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
   the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
@@ -20,13 +26,18 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
   real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
   and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
-  with --rk45 also scipy's RK45 on the same compiled model, as a ratio.
+  with --rk45 also scipy's RK45 on the same compiled model, as a ratio;
+* per scene, both forms of the model's kinks (unless --no-switches): the smooth form (`switches = false`: the
+  tyre contact, leaf stop and damper kinks as min/max inside the rhs, which the step size control meets as
+  rejections) and the event form (`switches = true`: each kink a located event, the integrator restarted there),
+  the whole `simulate` each, with steps, rejections and rhs calls; the ratio is event / smooth wall time.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
 import statistics
 import subprocess
 import sys
@@ -92,14 +103,26 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--rk45", action="store_true", help="also run scipy's RK45 as a baseline")
+    ap.add_argument("--no-switches", action="store_true", help="leave out the smooth / event form comparison")
+    ap.add_argument("--other", default="settle", help="a scene with other outputs than the first of --scenes")
+    ap.add_argument("--no-one-unit", action="store_true", help="skip the one-unit C build (the slow baseline)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
         system = mbs.load(MODEL, cache_dir=cache)
-        system.generate(args.scenes[0])
-        derived = time.perf_counter()
+        marks = {}
+        generate = system.generate
+
+        def timed_generate(*a, **k):  # the derivation's end inside compile (the C compiler starts before it)
+            result = generate(*a, **k)
+            marks.setdefault("derived", time.perf_counter())
+            return result
+
+        system.generate = timed_generate
         compiled = system.compile(args.scenes[0])
         built = time.perf_counter()
+        derived = marks["derived"]
+        system.generate = generate
         compile_time = built - start
         gen = system.generate(args.scenes[0])
         open_system = mbs.loads(chain_text(compiled.nv), cache_dir=cache)
@@ -108,11 +131,19 @@ def main() -> None:
         x_start = data.x.copy()
         report = data.loop_report(0.0, x_start)
         print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache: derivation "
-              f"{derived - start:.1f} s, C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
+              f"{derived - start:.1f} s, then C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
               f"{len(gen.c_source) / 1024:.0f} KiB")
+        if not args.no_one_unit:
+            one = one_unit_build(gen.c_source)
+            former = derived - start + one
+            print(f"  baseline: the same C built as one unit after the derivation (the former way) {one:.1f} s, "
+                  f"compile {former:.1f} s: {former / compile_time:.1f} x the split, overlapped compile")
+        other, other_fresh = other_outputs_times(cache, args.other)
+        print(f"other outputs (scene {args.other} after {args.scenes[0]}): {other:.1f} s to the loaded library, "
+              f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x")
         warm, cold = cli_times(cache, args.scenes[0], args.repeat)
         print(f"command line `mbs simulate {MODEL.name} --scene {args.scenes[0]}`: warm {warm:.2f} s, cold "
-              f"(derivation not cached) {cold:.2f} s: {cold / warm:.1f} x")
+              f"(derivation not cached, baseline) {cold:.2f} s: {cold / warm:.1f} x")
         print(f"  nq = {compiled.nq}, nv = {compiled.nv}, constraint rows = {len(gen.constraints.names)}, "
               f"rank {int(report[5])}, degrees of freedom {int(report[6])}")
 
@@ -131,7 +162,7 @@ def main() -> None:
         print(f"\nrhs per call inside C at the equilibrium (medians of {args.repeat} interleaved rounds):")
         print(f"  constrained rhs (projected)  {rhs * 1e6:8.2f} us  {ratio:5.1f} x the open chain")
         print(f"  constrained rhs (no projection) {direct * 1e6:5.2f} us  {ratio_direct:5.1f} x the open chain "
-              f"(what DOPRI5 calls; target <= {TARGET_RHS_RATIO:g} x)")
+              f"(the rhs without the projection; target <= {TARGET_RHS_RATIO:g} x)")
         print(f"  open chain of {compiled.nv} links     {open_rhs * 1e6:8.2f} us")
 
         print(f"\n{'scene':8s} {'t_end':>5s} {'wall':>8s} {'RTF':>6s} {'equil.':>8s} {'integr.':>8s} "
@@ -154,12 +185,70 @@ def main() -> None:
             print(line + ("" if res.success else f"  ({res.message})"))
         print(f"(RTF = simulated / wall time, from the start of simulate to the results with every output; "
               f"target >= {TARGET_RTF:g})")
+        if not args.no_switches:
+            compare_forms(cache, args.scenes, args.repeat)
+
+
+def compare_forms(cache: str, scenes, repeat: int) -> None:
+    """Each scene's whole simulate() with the kinks smooth (switches = false) and as events (switches = true),
+    medians of interleaved runs, with the step counts of each form."""
+    text = MODEL.read_text()
+    header = re.search(r"^model [^\n]*\{[^\n]*\n", text, re.M)
+    forms = {flag: mbs.loads(text[:header.end()] + f"    switches = {flag}\n" + text[header.end():], path=str(MODEL),
+                             cache_dir=cache) for flag in ("false", "true")}
+    print(f"\nkinks smooth (switches = false) or as events (switches = true), whole simulate(), medians of {repeat}:")
+    print(f"{'scene':8s} {'form':>7s} {'wall':>8s} {'RTF':>6s} {'steps':>6s} {'reject':>6s} {'rhs':>6s} {'events':>6s}"
+          f" {'events/smooth':>13s}")
+    for scene in scenes:
+        t_end = forms["false"].scene(scene).t_end
+        walls: dict[str, list] = {"false": [], "true": []}
+        last = {}
+        for flag in forms:
+            forms[flag].simulate(scene)  # compile and warm up
+        for _ in range(repeat):
+            for flag, system in forms.items():
+                start = time.perf_counter()
+                last[flag] = system.simulate(scene)
+                walls[flag].append(time.perf_counter() - start)
+        wall = {flag: statistics.median(w) for flag, w in walls.items()}
+        for flag, name in (("false", "smooth"), ("true", "events")):
+            stats, res = last[flag].metadata["stats"], last[flag]
+            print(f"{scene:8s} {name:>7s} {wall[flag] * 1e3:6.0f}ms {t_end / wall[flag]:6.1f} {stats.get('nsteps', 0):6d} "
+                  f"{stats.get('nreject', 0):6d} {stats.get('nfev', 0):6d} {len(res.events):6d}"
+                  + (f" {wall['true'] / wall['false']:13.2f}" if flag == "true" else ""))
+
+
+def one_unit_build(code: str) -> float:
+    """Seconds to build `code` as one translation unit into an empty cache (the split switched off)."""
+    from mbs.runtime import build, translation_units
+    saved = translation_units.SPLIT_MIN_CHARS
+    translation_units.SPLIT_MIN_CHARS = 1 << 62
+    try:
+        with tempfile.TemporaryDirectory() as empty:
+            start = time.perf_counter()
+            build.build(code, filename="vehicle.c", cache_dir=empty)
+            return time.perf_counter() - start
+    finally:
+        translation_units.SPLIT_MIN_CHARS = saved
+
+
+def other_outputs_times(cache: str, scene: str) -> tuple[float, float]:
+    """Seconds from text to loaded library of `scene` (its outputs differ from the scene compiled before in
+    `cache`): with that cache, and with an empty one (the fresh compile, the baseline)."""
+    times = []
+    for folder in (cache, None):
+        with tempfile.TemporaryDirectory() as empty:
+            start = time.perf_counter()
+            mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
+            times.append(time.perf_counter() - start)
+    return times[0], times[1]
 
 
 def cli_times(cache: str, scene: str, repeat: int) -> tuple[float, float]:
     """Median wall times [s] of the command line run of a scene: with both caches warm, and with the derivation
     cache emptied before each run (the build cache warm)."""
-    env = {**os.environ, "MBS_CACHE_DIR": cache}
+    # as installed: Python's bytecode cached (an environment that forbids writing it compiles every module anew)
+    env = {**{k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}, "MBS_CACHE_DIR": cache}
     command = [sys.executable, "-m", "mbs", "-q", "simulate", str(MODEL), "--scene", scene]
 
     def run():

@@ -11,7 +11,9 @@ For each closed-loop model of the library:
   projection of the state onto the constraints, the constraint Jacobian and its factorisation, the mass
   matrix and the null-space solve (runtime/c/loops.c) instead of the tree's articulated-body recursion. Both
   are evaluated at the same states (samples of a closed-loop run), one Python call per state ("py") and
-  inside C without Python ("C", `Workspace.time_rhs`). Shared machines are noisy: each figure is the median
+  inside C without Python ("C", `Workspace.time_rhs`: the projecting rhs, which scipy's integrators and the
+  outputs call, and so do DOPRI5 and rodasp in C, which project the accepted states besides), and inside C the
+  rhs without the projection ("direct", `loop_rhs`, the loop algebra alone). Shared machines are noisy: each figure is the median
   over --rounds rounds in which the two models' batches are interleaved, and the ratio is the median of the
   per-round ratios (the stable figure).
 * drift: one long run per model (slider-crank 20 s at 10 rad/s; quarter car 10 s over the 5 m/s bump, its
@@ -140,15 +142,16 @@ def residuals(data, times, states, name="constraints"):
 
 
 def rhs_costs(closed, open_, states, rounds: int):
-    """Medians over rounds of seconds per rhs call (Python loop over the states, and inside C), and the
-    median per-round ratios closed / open."""
+    """Medians over rounds of seconds per rhs call (Python loop over the states, inside C, and inside C without
+    the projection), and the median per-round ratios closed / open."""
     fc, fo = closed.function("rhs"), open_.function("rhs")
     order = [open_.model.x_names.index(n) for n in closed.model.x_names]
     inverse = np.argsort(order)
     states_open = np.ascontiguousarray(states[:, inverse])  # the open model's state order
     calls = len(states)
     repeat = max(1, int(0.02 / max(1e-7, _batch(fc, states, 1) / calls)))  # batches of about 20 ms
-    py_c, py_o, c_c, c_o = [], [], [], []
+    direct = closed.function("loop_rhs")
+    py_c, py_o, c_c, c_o, c_d = [], [], [], [], []
     probe = states[len(states) // 2]
     n_c = max(1000, repeat * calls // 4)
     for _ in range(rounds):
@@ -156,9 +159,10 @@ def rhs_costs(closed, open_, states, rounds: int):
         py_o.append(_batch(fo, states_open, repeat) / (repeat * calls))
         c_c.append(closed.time_rhs(probe, n=n_c))
         c_o.append(open_.time_rhs(probe[inverse], n=n_c))
+        c_d.append(closed.model.backend.time_call(direct, probe, n_c, 0.0))
     med = statistics.median
     return (med(py_c), med(py_o), med(a / b for a, b in zip(py_c, py_o)),
-            med(c_c), med(c_o), med(a / b for a, b in zip(c_c, c_o)))
+            med(c_c), med(c_o), med(a / b for a, b in zip(c_c, c_o)), med(c_d), med(a / b for a, b in zip(c_d, c_o)))
 
 
 def _batch(f, states, repeat):
@@ -214,10 +218,13 @@ def main() -> None:
         cost_rows.append((name, *rhs_costs(data, open_data, states, args.rounds)))
 
     print(f"\nrhs per call, medians of {args.rounds} interleaved rounds at ~50 states of the run (us)")
-    print(f"{'model':13s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s} {'ratio':>6s}")
-    for name, pc, po, rp, cc, co, rc in cost_rows:
-        print(f"{name:13s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}")
-    print("(ratio = closed / open tree, the loop overhead; issue 12's target: under 3)")
+    print(f"{'model':13s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s} {'ratio':>6s}"
+          f" {'direct C':>9s} {'ratio':>6s}")
+    for name, pc, po, rp, cc, co, rc, cd, rd in cost_rows:
+        print(f"{name:13s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}"
+              f" {cd * 1e6:9.2f} {rd:6.1f}")
+    print("(ratio = closed / open tree, the loop overhead; issue 12's target: under 3; closed C projects the state at "
+          "every call, direct C does not project)")
 
     print("\nconstraint residuals of the long runs (DOPRI5 in C): max |g| [m] of the stored (projected) samples and"
           " of the raw integrated state")

@@ -33,8 +33,8 @@ from pathlib import Path
 import sympy as sp
 
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
-from .ccode_loops import (constraint_matrix_routine, loop_definitions, loop_functions, loop_routines, loop_work_size,
-                          state_rates_routine, unchecked_mass_matrix)
+from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
+                          loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -58,6 +58,13 @@ from .jacobian_loops import loop_jacobian_or_none, loop_jacobian_work_size
 from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 
 GENERATOR = "mbs.compiler.ccode"
+#: OUTPUTS_MARKER: the first line of a file's outputs part (generate_c_outputs), which runtime/translation_units.py
+#: builds as a unit of its own, so that a scene asking for other outputs recompiles only that unit.
+from mbs.runtime.translation_units import OUTPUTS_MARKER  # noqa: E402
+
+
+class NotSeparable(CodegenError):
+    """The outputs cannot be written apart from the equations (they call a user hook): generate the file whole."""
 c_identifier = identifier  # the old name
 
 
@@ -119,13 +126,18 @@ class CEmitter:
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                  constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-                 dynamics=None, events=(), actions=()):
+                 dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = self.parameter_jacobian = None
         self.loop_jacobian = None
+        # bearing friction in loops (compiler/friction_loops.py bearing_routines): (routines, inputs, definitions,
+        # work); f then depends on the loop solve itself, which the loop Jacobian's residuals do not know
+        self.friction = friction
+        # the outputs in a part of their own (generate_c_outputs): the rest of the file must not depend on them
+        self.separate_outputs = separate_outputs
         if jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.jacobian = jacobian_or_none(equations)
-        elif jacobian and not equations.zdot:  # with extra states: differences of mbs_rhs over all of x
+        elif jacobian and not equations.zdot and friction is None:  # extra states: differences of mbs_rhs
             self.eqs, self.loop_jacobian = loop_jacobian_or_none(equations, constraints)
         if parameter_jacobian and not (constraints is not None and constraints.nc):
             self.eqs, self.parameter_jacobian = parameter_jacobian_or_none(self.eqs, parameters)
@@ -135,7 +147,7 @@ class CEmitter:
         self.frame_names = tuple(frames[0]) if frames else ()
         self.constraints = constraints if constraints is not None and constraints.nc else None
         self.constraint_matrix = None
-        if self.constraints is not None:
+        if self.constraints is not None and not (separate_outputs and outputs):  # (not needed by the outputs part)
             self.eqs, self.constraint_matrix = constraint_matrix_routine(self.eqs, self.constraints)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
@@ -145,6 +157,7 @@ class CEmitter:
         self.origin = origin
         check_inputs(equations, self.parameters, self.outputs + self.events + self.actions, self.tables, self.constraints, self.run_time_inputs)
         loop_inputs = self.loop_jacobian.inputs if self.loop_jacobian else ()
+        loop_inputs += tuple(friction[1]) if friction else ()
         self.naming = Naming(self.eqs, self.parameters, self.run_time_inputs + tuple(dynamics_inputs) + loop_inputs)
         self.names = self.naming.names
 
@@ -175,7 +188,8 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r])
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r]
+                + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -184,8 +198,8 @@ class CEmitter:
 
     def _header(self) -> str:
         nq, nv = self.eqs.tree.nq, self.eqs.tree.nv
-        text = describe(self.eqs, self.parameters, self.outputs, self.tables, self.model_name, self.origin,
-                        GENERATOR, self.inline_max_chars)
+        text = describe(self.eqs, self.parameters, None if self.separate_outputs else self.outputs, self.tables,
+                        self.model_name, self.origin, GENERATOR, self.inline_max_chars)
         # Names and expressions inside the comment must neither end it nor form trigraphs.
         comment = [_comment(" * " + line).rstrip() for line in text]
         comment[0] = "/*" + comment[0][2:]
@@ -215,7 +229,9 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
-                      loop_definitions(self.constraints, self.constraint_matrix is not None)]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+            if self.friction:
+                lines.append(self.friction[2])
             if self.loop_jacobian:
                 lines.append(self.loop_jacobian.definitions)
         lines += ["",
@@ -260,30 +276,45 @@ class CEmitter:
         parts = ["\n".join(HELPERS[name]) + "\n" for name in sorted(HELPERS) if name in used
                  or (name == "mbs_lookup" and self.tables)]
         parts += hook_helpers(hook_calls or {})
-        for k, table in enumerate(self.tables):
-            n, smooth = len(table.xs), table.method == "smooth"
-            lines = [f"/* Lookup table {k}: {'monotone cubic' if smooth else 'linear'} interpolation in {n} points, "
-                     "constant beyond the ends. */",
-                     _array(f"mbs_table_{k}_x", table.xs), _array(f"mbs_table_{k}_y", table.ys)]
-            if smooth:
-                lines.append(_array(f"mbs_table_{k}_m", table_slopes(table.xs, table.ys)))
-            slopes = f"mbs_table_{k}_m" if smooth else "NULL"
-            lines += [f"static double mbs_table_{k}(double x)", "{",
-                      f"    return mbs_lookup(x, mbs_table_{k}_x, mbs_table_{k}_y, {slopes}, {n});", "}", ""]
-            parts.append("\n".join(lines))
-        return parts
+        return parts + [_table_text(k, table) for k, table in enumerate(self.tables)]
+
+    def outputs_source(self, defined: set[str], first_table: int) -> str:
+        """The outputs' part of a file whose other part (written with separate_outputs and no outputs) defines
+        the static helpers named in `defined` and the lookup tables below `first_table`: MBS_NY, the helpers and
+        tables only the outputs use, mbs_outputs and mbs_output_name. Raises NotSeparable for outputs that call
+        a user hook (its helpers are one block per file)."""
+        printer = CPrinter(self.names, len(self.tables))
+        routines = [r for r in equation_routines(self.eqs, self.outputs) if r[0] == "mbs_outputs"]
+        functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape, results,
+                                                 check_positive=positive, inline_max_chars=self.inline_max_chars))
+                     for name, out, doc, shape, results, positive in routines]
+        if printer.hook_calls:
+            raise NotSeparable("the outputs call a user hook")
+        new_tables = self.tables[first_table:]
+        helpers = ["\n".join(HELPERS[name]) + "\n" for name in sorted(HELPERS) if name not in defined
+                   and (name in printer.used or (name == "mbs_lookup" and new_tables))]
+        helpers += [_table_text(first_table + k, table) for k, table in enumerate(new_tables)]
+        names = [_comment(f"  y[{k}]  {name}") for k, (name, _) in enumerate(self.outputs)]
+        return "\n".join([OUTPUTS_MARKER, "/* Outputs y:", *[" *" + n[1:] for n in names], " */",
+                          f"#define MBS_NY {len(self.outputs)}   /* outputs */", "", *helpers, *functions,
+                          name_table("mbs_output_name", "output i", [name for name, _ in self.outputs])])
 
     def _work(self) -> int:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) if nc else 0
+        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return tree.nv * tree.nv + loops + self._output_scratch()
 
+    def _friction_work(self) -> int:
+        """Doubles at the end of the loop solver's work for bearing friction in the loops (MBS_FRICTION_NWORK)."""
+        return self.friction[3] if self.friction else 0
+
     def _output_scratch(self) -> int:
-        """Doubles at the start of work in which the output function keeps x' and the multipliers."""
-        if not self.run_time_inputs:
+        """Doubles at the start of work in which the output function keeps x' and the multipliers (with the
+        outputs in a part of their own always: MBS_NWORK must not depend on which outputs a scene asks for)."""
+        if not self.run_time_inputs and not self.separate_outputs:
             return 0
         return self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
 
@@ -336,7 +367,8 @@ class CEmitter:
         else:
             lines.append("    return 0;")
         lines.append("}\n")
-        return "\n".join(lines)
+        text = "\n".join(lines)
+        return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
 
 
 #: The length of each contract function's output, as the file's size macros.
@@ -349,6 +381,20 @@ def _comment(text: str) -> str:
     return printable(text).replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
 
 
+def _table_text(k: int, table) -> str:
+    """The arrays and the function mbs_table_<k> of lookup table k."""
+    n, smooth = len(table.xs), table.method == "smooth"
+    lines = [f"/* Lookup table {k}: {'monotone cubic' if smooth else 'linear'} interpolation in {n} points, "
+             "constant beyond the ends. */",
+             _array(f"mbs_table_{k}_x", table.xs), _array(f"mbs_table_{k}_y", table.ys)]
+    if smooth:
+        lines.append(_array(f"mbs_table_{k}_m", table_slopes(table.xs, table.ys)))
+    slopes = f"mbs_table_{k}_m" if smooth else "NULL"
+    lines += [f"static double mbs_table_{k}(double x)", "{",
+              f"    return mbs_lookup(x, mbs_table_{k}_x, mbs_table_{k}_y, {slopes}, {n});", "}", ""]
+    return "\n".join(lines)
+
+
 def _array(name: str, values) -> str:
     return f"static const double {name}[{len(values)}] = {{{', '.join(repr(float(v)) for v in values)}}};"
 
@@ -356,7 +402,7 @@ def _array(name: str, values) -> str:
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-               dynamics=None, events=(), actions=()) -> str:
+               dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -368,11 +414,29 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     jacobian: also emit mbs_jacobian (compiler/jacobian.py; trees only), for the stiff integrators.
     dynamics: (routines, inputs) of compiler/dynamics_functions.py when the dynamics functions are asked for.
     events, actions: (name, expression) pairs of mbs_events (MBS_NEV) and mbs_event_actions (MBS_NACT).
-    parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p; trees only), for sensitivities."""
+    parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p; trees only), for sensitivities.
+    separate_outputs: the file without outputs, to which generate_c_outputs appends them (then the text does
+    not depend on the outputs: the header does not list them, MBS_NWORK always holds their scratch)."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
-                    run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics).source()
+                    run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
+                    dynamics=dynamics, friction=friction, separate_outputs=separate_outputs).source()
+
+
+def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], equations_source: str,
+                       first_table: int, *, outputs, tables=(), constraints=None, run_time_inputs=(),
+                       friction=None, inline_max_chars: int = INLINE_MAX_CHARS) -> str:
+    """The outputs' part of a file whose rest is `equations_source` (generate_c with separate_outputs and the
+    same equations, parameters and constraints, before the outputs were lowered onto the tape): appended to
+    it, the whole file. `first_table`: how many lookup tables that rest defines (the outputs' own come after).
+    Raises NotSeparable when the outputs cannot stand apart (then generate the file whole). No outputs: ''."""
+    if not outputs:
+        return ""
+    defined = set(re.findall(r"^static (?:inline )?(?:int|double|void) (mbs_\w+)\(", equations_source, re.MULTILINE))
+    return CEmitter(equations, parameters, outputs=outputs, tables=tables, constraints=constraints,
+                    run_time_inputs=run_time_inputs, friction=friction, inline_max_chars=inline_max_chars,
+                    separate_outputs=True).outputs_source(defined, first_table)
 
 
 def generate_loop_c(equations: Equations, constraints: Constraints, parameters: Sequence[sp.Symbol],

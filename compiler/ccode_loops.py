@@ -34,6 +34,9 @@ from .differentiate import NotDifferentiable, forward_derivatives
 from .equations import Equations
 from .jacobian_colours import constraint_colours
 
+#: The generated constraint Jacobian's function (`constraint_matrix_routine`).
+CONSTRAINT_MATRIX = "mbs_constraint_matrix"
+
 #: Doubles of scalar scratch in the loop solver's work area (runtime/c/loops.c, MBS_LOOP_NWORK_NEEDED).
 LOOP_SCALARS = 16
 
@@ -89,17 +92,18 @@ def constraint_matrix_routine(equations: Equations, constraints: Constraints) ->
     results = [(i * nv + k, d) for i, row in enumerate(rows) for k, d in enumerate(row)]
     kinematics = copy.copy(equations.kinematics)
     kinematics.tape = fork
-    routine = ("mbs_constraint_matrix", "out", "G = d gdot / d v, the constraint Jacobian (nc rows, nv columns, "
+    routine = (CONSTRAINT_MATRIX, "out", "G = d gdot / d v, the constraint Jacobian (nc rows, nv columns, "
                "row-major) by forward differentiation of the tape", (constraints.nc, nv), results, False)
     return dataclasses.replace(equations, kinematics=kinematics), routine
 
 
-def loop_definitions(constraints: Constraints, constraint_matrix: bool = False) -> str:
+def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0) -> str:
     """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
-    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`)."""
+    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`); extra_work: doubles
+    the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
-    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz)
+    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz) + extra_work
     colours = constraint_colours(constraints)
     ncol = max(colours.ncolours, 1)
     table = [colours.column_of(i, c) for i in range(constraints.nc) for c in range(ncol)]
@@ -159,3 +163,15 @@ def unchecked_mass_matrix(body: str, name: str, out: str) -> str:
         f"int {name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
         f"    const int status = {name}_unchecked(t, x, p, {out}, work);",
         f"    return status != 0 ? status : mbs_positive_definite({out}, MBS_NV, work) ? 0 : 1;", "}", ""])
+
+
+def unchecked_constraint_matrix(body: str, out: str) -> str:
+    """The text of the constraint Jacobian's function `body` without its test of every entry for NaN: the loop
+    solver tests G's entries as it scans them for their largest (mbs_loop_gmax, status 2 when one is not finite),
+    and the exported mbs_loop_jacobian tests its copy; the test of all nc x nv entries, most of them exact zeros
+    (independent loops), cost a third of the function (Iltis: 816 entries, about 100 nonzero)."""
+    start = body.find(f"    if (!mbs_all_finite({out}, ")
+    end = body.find("        return 2;\n", start)
+    if start < 0 or end < 0:
+        raise ValueError("the constraint matrix function has no finiteness check to leave out")
+    return body[:start] + body[end + len("        return 2;\n"):]

@@ -77,6 +77,8 @@ class _Element:
     load: sp.Expr | None     # k of normal = k * reaction
     direction: sp.Expr | None = None  # a plane contact's row: the kinetic force's direction component (else: mode)
     plane: int = 0           # 0 one row per element; a plane contact's rows are 1 and 2 (compiler/friction_plane.py)
+    cut: int = -1            # a joint that closes a loop: its index in the lowering's cuts ...
+    axis: tuple = ()         # ... and its axis (world components), across which it carries its load
 
 
 class FrictionLowering:
@@ -88,14 +90,12 @@ class FrictionLowering:
         self.elements: list[_Element] = []
         self.rows: tuple = ()    # closed loops: the sticking elements' constraint rows (compiler/friction_loops.py)
         self.inputs: tuple = ()  # ... and their multipliers as run-time inputs
+        self.bearing = None      # ... and bearing friction there (compiler/friction_loops.py LoadedFriction)
 
     def attach(self, inter: M.Interaction, force: M.Force) -> sp.Expr:
         """Put the element's generalized force on its joint; returns it (a placeholder for a switched one)."""
         low = self.low
         body = low.body_of_interaction.get(inter.name)
-        if body is None and inter.joint is not None:
-            raise _error(f"friction in joint '{inter.name}', which closes a kinematic loop, is not supported yet; "
-                         "mark another joint of the loop with 'cut = true'", force.span)
         conv = ToSympy(lambda s: REACTION if s.kind == "local" else low._state_symbol(s), low.tables, low.switches)
         arg = lambda name: None if force.arg(name) is None else conv(force.arg(name))
         mu_k = arg("mu_k")
@@ -103,16 +103,26 @@ class FrictionLowering:
         lever = arg("radius") if force.arg("radius") is not None else sp.Integer(1)
         if force.arg("surface_normal") is not None:
             return self._attach_plane(inter, force, arg, mu_k, mu_s, conv(force.arg("normal")))
-        if force.arg("tangent") is not None:
-            contact = _Contact(low, inter, [low.geometry(c) for c in force.arg("tangent")])
-            speed, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
-            rate = speed
+        if force.arg("tangent") is not None or body is None:  # a point contact, or a joint that closes a loop
+            if force.arg("tangent") is not None:
+                contact = _Contact(low, inter, [low.geometry(c) for c in force.arg("tangent")])
+            elif inter.joint.kind == "prismatic":  # frame b's origin slides along the axis of frame a
+                contact = _Contact(low, inter, [low.geometry(c) for c in inter.joint.axes[0]])
+            else:
+                contact = _Pin(low, inter, [low.geometry(c) for c in inter.joint.axes[0]])
+            rate, locked, coordinate, body, apply = contact.speed, contact.acceleration, None, -1, contact.apply
+            speed = lever * rate
+            cut, axis = -1, ()
+            if inter.joint is not None:
+                cut = next(k for k, c in enumerate(low.cuts) if c.name == inter.name)
+                axis = contact.t if isinstance(contact, _Contact) else contact.n
         else:
             slot = low.kin.tree.v_slots[body][0]
             rate, coordinate = low.kin.joint_velocity(body, 0), inter.joint.coordinates[0].name
             speed = lever * rate
             locked = lambda vdot: vdot[slot]
             apply = lambda value: low.kin.add_generalized_force(body, 0, value)
+            cut, axis = -1, ()
         mu = mu_k
         if force.arg("stribeck_speed") is not None:
             mu = mu_k + (mu_s - mu_k) * sp.exp(-(speed / arg("stribeck_speed")) ** 2)
@@ -135,7 +145,7 @@ class FrictionLowering:
         apply(placeholder)
         self.elements.append(_Element(force, body, coordinate, locked, rate, placeholder,
                                       parameter_symbol(mode_name(force.name)), speed, lever, mu_k, mu_s, mu, normal,
-                                      load))
+                                      load, cut=cut, axis=tuple(axis)))
         return placeholder
 
     def _attach_plane(self, inter, force, arg, mu_k, mu_s, normal) -> sp.Expr:
@@ -171,7 +181,7 @@ class FrictionLowering:
             return {}, ()
         low, elements = self.low, self.elements
         if low.cuts:
-            values, events, self.rows, self.inputs = resolve_in_loops(low, elements, _sticks, _events)
+            values, events, self.rows, self.inputs, self.bearing = resolve_in_loops(low, elements, _sticks, _events)
             return values, events
         loaded = [e for e in elements if e.load is not None]
         kin = low.kin
@@ -238,6 +248,36 @@ class _Contact:
                                     point_acceleration(kin, acc, self.bb, self.pb_local))]
         turning = cross(kin.body_angular_velocity(self.ba), self.t)
         return kin.tape.temp(add(dot(self.t, da), dot(turning, self.dv)), "fric_acc")
+
+
+class _Pin:
+    """A revolute joint that closes a loop (no coordinate of its own): b's part turns against a's about the joint
+    axis n, fixed in frame a. The slip rate is n.(omega_b - omega_a) [rad/s]; the friction torque acts about n on
+    both parts (on b's, and the opposite on a's), so its power is the torque times that rate and a lock's
+    multiplier is the holding torque."""
+
+    def __init__(self, low, inter: M.Interaction, axis):
+        kin, tape = low.kin, low.kin.tape
+        self.kin = kin
+        self.ba, _, _, Ra = low.frame_world(inter.a)
+        self.bb = low.body(inter.b.part)
+        self.n = [tape.temp(dot(Ra[k], axis), "fric_n") for k in range(3)]
+        self.dw = [y - x for x, y in zip(kin.body_angular_velocity(self.ba), kin.body_angular_velocity(self.bb))]
+        self.speed = tape.temp(dot(self.n, self.dw), "fric_wrel")
+
+    def apply(self, value) -> None:
+        self.kin.add_torque(self.bb, self.n, scale=value)
+        self.kin.add_torque(self.ba, self.n, scale=-value)
+
+    def acceleration(self, vdot) -> sp.Expr:
+        """d(slip rate)/dt for the state accelerations vdot: n.(alpha_b - alpha_a) + (omega_a x n).(omega_b -
+        omega_a)."""
+        kin = self.kin
+        acc = dynamics.body_accelerations(kin, vdot, gravity=False, tag="facc")
+        alpha = [ZERO3 if b < 0 else kin.tape.vector([dot(row, acc[b][:3]) for row in kin.world_pose(b)[0]],
+                                                       "fric_alpha") for b in (self.ba, self.bb)]
+        turning = cross(kin.body_angular_velocity(self.ba), self.n)
+        return kin.tape.temp(add(dot(self.n, [y - x for x, y in zip(*alpha)]), dot(turning, self.dw)), "fric_acc")
 
 
 def affine_split(tape, targets, symbols) -> tuple[list, list]:

@@ -49,6 +49,17 @@ def solve_loaded(tape, elements, a0, W, R0, B, linear_solve, sticks, affine_spli
     P = [zero[3 * l:3 * l + 3] for l in range(m)]
     Q = [[[slope[3 * l + c][k] for k in range(m)] for c in range(3)] for l in range(m)]
     F0, H = zero[3 * m:], slope[3 * m:]
+    loads = loads_by_newton(tape, P, Q, linear_solve)
+    tape.section("friction: the forces at the bearing loads")
+    solved = [tape.temp(add(F0[i], *(mul(H[i][k], loads[k]) for k in range(m))), f"friction_force{i}")
+              for i in range(n)]
+    return solved, loaded
+
+
+def loads_by_newton(tape, P, Q, linear_solve) -> list:
+    """The loads rho (m of them) with |P_l + sum_k Q_lk rho_k| = rho_l, P[l] a load vector (3 components), Q[l][c][k]
+    its slope in rho_k: each element's own quadratic, then NEWTON_STEPS Newton steps when they are coupled."""
+    m = len(P)
     tape.section("friction: the bearing loads by Newton's method from each element's own quadratic")
     loads = []
     for l in range(m):
@@ -68,10 +79,7 @@ def solve_loaded(tape, elements, a0, W, R0, B, linear_solve, sticks, affine_spli
                         f"friction_J{l}{k}") for k in range(m)] for l in range(m)]
         d = linear_solve(tape, J, [tape.temp(size[l] - loads[l], f"friction_f{l}") for l in range(m)])
         loads = [tape.temp(loads[l] + d[l], f"friction_load{l}") for l in range(m)]
-    tape.section("friction: the forces at the bearing loads")
-    solved = [tape.temp(add(F0[i], *(mul(H[i][k], loads[k]) for k in range(m))), f"friction_force{i}")
-              for i in range(n)]
-    return solved, loaded
+    return loads
 
 
-__all__ = ["NEWTON_STEPS", "solve_loaded"]
+__all__ = ["NEWTON_STEPS", "loads_by_newton", "solve_loaded"]

@@ -247,13 +247,14 @@ class Kinematics:
         f = matTvec(self.tape, self.world_pose(i)[0], _sym(force), f"fb{i + 1}")
         self._wrenches.setdefault(i, []).append(tuple(mul(scale, c) for c in tuple(cross(_sym(point), f)) + f))
 
-    def add_torque(self, body: int | str, torque) -> None:
-        """A torque (world components) [N*m] acting on the body."""
+    def add_torque(self, body: int | str, torque, scale=1) -> None:
+        """A torque (world components) [N*m] acting on the body, times `scale` (kept out of the tape, as in
+        `add_force`)."""
         i = self.tree.body_index(body)
         if i < 0:
             return
         n = matTvec(self.tape, self.world_pose(i)[0], _sym(torque), f"nb{i + 1}")
-        self._wrenches.setdefault(i, []).append(n + ZERO3)
+        self._wrenches.setdefault(i, []).append(tuple(mul(scale, c) for c in n) + ZERO3)
 
     def add_generalized_force(self, body: int | str, k: int, value) -> None:
         """A generalized force [N or N*m] on velocity k of the body's joint (doing work with that velocity).

@@ -8,7 +8,7 @@ state. Only what the scene asks for is lowered: a scene that wants two outputs d
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -46,6 +46,8 @@ class Lowered:
     switches: tuple = ()                       # comparisons and kinks held by run-time flags (Switch)
     state_rates: tuple = ()                    # z' of the extra states (tree.states), language/states.py
     friction_rows: tuple = ()                  # sticking friction as constraint rows (compiler/friction_loops.py)
+    bearing_friction: object = None            # bearing friction in a loop model (friction_loops.LoadedFriction)
+    lowering: object = field(default=None, compare=False, repr=False)   # lower_outputs continues it
 
     @property
     def tree(self) -> Tree:
@@ -73,8 +75,8 @@ class _Lowering:
         self.element_rates: dict[sp.Symbol, sp.Expr] = {}  # rates of states force elements add (tyre relaxation)
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
-        # comparisons and kinks of min/max/abs/sign in the motion become switches in a model with events or modes,
-        # or with the setting `switches = true` (model.switches)
+        # comparisons and kinks of min/max/abs/sign in the motion become switches in every model, unless it says
+        # `switches = false` (model.switches)
         self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
         self.state = ToSympy(self._state_symbol, self.tables, self.switches)
         self.model_states = {s.name: s for s in model.states}
@@ -384,11 +386,15 @@ def _angles(R, sequence: str):
 
 def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     """The tree, loads and outputs of a model; raises MbsError (located) for what the compiler cannot do."""
+    return lower_outputs(lower_model(model, scene))
+
+
+def lower_model(model: M.Model, scene: M.Scene | None = None) -> Lowered:
+    """`lower` without the outputs (Lowered.outputs empty): what the equations of motion read. The outputs come
+    last, from lower_outputs, so that the tape of the equations is the same whatever outputs a scene asks for
+    (mbs/derivation_cache.py keeps the equations apart from a scene's outputs)."""
     lowering = _Lowering(model, scene)
     lowering.attach_forces()
-    if lowering.switches is not None:
-        lowering.switches.context = "outputs"
-    outputs = lowering.outputs()
     if lowering.switches is not None:
         lowering.switches.context = "events"
     events = lower_events(model.events, lowering.state) + lowering.friction_events
@@ -397,9 +403,21 @@ def lower(model: M.Model, scene: M.Scene | None = None) -> Lowered:
     rates = tuple(lowering.state_rate(s.name) for s in model.states)
     rates += tuple(lowering.element_rates[s] for s in lowering.kin.tree.states[len(rates):])
     switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
-    return Lowered(model, scene, lowering.topology, lowering.kin, outputs, lowering.tables, lowering.cuts,
+    return Lowered(model, scene, lowering.topology, lowering.kin, (), lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs() + lowering.friction.inputs, events, switches, rates,
-                   lowering.friction.rows)
+                   lowering.friction.rows, lowering.friction.bearing, lowering)
+
+
+def lower_outputs(lowered: Lowered) -> Lowered:
+    """`lowered` (from lower_model) with the outputs, lowered onto the end of its tape: their sensors, the
+    run-time inputs they read (accelerations, multipliers) and any switch they add."""
+    lowering = lowered.lowering
+    if lowering.switches is not None:
+        lowering.switches.context = "outputs"
+    outputs = lowering.outputs()
+    switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
+    return replace(lowered, outputs=outputs, switches=switches,
+                   run_time_inputs=lowering.acceleration_terms.inputs() + lowering.friction.inputs)
 
 
 def state_symbols(model: M.Model, inputs=None) -> list[sp.Symbol]:
@@ -413,4 +431,4 @@ def state_symbols(model: M.Model, inputs=None) -> list[sp.Symbol]:
     return [sp.Symbol(s.name) for s in model.states] + [sp.Symbol(name) for name, _ in relaxation_states(model, inputs)]
 
 
-__all__ = ["Lowered", "lower", "parameter_symbol"]
+__all__ = ["Lowered", "lower", "lower_model", "lower_outputs", "parameter_symbol"]

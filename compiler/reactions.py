@@ -105,6 +105,13 @@ class AccelerationTerms:
 
     @cached_property
     def _transmitted(self) -> tuple:
+        return self.transmitted_loads()
+
+    def transmitted_loads(self) -> tuple:
+        """Per tree body the load its joint transmits (Featherstone's f_i, body frame) with the accelerations
+        `vdot`, the multipliers' loads and the loads on the kinematics as they are now (friction's placeholders
+        before they are resolved: compiler/friction_loops.py); not kept."""
+        self.used = True
         extra = self._constraint_wrenches() if self.cuts else None
         self.kin.tape.section("reaction loads: inverse dynamics with the actual accelerations")
         return dynamics.transmitted_loads(self.kin, self.vdot, extra)

@@ -20,6 +20,7 @@ from typing import Callable
 import sympy as sp
 
 from . import dynamics
+from .hooks import HookCall
 from .kinematics import Kinematics
 
 INLINE_OPS = 2         # an intermediate of at most this many operations is shown inline
@@ -52,12 +53,24 @@ class ReadableEquations:
             values[item.symbol] = item.expr.xreplace(values)
         return tuple(m.xreplace(values) for m in (self.M, self.k, self.q))  # type: ignore[return-value]
 
-    def evaluate(self, values: dict) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-        """Numeric M, k, q for numeric values of every coordinate, speed, parameter (and t), keyed by symbol."""
+    def evaluate(self, values: dict, hook_value: Callable | None = None) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+        """Numeric M, k, q for numeric values of every coordinate, speed, parameter (and t), keyed by symbol.
+        hook_value(name, result, args) -> float: the value of a user hook's call (compiler/hooks.py)."""
         env = {s: sp.Float(x, 17) for s, x in values.items()}
+
+        def numeric(expr):
+            expr = expr.xreplace(env).evalf(17)
+            if hook_value is not None:  # innermost calls first: a hook's argument may be another hook's result
+                while True:
+                    calls = [c for c in expr.atoms(HookCall) if all(a.is_Number for a in c.args)]
+                    if not calls:
+                        break
+                    expr = expr.xreplace({c: sp.Float(hook_value(c.hook[0], c.hook[1], [float(a) for a in c.args[1:]]),
+                                                      17) for c in calls}).evalf(17)
+            return expr
         for item in self.intermediates:
-            env[item.symbol] = item.expr.xreplace(env).evalf(17)
-        return tuple(m.xreplace(env).evalf(17) for m in (self.M, self.k, self.q))  # type: ignore[return-value]
+            env[item.symbol] = numeric(item.expr)
+        return tuple(numeric(m) for m in (self.M, self.k, self.q))  # type: ignore[return-value]
 
 
 def readable_equations(kin: Kinematics, *, simplify: bool = True,

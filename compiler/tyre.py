@@ -48,7 +48,7 @@ _STAGES = (  # law -> locals it may read (besides parameters, inputs and the sta
             "fy")),
 )
 
-#: Laws whose comparisons and kinks become switches (events) in a model with switches: the road and the normal
+#: Laws whose comparisons and kinks become switches (events; every model unless `switches = false`): the road and the normal
 #: force (the contact: lift-off where the force would pull, touch-down where the deflection returns to zero).
 #: The slip laws stay as written: their kinks at zero slip (a |a|, |Fy| Fy) have a continuous slope, and as
 #: switches they would fire at every sign change of the slip on a straight run.

@@ -21,8 +21,6 @@ switches the relaxation on, which changes the compiled code, so a scene can do i
 
 from __future__ import annotations
 
-import sympy as sp
-
 from collections.abc import Mapping
 
 from mbs.language import expr as X
@@ -74,6 +72,7 @@ def relax(lowering, force: M.Force, values: dict, speed) -> None:
         length = force.arg(arg)
         if switched_off(length, lowering.inputs):
             continue
+        import sympy as sp  # the run's pipeline reads the names above without sympy (a cached derivation)
         state = sp.Symbol(relaxed_name(force.name, slip))
         lowering.element_rates[state] = speed * (values[slip] - state) / lowering.state(length)
         values[slip] = state

@@ -43,7 +43,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         self._cyclic: set[str] = set()
         self.broken_links: set[tuple[str, str]] = set()
         self.mode_names: set[str] = set()
-        self.switches: bool | None = None  # the model setting; None: on when the model has events or modes
+        self.switches: bool = True  # the model setting `switches = false` turns comparisons and kinks as events off
         self.scene_setting: ast.Setting | None = None  # `scenes = NAME`: run another model file's scenes too
 
     # ====================================================================================== entry
@@ -79,7 +79,7 @@ class Elaborator(PlacementMixin, ParameterMixin):
         gravity = self.gravity or G.const_vec(DEFAULT_GRAVITY)
         built = M.Model(block.name.text, block.description, params, tuple(self.inputs(root)), tuple(outputs),
                         gravity, tuple(parts), tuple(interactions), (), block.span, events,
-                        self.switches if self.switches is not None else bool(events or self.mode_names), states,
+                        self.switches, states,
                         hooks.model_hooks(self))
         from .friction import check_friction
         return check_friction(built, self.diags)

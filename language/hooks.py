@@ -77,6 +77,17 @@ volatile while sin cos tan asin acos atan atan2 sinh cosh tanh exp log log10 sqr
 round trunc fmod hypot isfinite isnan nan abs exit free malloc time clock printf main errno""".split())
 
 
+#: Relative step of the central difference that stands in for a hook's derivative where the generated Jacobians
+#: need one and the implementation gives none: cbrt(DBL_EPSILON), the truncation and rounding errors balanced.
+DIFFERENCE_STEP = 6.055454452393343e-06
+
+
+def derivative_name(name: str, result: int, results: int, argument: int) -> str:
+    """The generated helper d(result)/d(argument) of a hook (compiler/hooks.py emits it, runtime/hooks.py
+    supplies it to the NumPy back end)."""
+    return f"mbs_hookd__{name}__{result}__{results}__{argument}"
+
+
 # ------------------------------------------------------------------------------------------ data model
 @dataclass(frozen=True)
 class Slot:

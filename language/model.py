@@ -241,7 +241,7 @@ class Model:
     scenes: tuple[Scene, ...]
     span: Span = field(compare=False)
     events: tuple[Event, ...] = ()
-    switches: bool = False  # comparisons and kinks in the motion become events (compiler/events.py)
+    switches: bool = True  # comparisons and kinks in the motion become events (compiler/events.py)
     states: tuple[State, ...] = ()  # extra differential states, after the mechanical state (states.py)
     hooks: tuple = ()  # language.hooks.HookSpec: user routines supplied when running (runtime/hooks.py)
 

@@ -111,11 +111,10 @@ def tyres(system) -> list[tuple[str, str, str]]:
 
 def animation(system, scene, res, params: dict) -> Animation:
     """The Animation of a run (Results with the state columns) of a scene with parameter values `params`."""
-    gen = system.generate(scene)
-    compiled = system.compile(scene)
+    gen = system.generate(scene)  # the names only: no build (a model with hooks needs none)
     stride = max(1, math.ceil(len(res) / MAX_FRAMES))
     t = np.asarray(res.t[::stride])
-    q = res.columns(compiled.q_names)[::stride]
+    q = res.columns(gen.q_names)[::stride]
     poses = world_poses(system, scene, t, q, params)
     parts = {p.name: p for p in system.model.parts}
     wheels = {part: prefix for prefix, part, _ in tyres(system)}

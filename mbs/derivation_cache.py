@@ -13,6 +13,15 @@ under a key of everything that can change them:
 * the derivation's own source (every file of mbs.language, mbs.compiler, this module and mbs.pipeline) and the
   versions of sympy and Python.
 
+The equations and a scene's outputs are kept apart. pipeline.generate writes the equations' C first and the
+outputs, lowered onto the end of the same tape, as the last part of the file; the equations' entry is keyed by all
+of the above but the outputs, an outputs entry by the equations' key and the outputs. A scene asking for other
+outputs finds the equations' entry, derives the equations again (the outputs share their tape; about a third of
+the whole) without writing their code, and writes only its outputs' part: the same text a whole derivation gives.
+The build compiles that part as a unit of its own (runtime/translation_units.py), so nothing else recompiles.
+Outputs that cannot stand apart (they call a user hook or add a switch) are kept with the whole file under the
+outputs' key.
+
 Entries are JSON files in the build cache (runtime/cache.py: checked against their record, read only when the
 user alone can write them, listed, cleaned and verified by `mbs cache`); a damaged one is derived again with a
 note. A model whose content has no stable text (an object without a value representation) is never cached.
@@ -37,7 +46,7 @@ from mbs.runtime import cache as _cache
 from . import pipeline
 
 #: Bump when what is kept, or how it is read back, changes in a way the hashed sources do not show.
-FORMAT = 1
+FORMAT = 2
 _log = logging.getLogger("mbs.cache")
 _PACKAGE = Path(__file__).resolve().parent.parent
 
@@ -69,49 +78,113 @@ def _version(distribution: str) -> str:
 
 
 def derivation_key(model: M.Model, scene: M.Scene | None, options: dict) -> str | None:
-    """The hex SHA-256 of everything the derivation reads (None: the model has no stable text to key on)."""
+    """The hex SHA-256 of everything the derivation reads, the scene's outputs included (None: the model has no
+    stable text to key on)."""
+    equations = equations_key(model, scene, options)
+    return None if equations is None else outputs_key(equations, scene)
+
+
+def equations_key(model: M.Model, scene: M.Scene | None, options: dict) -> str | None:
+    """The hex SHA-256 of everything the equations' part of the derivation reads: all but the scene's outputs
+    (None: the model has no stable text to key on)."""
     content = repr(dataclasses.replace(model, scenes=()))
-    # a scene's outputs without their spans: scenes asking for the same outputs in other lines share an entry
-    wanted = repr((scene.inputs, [(o.name, o.value, o.unit) for o in scene.outputs])) if scene is not None \
-        else "no scene"
-    if " at 0x" in content or " at 0x" in wanted:  # an object's address: the text differs in every process
+    inputs = repr(scene.inputs) if scene is not None else "no scene"
+    if " at 0x" in content or " at 0x" in inputs:  # an object's address: the text differs in every process
         return None
+    return _digest(("format", str(FORMAT)), ("code", derivation_fingerprint()), ("path", model.span.source.path),
+                   ("model", content), ("inputs", inputs), ("options", repr(sorted(options.items()))))
+
+
+def outputs_key(equations: str, scene: M.Scene | None) -> str | None:
+    """The hex SHA-256 of the equations' key and the outputs a scene asks for (without their spans: scenes
+    asking for the same outputs in other lines share an entry)."""
+    wanted = repr([(o.name, o.value, o.unit) for o in scene.outputs]) if scene is not None else "no scene"
+    if " at 0x" in wanted:
+        return None
+    return _digest(("equations", equations), ("outputs", wanted))
+
+
+def _digest(*parts: tuple[str, str]) -> str:
     h = hashlib.sha256()
-    for label, text in (("format", str(FORMAT)), ("code", derivation_fingerprint()),
-                        ("path", model.span.source.path), ("model", content), ("scene", wanted),
-                        ("options", repr(sorted(options.items())))):
+    for label, text in parts:
         h.update(f"{label}:{len(text)}:".encode())
         h.update(text.encode())
     return h.hexdigest()
 
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,
-             parameter_jacobian: bool = False, dynamics: bool = False,
-             frames: tuple[str, ...] = ()) -> pipeline.Generated:
-    """pipeline.generate, taken from the derivation cache when the same content was derived before."""
+             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
+             equations_ready=None) -> pipeline.Generated:
+    """pipeline.generate, taken from the derivation cache when the same content was derived before; when only
+    the equations were (another scene's outputs), the outputs are derived on top of them
+    (pipeline.generate_outputs) and the equations' part of the code is taken from the cache. `equations_ready`:
+    called with the equations' part of the code before the outputs are derived (pipeline.generate)."""
     if jacobian is None:  # the scene's integrator decides; resolved here so the key holds what the code holds
         jacobian = pipeline.needs_jacobian(scene)
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                    frames=tuple(frames))
-    key = derivation_key(model, scene, options)
-    if key is None:
+    eq_key = equations_key(model, scene, options)
+    out_key = outputs_key(eq_key, scene) if eq_key is not None else None
+    if out_key is None:
         return pipeline.generate(model, scene, **options)
-    path = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
-    path = path / f"{_cache.DERIVED_PREFIX}{key[:32]}.json"
+    folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    eq_path, out_path = (folder / f"{_cache.DERIVED_PREFIX}{k[:32]}.json" for k in (eq_key, out_key))
     derive = functools.partial(_derive_symbolic, model, scene, options)
-    if path.exists():
-        payload, damage = _cache.read_derived(path)
-        if payload is not None and payload.get("key") == key:
-            _log.info("derivation of %s: cache hit (%s)", model.name, path.name)
-            return _from_payload(model, scene, payload, derive)
-        _log.warning(f"note: the cached derivation {path.name} is not used ({damage or 'its key differs'}); "
-                     "deriving the equations again")
-    generated = pipeline.generate(model, scene, **options)
+    outputs = _read(out_path, out_key)
+    if outputs is not None and outputs.get("kind", "whole") == "whole":
+        _log.info("derivation of %s: cache hit (%s)", model.name, out_path.name)
+        return _from_payload(model, scene, outputs, derive)
+    equations = _read(eq_path, eq_key)
+    if outputs is not None and equations is not None:
+        _log.info("derivation of %s: cache hit (equations %s, outputs %s)", model.name, eq_path.name, out_path.name)
+        return _joined(model, scene, equations, outputs, derive)
+    if equations is not None:
+        from mbs.compiler.ccode import NotSeparable
+        _log.info("derivation of %s: the equations from the cache (%s), the scene's outputs derived on them",
+                  model.name, eq_path.name)
+        if equations_ready is not None:
+            equations_ready(equations["c_source"])
+        try:
+            c_outputs, numpy_source, y_names, symbolic = pipeline.generate_outputs(
+                model, scene, equations["c_source"], **options)
+        except NotSeparable:
+            pass
+        else:
+            outputs = {"key": out_key, "kind": "outputs", "equations": eq_key, "c_outputs": c_outputs,
+                       "numpy_source": numpy_source, "y_names": list(y_names)}
+            _write(out_path, outputs, model, scene)
+            return _joined(model, scene, equations, outputs, lambda: symbolic)
+    generated = pipeline.generate(model, scene, **options, equations_ready=equations_ready)
+    payload = _payload(generated, out_key)
+    if generated.outputs_at is not None:  # the equations apart, for scenes that ask for other outputs
+        equations = {**payload, "key": eq_key, "kind": "equations",
+                     "c_source": generated.c_source[:generated.outputs_at - 1]}
+        del equations["numpy_source"], equations["y_names"]
+        _write(eq_path, equations, model, None)
+        payload = {"key": out_key, "kind": "outputs", "equations": eq_key,
+                   "c_outputs": generated.c_source[generated.outputs_at:], "numpy_source": generated.numpy_source,
+                   "y_names": list(generated.y_names)}
+    _write(out_path, payload, model, scene)
+    return generated
+
+
+def _read(path: Path, key: str) -> dict | None:
+    """The payload of an intact entry with this key (None: none, with a note when one is there but unusable)."""
+    if not path.exists():
+        return None
+    payload, damage = _cache.read_derived(path)
+    if payload is not None and payload.get("key") == key:
+        return payload
+    _log.warning(f"note: the cached derivation {path.name} is not used ({damage or 'its key differs'}); "
+                 "deriving the equations again")
+    return None
+
+
+def _write(path: Path, payload: dict, model: M.Model, scene: M.Scene | None) -> None:
     try:
-        _cache.write_derived(path, _payload(generated, key), _label(model, scene))
+        _cache.write_derived(path, payload, _label(model, scene))
     except OSError as exc:  # a read-only cache still runs, only slower next time
         _log.warning(f"note: the derivation of {model.name} is not cached ({exc.strerror or exc})")
-    return generated
 
 
 def _derive_symbolic(model, scene, options) -> pipeline.Symbolic:
@@ -120,13 +193,22 @@ def _derive_symbolic(model, scene, options) -> pipeline.Symbolic:
 
 def _label(model: M.Model, scene: M.Scene | None) -> str:
     where = Path(model.span.source.path).name
-    return f"{model.name} ({where}{', scene ' + scene.name if scene is not None else ''})"
+    return f"{model.name} ({where}{', scene ' + scene.name if scene is not None else ', equations'})"
 
 
 def _payload(gen: pipeline.Generated, key: str) -> dict:
-    return {"key": key, "c_source": gen.c_source, "numpy_source": gen.numpy_source, "q_names": gen.q_names,
-            "v_names": gen.v_names, "p_names": gen.p_names, "y_names": gen.y_names,
+    return {"key": key, "kind": "whole", "c_source": gen.c_source, "numpy_source": gen.numpy_source,
+            "q_names": gen.q_names, "v_names": gen.v_names, "p_names": gen.p_names, "y_names": gen.y_names,
             "layout": dataclasses.asdict(gen.layout), "events": [dict(e) for e in gen.events]}
+
+
+def _joined(model, scene, equations: dict, outputs: dict, derive) -> pipeline.Generated:
+    """The Generated of an equations entry and an outputs entry: the code is the one text generate gives."""
+    c_source = pipeline.join_parts(equations["c_source"], outputs["c_outputs"])
+    payload = {**equations, "c_source": c_source, "numpy_source": outputs["numpy_source"],
+               "y_names": outputs["y_names"]}
+    return dataclasses.replace(_from_payload(model, scene, payload, derive),
+                               outputs_at=len(equations["c_source"]) + 1)
 
 
 def _from_payload(model, scene, payload: dict, derive) -> pipeline.Generated:

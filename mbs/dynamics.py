@@ -38,7 +38,7 @@ class DynamicsFunctions:
         self.model = compiled
         self.frames = tuple(frames)
         self.data = Workspace(compiled)
-        self.data.p = [params[n] for n in compiled.p_names]
+        self.data.p = pipeline.parameter_vector(compiled.p_names, params)
         self._x = np.zeros(compiled.nx)
         self._xa = np.zeros(compiled.nx + compiled.nv)
         self._f = {name: self.data.function(name) for name in

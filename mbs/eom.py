@@ -65,10 +65,15 @@ class EquationsOfMotion:
         """(M, k, q) with every intermediate substituted back (small models)."""
         return self.equations.written_out()
 
-    def at(self, state: Mapping[str, float] | None = None, params: Mapping[str, float] | None = None):
+    def at(self, state: Mapping[str, float] | None = None, params: Mapping[str, float] | None = None,
+           hooks: Mapping | None = None):
         """(M, k, q) as NumPy arrays at a state: coordinates and speeds by name (SI), the others at the model's
-        initial values; parameters at their defaults unless given."""
+        initial values; parameters at their defaults unless given. hooks: Python implementations of the model's
+        user hooks (the equations are evaluated in Python here; a C hook is refused)."""
+        from mbs.runtime.hooks import bind, require_python
         model = self.system.model
+        binding = bind(model.hooks, hooks, model.name)
+        require_python(binding, "mbs eom --at evaluates the equations in Python")
         values = pipeline.parameter_values(model, params)
         names = tuple(pipeline.display_name(s.name) for s in self.tree.x_symbols)
         start = dict(zip(names, pipeline.initial_state_of(model, None, self.tree, values)))
@@ -83,7 +88,7 @@ class EquationsOfMotion:
         env = {parameter_symbol(name): value for name, value in values.items()}
         env.update({s: start[str(s)] for s in self.y + self.v + tuple(self.tree.states)})
         env[T] = 0.0
-        M, k, q = self.equations.evaluate(env)
+        M, k, q = self.equations.evaluate(env, binding.value if binding is not None else None)
         return tuple(np.array(m.tolist(), dtype=float).reshape(m.shape) for m in (M, k, q))
 
     def text(self) -> str:

@@ -8,6 +8,16 @@ time's DOPRI5 in C. modelDescription.xml lists the states and their derivatives,
 with units and descriptions) and the scene's outputs. The start state is the scene's: joint and scene inits,
 closed loops assembled, the static equilibrium when the scene starts there (for the default parameters; an
 importer that changes a parameter may set the states' start values too).
+
+sources/ holds everything the binary was built from (mbs_fmu.c includes the rest): an importer on another
+platform can rebuild it. User hooks go in as C only (`mbs fmu --hook NAME=file.c`): each file is compiled into
+the binary and shipped in sources/ under its name; a Python hook is refused, since an FMU runs without Python.
+
+Events: the model's switches (comparisons and kinks, on by default) and events that `set` modes or parameters are
+event indicators (numberOfEventIndicators): Model Exchange importers locate their crossings and the FMU applies
+them in event mode; Co-Simulation locates them inside fmi2DoStep (runtime/c/mbs_fmu.c).  The branch flags are
+not listed as parameters.  A model with an event the FMU cannot apply (`reinit`, `terminate`, friction's stick/slip
+check) is refused with a message (event_table).
 """
 
 from __future__ import annotations
@@ -47,10 +57,11 @@ def identifier(name: str) -> str:
     return ident if re.match(r"[A-Za-z_]", ident) else f"m_{ident}"
 
 
-def start_state(system, scene: str | None) -> np.ndarray:
-    """The state a run of the scene starts from (assembled loops, equilibrium when the scene says so)."""
+def start_state(system, scene: str | None, hooks=None) -> np.ndarray:
+    """The state a run of the scene starts from (assembled loops, equilibrium when the scene says so); hooks:
+    the implementations of the model's user hooks."""
     from mbs.runtime.equilibrium import static_equilibrium
-    compiled, gen, values = system._scene_parameters(scene, None)
+    compiled, gen, values = system._scene_parameters(scene, None, hooks)
     data = system._workspace(compiled, gen, values)
     sc = system.scene(scene)
     if sc is not None and sc.start == "equilibrium":
@@ -62,10 +73,10 @@ def _number(x: float) -> str:
     return repr(float(x))
 
 
-def model_description(system, scene: str | None, guid: str, x0, p0) -> str:
+def model_description(system, scene: str | None, guid: str, x0, p0, hooks=None) -> str:
     """modelDescription.xml text (FMI 2.0, flat names: a state 'der(j.phi)' has the derivative "der(j.phi)'")."""
     from mbs.system import _settings
-    compiled = system.compile(scene)
+    compiled = system.compile(scene, hooks=hooks)
     model = system.model
     sc = system.scene(scene)
     settings = _settings(sc, None, None, None, None, None)
@@ -97,10 +108,14 @@ def model_description(system, scene: str | None, guid: str, x0, p0) -> str:
     for i, name in enumerate(compiled.x_names):
         variable(f"{name}'", nx + i, 'causality="local" variability="continuous" initial="calculated"',
                  f' derivative="{i + 1}"')
+    hidden = internal_parameters(compiled)
     for i, name in enumerate(compiled.p_names):
+        if i in hidden:
+            continue
         variable(name, 2 * nx + i, 'causality="parameter" variability="tunable" initial="exact"',
                  f' start="{_number(p0[i])}"')
-    index, outputs = 2 * nx + npar, [i + 1 for i in state_outputs]
+    listed = 2 * nx + npar - len(hidden)  # ScalarVariables so far (their 1-based index in ModelVariables)
+    index, outputs = listed, [i + 1 for i in state_outputs]
     for i, name in enumerate(compiled.y_names):
         if name not in compiled.x_names:
             variable(name, 2 * nx + npar + i, 'causality="output" variability="continuous" initial="calculated"',
@@ -108,18 +123,22 @@ def model_description(system, scene: str | None, guid: str, x0, p0) -> str:
             index += 1
             outputs.append(index)
     derivatives = [nx + i + 1 for i in range(nx)]
-    unknowns = sorted(derivatives + [i for i in outputs if i > 2 * nx + npar])
+    unknowns = sorted(derivatives + [i for i in outputs if i > listed])
     step = settings["sample"] or settings["t_end"] / 500
     description = f" description={quoteattr(model.description)}" if model.description else ""
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(model.name)} guid="{guid}"{description}',
         f'  generationTool="Baukasten {mbs.__version__}" variableNamingConvention="flat"'
-        ' numberOfEventIndicators="0">',
+        f' numberOfEventIndicators="{len(compiled.events)}">',
         f'  <ModelExchange modelIdentifier="{ident}" canGetAndSetFMUstate="true"'
-        ' canNotUseMemoryManagementFunctions="true"/>',
+        ' canNotUseMemoryManagementFunctions="true">',
+        f'    <SourceFiles><File name="{SOURCE}"/></SourceFiles>',
+        '  </ModelExchange>',
         f'  <CoSimulation modelIdentifier="{ident}" canHandleVariableCommunicationStepSize="true"'
-        ' canGetAndSetFMUstate="true" canNotUseMemoryManagementFunctions="true"/>',
+        ' canGetAndSetFMUstate="true" canNotUseMemoryManagementFunctions="true">',
+        f'    <SourceFiles><File name="{SOURCE}"/></SourceFiles>',
+        '  </CoSimulation>',
     ]
     if used_units:
         lines += ["  <UnitDefinitions>"] + [f"    <Unit name={quoteattr(u)}/>" for u in sorted(used_units)]
@@ -135,46 +154,110 @@ def model_description(system, scene: str | None, guid: str, x0, p0) -> str:
     return "\n".join(lines)
 
 
-def _defaults_header(guid: str, x0, p0, rtol: float, atol: float) -> str:
+def _defaults_header(guid: str, x0, p0, rtol: float, atol: float, events=None) -> str:
     def array(name, values):
         body = ", ".join(_number(v) for v in values) or "0.0"
         return f"static const double {name}[] = {{{body}}};"
-    return "\n".join(["/* start values and settings of this FMU, written by mbs/fmu.py */",
-                      f'#define MBS_FMU_GUID "{guid}"', f"#define MBS_FMU_RTOL {_number(rtol)}",
-                      f"#define MBS_FMU_ATOL {_number(atol)}", array("MBS_FMU_X0", x0), array("MBS_FMU_P0", p0),
-                      ""])
+
+    def integers(name, values):
+        return f"static const int {name}[] = {{{', '.join(str(int(v)) for v in values) or '0'}}};"
+    lines = ["/* start values and settings of this FMU, written by mbs/fmu.py */",
+             f'#define MBS_FMU_GUID "{guid}"', f"#define MBS_FMU_RTOL {_number(rtol)}",
+             f"#define MBS_FMU_ATOL {_number(atol)}", array("MBS_FMU_X0", x0), array("MBS_FMU_P0", p0)]
+    if events is not None:  # the event table (event_table): what mbs_fmu.c applies at each indicator's crossing
+        lines += [f"#define MBS_FMU_FROZEN {events['frozen']}"]
+        lines += [integers(f"MBS_FMU_{key.upper()}", events[key])
+                  for key in ("directions", "flag", "inclusive", "first", "index", "slot")]
+    return "\n".join(lines + [""])
 
 
-def _compile(model_c: str, defaults: str, library: str, tmp: Path) -> bytes:
-    (tmp / "model.c").write_text(model_c, encoding="utf-8")
-    (tmp / "fmu_defaults.h").write_text(defaults, encoding="utf-8")
-    cmd = [*compiler_command(), *FLAGS, f"-I{tmp}", f"-I{C_DIR}", str(C_DIR / "mbs_fmu.c"), "-o",
-           str(tmp / library), "-lm"]
+def event_table(compiled) -> dict | None:
+    """The events as mbs_fmu.c applies them: switch branches (flag: p index), `set` of modes and parameters
+    (index <- slot of mbs_event_actions, grouped per event by first); None without events.  An event the FMU
+    cannot apply (a jump of the state, the end of the run, a friction element's stick/slip check, which the
+    Python run loop makes) is an error, never a silently different answer."""
+    from mbs.runtime.event_loop import c_restart_tables
+    if not compiled.events:
+        return None
+    tables = c_restart_tables(compiled)
+    refused = [e.name for e, ok in zip(compiled.events, tables[0] if tables is not None else ()) if not ok]
+    if tables is None or refused:
+        names = ", ".join(f"'{n}'" for n in (refused or [e.name for e in compiled.events]))
+        raise MbsError([Diagnostic("error", f"mbs fmu: the FMU applies switches and `set` actions of events only; "
+                                            f"event {names} jumps the state, ends the run or checks friction, "
+                                            f"which the FMU does not do yet (simulate the model with mbs "
+                                            f"simulate, or write the model without it)", None)])
+    _, flag, first, index, slot = tables
+    return dict(frozen=compiled.p_names.index("switch.frozen") if "switch.frozen" in compiled.p_names else -1,
+                directions=[e.direction for e in compiled.events], flag=flag,
+                inclusive=[int(e.inclusive) for e in compiled.events], first=first, index=index, slot=slot)
+
+
+def internal_parameters(compiled) -> set[int]:
+    """p indices that are run-time machinery, not the model's parameters: the switches' branch flags and the
+    frozen flag (compiler/events.py); the FMU sets them itself and does not list them."""
+    flags = {e.switch for e in compiled.events if e.switch >= 0}
+    return flags | ({compiled.p_names.index("switch.frozen")} if "switch.frozen" in compiled.p_names else set())
+
+
+#: The one translation unit of the binary; it includes model.c, fmu_defaults.h and the run time's files.
+SOURCE = "mbs_fmu.c"
+
+
+def sources(model_c: str, defaults: str, hook_files: dict[str, str]) -> dict[str, str]:
+    """{file name: text} the binary is built from: model.c (the generated equations, including the hooks'
+    files), fmu_defaults.h, the hooks' C files, mbs_fmu.c and the run-time files it includes."""
+    files = {"model.c": model_c, "fmu_defaults.h": defaults, **hook_files}
+    pending = [SOURCE]
+    while pending:
+        name = pending.pop()
+        if name in files or not (C_DIR / name).is_file():
+            continue
+        files[name] = (C_DIR / name).read_text(encoding="utf-8")
+        pending += re.findall(r'^\s*#\s*include\s+"([^"]+)"', files[name], flags=re.M)
+    return files
+
+
+def _compile(files: dict[str, str], library: str, tmp: Path) -> bytes:
+    for name, text in files.items():
+        (tmp / name).write_text(text, encoding="utf-8")
+    cmd = [*compiler_command(), *FLAGS, f"-I{tmp}", str(tmp / SOURCE), "-o", str(tmp / library), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
         raise MbsError([Diagnostic("error", f"the C compiler failed on the FMU:\n{proc.stderr}", None)])
     return (tmp / library).read_bytes()
 
 
-def export_fmu(system, scene: str | None, path: str | Path) -> Path:
-    """Write the FMU (a zip: modelDescription.xml, binaries/<platform>/<id>.so) atomically."""
+def export_fmu(system, scene: str | None, path: str | Path, hooks=None) -> Path:
+    """Write the FMU (a zip: modelDescription.xml, binaries/<platform>/<id>.so, sources/) atomically. hooks:
+    the C files of the model's user hooks ({name: 'file.c'}), compiled into the binary."""
+    from mbs.runtime.hooks import bind, require_c
     from mbs.system import _settings
-    compiled = system.compile(scene)
+    binding = bind(system.model.hooks, hooks, system.model.name)  # before anything is built
+    require_c(binding, "an FMU runs without Python")
+    compiled = system.compile(scene, hooks=binding)
     gen = system.generate(scene)
-    x0, p0 = start_state(system, scene)
+    x0, p0 = start_state(system, scene, binding)
     settings = _settings(system.scene(scene), None, None, None, None, None)
-    guid_source = gen.c_source + repr((list(x0), list(p0), compiled.x_names, compiled.y_names))
+    hook_files = {name: text for name, (_, text) in binding.c_file_names().items()} if binding is not None else {}
+    model_c = gen.c_source + ("\n/* ---- user hooks ---- */\n" + binding.c_source(include=True) + "\n"
+                              if binding is not None else "")
+    guid_source = model_c + repr(sorted(hook_files.items())) + repr((list(x0), list(p0), compiled.x_names,
+                                                                     compiled.y_names))
     digest = hashlib.sha256(guid_source.encode()).hexdigest()
     guid = f"{{{digest[:8]}-{digest[8:12]}-{digest[12:16]}-{digest[16:20]}-{digest[20:32]}}}"
     ident = identifier(system.model.name)
     suffix = {"darwin": ".dylib", "win32": ".dll"}.get(sys.platform, ".so")
-    defaults = _defaults_header(guid, x0, p0, settings["rtol"], settings["atol"])
+    defaults = _defaults_header(guid, x0, p0, settings["rtol"], settings["atol"], event_table(compiled))
+    files = sources(model_c, defaults, hook_files)
     with tempfile.TemporaryDirectory() as tmp:
-        binary = _compile(gen.c_source, defaults, ident + suffix, Path(tmp))
-    xml = model_description(system, scene, guid, x0, p0)
+        binary = _compile(files, ident + suffix, Path(tmp))
+    xml = model_description(system, scene, guid, x0, p0, binding)
     with atomic_path(path) as tmp_path, zipfile.ZipFile(tmp_path, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", xml)
         z.writestr(f"binaries/{platform_folder()}/{ident}{suffix}", binary)
+        for name, text in files.items():
+            z.writestr(f"sources/{name}", text)
     return Path(path)
 
 

@@ -95,21 +95,22 @@ def energy_shares(shape: np.ndarray, mass: np.ndarray, motions: list[str]) -> di
     return {k: v for k, v in sorted(out.items(), key=lambda p: -p[1]) if abs(v) > 1e-4}
 
 
-def steady_state(system, scene: str | None, params: dict):
-    """(compiled model, workspace, state) of the steady straight run: springs at rest, the scene's speeds."""
-    compiled, gen, values = system._scene_parameters(scene, params)
+def steady_state(system, scene: str | None, params: dict, hooks=None):
+    """(compiled model, workspace, state) of the steady straight run: springs at rest, the scene's speeds.
+    hooks: the implementations of the model's user hooks (as for System.simulate)."""
+    compiled, gen, values = system._scene_parameters(scene, params, hooks)
     data = system._workspace(compiled, gen, values)
     x = static_equilibrium(compiled, data, data.x).x
     return compiled, data, x
 
 
 def modes_at_speed(system, scene: str | None, speed: float, *, params: dict | None = None,
-                   speed_param: str = "v") -> list[NamedMode]:
+                   speed_param: str = "v", hooks=None) -> list[NamedMode]:
     """The modes about the steady run at `speed` (set as the parameter `speed_param`), ascending frequency."""
     from mbs.runtime.linearize import linearize
     overrides = dict(params or {})
     overrides[speed_param] = float(speed)
-    compiled, data, x = steady_state(system, scene, overrides)
+    compiled, data, x = steady_state(system, scene, overrides, hooks)
     lin = linearize(compiled, data, 0.0, x)
     body = body_joint_of(system.model)
     motions = [motion_of(n, body) for n in lin.coordinate_names]
@@ -125,9 +126,10 @@ def modes_at_speed(system, scene: str | None, speed: float, *, params: dict | No
 
 
 def root_locus(system, scene: str | None, speeds, *, params: dict | None = None,
-               speed_param: str = "v") -> dict[float, list[NamedMode]]:
-    """The modes at every speed (one compile: the speed is a run-time parameter)."""
-    return {float(v): modes_at_speed(system, scene, v, params=params, speed_param=speed_param) for v in speeds}
+               speed_param: str = "v", hooks=None) -> dict[float, list[NamedMode]]:
+    """The modes at every speed (one compile: the speed is a run-time parameter). hooks: as for simulate."""
+    return {float(v): modes_at_speed(system, scene, v, params=params, speed_param=speed_param, hooks=hooks)
+            for v in speeds}
 
 
 def table(modes: list[NamedMode], rigid: bool = False) -> str:

@@ -84,6 +84,8 @@ class Generated:
     layout: StateLayout
     events: tuple = ()   # per indicator of mbs_events: name, direction, terminal, assignments, switch (events.py)
     derive: Callable[[], Symbolic] | None = field(default=None, compare=False, repr=False)
+    #: where c_source's outputs part starts (compiler/ccode.py generate_c_outputs); None: written with the rest
+    outputs_at: int | None = None
 
     @cached_property
     def symbolic(self) -> Symbolic:
@@ -140,7 +142,8 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
 
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
-             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = ()) -> Generated:
+             parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
+             equations_ready: Callable[[str], None] | None = None) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
     functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
     them the positions, velocities and Jacobians of these frames ("part.frame").
@@ -148,19 +151,79 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p, for sensitivities; trees only).
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
-    no printable derivative (a lookup table) gets none: its stiff integrators use finite differences."""
-    from mbs.compiler.ccode import generate_c
-    from mbs.compiler.constraints import derive_constraints
-    from mbs.compiler.friction_loops import with_friction_rows
-    from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
-    from mbs.compiler.equations import derive_equations
-    from mbs.compiler.events import FROZEN, event_code
-    from mbs.compiler.lower import lower
+    no printable derivative (a lookup table) gets none: its stiff integrators use finite differences.
+
+    The C file is written in two parts where it can be: the equations (whatever the scene's outputs) and, at
+    its end from Generated.outputs_at on, the outputs (compiler/ccode.py generate_c_outputs), lowered after the
+    equations were written. The derivation cache keeps the parts apart and the build compiles the outputs as a
+    unit of their own, so a scene asking for other outputs derives and compiles only those. `equations_ready` is
+    called with the equations' part as soon as it is written (runtime/build.py prebuild starts compiling it
+    while the outputs are derived)."""
+    from mbs.compiler.ccode import NotSeparable
+    options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames)
+    clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else ""))
+    try:
+        return _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
+    except NotSeparable as exc:  # (outputs that call a hook or add a switch) the file whole
+        _log.info("%s: the outputs are written with the equations (%s)", clock.what, exc)
+        return _generate(model, scene, clock, separate=False, **options)
+
+
+def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: str, *,
+                     jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
+                     frames: tuple[str, ...] = ()) -> tuple[str, str, tuple[str, ...], Symbolic]:
+    """(outputs part, NumPy source, output names, symbolic stages) of a scene whose equations part (generate's
+    c_source up to outputs_at, with the same options) is `equations_source`: the equations are derived again
+    (their tape, which the outputs share, must be the same) but not written; the text is the one generate gives.
+    Raises compiler.ccode.NotSeparable when the outputs cannot stand apart."""
+    from mbs.compiler.ccode import generate_c_outputs
+    from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
-    from mbs.compiler.symbolic import parameter_symbol
-    what = model.name + (f", scene {scene.name}" if scene is not None else "")
-    clock = _Phases(what)
-    lowered = lower(model, scene)
+    clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else "") + " (outputs only)")
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock)
+    # what generate does before it lowers the outputs, so that the tape they share is the same
+    options, _ = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
+                               parameter_jacobian, dynamics, frames)
+    first_table = len(lowered.tables.tables)
+    with_outputs = _outputs_apart(lowered, lower_outputs(lowered))
+    clock("lowered the outputs")
+    c_outputs = generate_c_outputs(equations, parameters, equations_source, first_table,
+                                   outputs=with_outputs.outputs, tables=with_outputs.tables, constraints=constraints,
+                                   run_time_inputs=with_outputs.run_time_inputs, friction=friction)
+    numpy_source = ""
+    if constraints is None:
+        options.update(outputs=with_outputs.outputs, tables=with_outputs.tables,
+                       run_time_inputs=with_outputs.run_time_inputs)
+        numpy_source = generate_numpy(equations, parameters, model.name, **options)
+    clock("generated the outputs' C")
+    return c_outputs, numpy_source, tuple(name for name, _ in with_outputs.outputs), \
+        Symbolic(with_outputs, equations, constraints)
+
+
+def join_parts(equations_source: str, outputs_source: str) -> str:
+    """The whole C file of its equations' part and its outputs' part (which starts at len(equations_source) + 1)."""
+    return equations_source + "\n" + outputs_source if outputs_source else equations_source
+
+
+def _outputs_apart(before, after):
+    """`after` (the lowering with its outputs), unless lowering them added a switch (its flag would be a
+    parameter of the equations): then NotSeparable."""
+    from mbs.compiler.ccode import NotSeparable
+    if len(after.switches) != len(before.switches):
+        raise NotSeparable("an output adds a switch")
+    return after
+
+
+def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False):
+    """(lowered, constraints, equations, parameters, friction): the model lowered (with its outputs only if
+    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None)."""
+    from mbs.compiler.constraints import derive_constraints
+    from mbs.compiler.equations import derive_equations
+    from mbs.compiler.friction_loops import with_friction_rows
+    from mbs.compiler.lower import lower_model, lower_outputs
+    lowered = lower_model(model, scene)
+    if outputs:
+        lowered = lower_outputs(lowered)
     clock("lowered to a tree")
     constraints = derive_constraints(lowered.kinematics, lowered.cuts) if lowered.cuts else None
     if constraints is not None:  # sticking friction elements lock their joints with rows of their own
@@ -178,44 +241,102 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     except ZeroDivisionError as exc:  # a pivot of the articulated-body algorithm is zero for every parameter
         raise MbsError([structurally_singular(lowered, str(exc))]) from None
     clock("derived the equations of motion")
+    friction = None
+    if lowered.bearing_friction is not None and constraints is not None:  # bearing friction in the loops
+        from mbs.compiler.friction_loops import bearing_routines
+        equations, friction = bearing_routines(equations, lowered.bearing_friction, constraints.nc)
+    parameters = run_parameters(model, lowered)
+    used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
+    extra = [s for s in used if s not in set(parameters)]
+    if extra:
+        raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
+    return lowered, constraints, equations, parameters, friction
+
+
+def _code_options(model, scene, lowered, equations, constraints, parameters, jacobian, parameter_jacobian,
+                  dynamics, frames) -> tuple[dict, tuple]:
+    """(the code generators' options, the event table) of a derived model."""
+    from mbs.compiler.dynamics_functions import dynamics_routines, frame_routines, named_frames
+    from mbs.compiler.events import event_code
     asked = None
     if dynamics:  # of the spanning tree; with loops, tau = G^T lambda (mbs_constraint_jacobian, multipliers)
         routines, inputs = dynamics_routines(lowered.kinematics)
         if frames:
             routines += frame_routines(lowered.kinematics, named_frames(lowered, frames))
         asked = (routines, inputs, tuple(frames))
-    switch_flags = [s.symbol for s in lowered.switches]
-    # switch flags and the frozen flag are run-time values after the parameters (compiler/events.py)
-    parameters = ([parameter_symbol(p.name) for p in model.parameters] + switch_flags
-                  + ([FROZEN] if switch_flags else []))
-    used = list(equations.parameters()) + list(constraints.parameters() if constraints is not None else ())
-    extra = [s for s in used if s not in set(parameters)]
-    if extra:
-        raise MbsError([Diagnostic("error", f"internal: symbols without a parameter: {extra}", model.span)])
-    outputs = lowered.outputs
     # the model's file only: scenes that differ in parameters, inputs or settings generate the same text and so
     # share one compiled library in the build cache (a scene's name here would give each its own)
     origin = f"{model.span.source.path}"
-    tree = lowered.tree
-    state_names = tuple(display_name(s.name) for s in tree.x_symbols)
+    state_names = tuple(display_name(s.name) for s in lowered.tree.x_symbols)
     p_names = tuple(s.name for s in parameters)
-    indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names, tree.nq, p_names)
-    options = dict(outputs=outputs, tables=lowered.tables, origin=origin, run_time_inputs=lowered.run_time_inputs,
-                   events=indicators, actions=action_values, dynamics=asked)
+    indicators, action_values, event_table = event_code(lowered.events, lowered.switches, state_names,
+                                                        lowered.tree.nq, p_names)
+    options = dict(outputs=lowered.outputs, tables=lowered.tables, origin=origin,
+                   run_time_inputs=lowered.run_time_inputs, events=indicators, actions=action_values, dynamics=asked)
     if needs_jacobian(scene) if jacobian is None else jacobian:
         options["jacobian"] = True
     if parameter_jacobian and constraints is None:
         options["parameter_jacobian"] = True
+    return options, event_table
+
+
+def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobian, dynamics, frames,
+              equations_ready=None) -> Generated:
+    """generate, with the outputs written apart (`separate`) or with the rest of the file."""
+    from mbs.compiler.ccode import generate_c, generate_c_outputs
+    from mbs.compiler.lower import lower_outputs
+    from mbs.compiler.pycode import generate_numpy
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock,
+                                                                    outputs=not separate)
+    options, event_table = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
+                                         parameter_jacobian, dynamics, frames)
+    outputs_at = None
+    if separate:
+        first_table = len(lowered.tables.tables)
+        c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
+                              separate_outputs=True,
+                              **options)
+        clock("generated the equations' C")
+        if equations_ready is not None:
+            equations_ready(c_source)
+        before, lowered = lowered, lower_outputs(lowered)
+        _outputs_apart(before, lowered)
+        clock("lowered the outputs")
+        outputs_at = len(c_source) + 1
+        c_source = join_parts(c_source, generate_c_outputs(equations, parameters, c_source, first_table,
+                                                           outputs=lowered.outputs, tables=lowered.tables,
+                                                           constraints=constraints,
+                                                           run_time_inputs=lowered.run_time_inputs,
+                                                           friction=friction))
+        options.update(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
+    else:
+        c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
+                              **options)
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
-    c_source = generate_c(equations, parameters, model.name, constraints=constraints, **options)
     clock("generated C and NumPy code")
     symbolic = Symbolic(lowered, equations, constraints)
+    tree = lowered.tree
     return Generated(model, scene, c_source, numpy_source,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
-                     p_names, tuple(name for name, _ in outputs), StateLayout.of(tree, lowered.cuts, constraints),
-                     event_table, lambda: symbolic)
+                     tuple(s.name for s in parameters), tuple(name for name, _ in lowered.outputs),
+                     StateLayout.of(tree, lowered.cuts, constraints), event_table, lambda: symbolic, outputs_at)
+
+
+def run_parameters(model: M.Model, lowered) -> list:
+    """The symbols of the run-time vector p: the model's parameters, then the switches' branch flags and the frozen
+    flag (compiler/events.py; none in a model without comparisons or kinks of the motion)."""
+    from mbs.compiler.events import FROZEN
+    from mbs.compiler.symbolic import parameter_symbol
+    flags = [s.symbol for s in lowered.switches]
+    return [parameter_symbol(p.name) for p in model.parameters] + flags + ([FROZEN] if flags else [])
+
+
+def parameter_vector(p_names, values: Mapping[str, float]) -> list[float]:
+    """p in run-time order from the parameters' values: the switches' branch flags and the frozen flag (not
+    parameters of the model) start at 0, every comparison evaluated as written until a run freezes them."""
+    return [values[n] if not n.startswith("switch.") else values.get(n, 0.0) for n in p_names]
 
 
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by

@@ -258,9 +258,13 @@ def metric_sensitivity(reduction: str, column: _Column) -> tuple[float, np.ndarr
 
 def sensitivities(system, scene: str | None = None, *, params: Sequence[str], values: Mapping[str, float] | None = None,
                   metrics: Sequence[str] | None = None, t_end: float | None = None, method: str = "DOP853",
-                  rtol: float | None = None, atol: float | None = None) -> SensitivityTable:
+                  rtol: float | None = None, atol: float | None = None, hooks=None) -> SensitivityTable:
     """d(metric)/d(p) of a scene's run for each metric and each parameter named in `params`, at the scene's
-    parameter values overridden by `values` (as --param name=value of a run)."""
+    parameter values overridden by `values` (as --param name=value of a run). hooks: the implementations of the
+    model's user hooks, as for System.simulate; their derivatives are the implementations' own (a C
+    NAME_derivative, a Python callable's .derivative) or central differences of the hooks (compiler/hooks.py)."""
+    from mbs.runtime.hooks import bind
+    binding = bind(system.model.hooks, hooks, system.model.name)  # checked before anything compiles
     names = [params] if isinstance(params, str) else list(params)
     at = dict(values or {})
     unknown = [n for n in names if n not in system.model.parameter_map]
@@ -270,7 +274,7 @@ def sensitivities(system, scene: str | None = None, *, params: Sequence[str], va
     if not names:
         raise _error("name at least one parameter to differentiate with respect to")
     data, settings = system.start(scene, params=at, jacobian=True, parameter_jacobian=True, t_end=t_end, rtol=rtol,
-                                  atol=atol)
+                                  atol=atol, hooks=binding)
     model = data.model
     if "project" in model.functions:
         raise _error(f"model '{system.model.name}' has closed kinematic loops: sensitivities are for trees so far")
@@ -279,8 +283,10 @@ def sensitivities(system, scene: str | None = None, *, params: Sequence[str], va
     P = np.empty((model.np, len(names)))
     S0 = np.empty((model.nx, len(names)))
     for k, (name, value, h) in enumerate(zip(names, values, steps)):
-        up, _ = system.start(scene, params={**at, name: value + h}, jacobian=True, parameter_jacobian=True)
-        down, _ = system.start(scene, params={**at, name: value - h}, jacobian=True, parameter_jacobian=True)
+        up, _ = system.start(scene, params={**at, name: value + h}, jacobian=True, parameter_jacobian=True,
+                             hooks=binding)
+        down, _ = system.start(scene, params={**at, name: value - h}, jacobian=True, parameter_jacobian=True,
+                               hooks=binding)
         P[:, k] = (up.p - down.p) / (2 * h)
         S0[:, k] = (up.x - down.x) / (2 * h)
     times = output_times(data.t, settings["t_end"], sample=settings.get("sample"))

@@ -2,6 +2,11 @@
 
 Writes <model>.c, <model>.h (sizes and prototypes) and lib<model>.so, each atomically. The header is
 derived from the generated source, so it cannot disagree with it.
+
+User hooks stay in their own files: <model>.c calls them, lib<model>.so is built from <model>.c and the C files
+given for them (`mbs compile --hook NAME=file.c`), and the header declares each hook's C function with its
+arguments and results in their units, for a program that links <model>.c with its own implementation. A
+Python hook cannot go into a library without Python: that is refused.
 """
 
 from __future__ import annotations
@@ -76,7 +81,7 @@ def standalone_c(gen: Generated) -> str:
     body, public = _internal(standalone_source(gen))
     prefix = prefix_of(gen)
     values = pipeline.parameter_values(gen.model, pipeline.scene_overrides(gen.scene))
-    p_default = [values[n] for n in gen.p_names]
+    p_default = pipeline.parameter_vector(gen.p_names, values)
     x0 = pipeline.initial_state(gen, values)
     out = [body, f"/* ---- the public interface of {gen.model.name} (prefix {prefix}_, declared in {prefix}.h) ---- */",
            f'#include "{prefix}.h"', ""]
@@ -92,7 +97,28 @@ def standalone_c(gen: Generated) -> str:
     return "\n".join(out)
 
 
-def header_text(gen: Generated) -> str:
+def hook_declarations(gen: Generated, binding=None) -> list[str]:
+    """The header's section on the model's user hooks: each one's C function, documented (empty without hooks)."""
+    specs = gen.model.hooks
+    if not specs:
+        return []
+    given = dict(binding.c_files) if binding is not None else {}
+    lines = ["/* User hooks: functions this model calls and the user supplies, each", " *",
+             " *     int NAME(const double *arg, double *res);", " *",
+             " * with the arguments and results in the units below; return 0 on success (another status, or a",
+             " * non-finite result, makes the model function fail with status 2). Optionally",
+             " *     int NAME_derivative(const double *arg, double *jac);   jac[i * nargs + j] = d res[i] / d arg[j]",
+             " * for the generated Jacobians (else they take central differences of the hook). */"]
+    for spec in specs:
+        args = ", ".join(f"arg[{i}] = {s.name} [{s.unit}]" for i, s in enumerate(spec.args)) or "none"
+        results = ", ".join(f"res[{i}] = {s.name} [{s.unit}]" for i, s in enumerate(spec.results))
+        source = f"; linked from {Path(given[spec.name][0]).name}" if spec.name in given else ""
+        lines += [f"/* {spec.signature()}" + (f": {spec.description}" if spec.description else "") + source,
+                  f" * {args}; {results} */", f"int {spec.name}(const double *arg, double *res);"]
+    return lines + [""]
+
+
+def header_text(gen: Generated, binding=None) -> str:
     """Sizes (PENDULUM_NQ ...) and prototypes (pendulum_rhs ...), from the generated source itself."""
     name, prefix = gen.model.name, prefix_of(gen)
     macro = prefix.upper()
@@ -108,22 +134,30 @@ def header_text(gen: Generated) -> str:
     lines.append("")
     for kind, fn, parameters in _internal(standalone_source(gen))[1]:
         lines.append(f"{kind} {prefix}_{fn[4:]}({parameters});".replace("* ", "*"))
-    lines += ["", f"/* defaults: {macro}_NP parameters ({', '.join(gen.p_names)}), {macro}_NX initial state */",
+    lines += [""] + hook_declarations(gen, binding)
+    lines += [f"/* defaults: {macro}_NP parameters ({', '.join(gen.p_names)}), {macro}_NX initial state */",
               f"const double *{prefix}_default_parameters(void);", f"const double *{prefix}_initial_state(void);",
               "", f"#endif /* {guard} */", ""]
     return "\n".join(lines)
 
 
-def write_standalone(gen: Generated, directory: Path) -> list[Path]:
+def write_standalone(gen: Generated, directory: Path, hooks=None) -> list[Path]:
+    """Write <model>.c, <model>.h and lib<model>.so; hooks: the implementations of the model's user hooks
+    ({name: 'file.c'} or a runtime.hooks.HookBinding), compiled into the library."""
+    from mbs.runtime.hooks import HookBinding, bind, require_c
+    binding = hooks if isinstance(hooks, HookBinding) else bind(gen.model.hooks, hooks, gen.model.name)
+    require_c(binding, "a standalone library (mbs compile) runs without Python")
     directory.mkdir(parents=True, exist_ok=True)
     stem = prefix_of(gen)
     c_path, h_path, so_path = directory / f"{stem}.c", directory / f"{stem}.h", directory / f"lib{stem}.so"
     write_text_atomic(c_path, standalone_c(gen))
-    write_text_atomic(h_path, header_text(gen))
+    write_text_atomic(h_path, header_text(gen, binding))
+    hook_files = binding.c_paths() if binding is not None else []
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / so_path.name
         # absolute paths: a name the user gave that starts with '-' must never reach the compiler as an option
-        cmd = [*compiler_command(), *FLAGS, str(c_path.resolve()), "-o", str(out.resolve()), "-lm"]
+        cmd = [*compiler_command(), *FLAGS, str(c_path.resolve()), *(str(Path(p).resolve()) for p in hook_files),
+               "-o", str(out.resolve()), "-lm"]
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True)
         except OSError as exc:
@@ -131,7 +165,8 @@ def write_standalone(gen: Generated, directory: Path) -> list[Path]:
                                                 f"{c_path} and {h_path} are written: build them with your own "
                                                 "compiler, or install one (e.g. gcc)", None)]) from None
         if proc.returncode != 0:
-            raise MbsError([Diagnostic("error", f"the C compiler failed on {c_path}:\n{proc.stderr}", None)])
+            on = ", ".join(map(str, [c_path, *hook_files]))
+            raise MbsError([Diagnostic("error", f"the C compiler failed on {on}:\n{proc.stderr}", None)])
         write_bytes_atomic(so_path, out.read_bytes(), executable=True)
     return [c_path, h_path, so_path]
 

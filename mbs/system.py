@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Mapping
@@ -53,28 +55,32 @@ class System:
                                                 f"(scenes: {names})", None)]) from None
 
     def generate(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
-                 dynamics: bool = False, frames: tuple[str, ...] = ()) -> pipeline.Generated:
+                 dynamics: bool = False, frames: tuple[str, ...] = (), equations_ready=None) -> pipeline.Generated:
         """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
         parameter_jacobian: with mbs_param_jacobian (for sensitivities); dynamics: also the dynamics functions,
-        and the kinematics of the named frames (mbs.dynamics)."""
+        and the kinematics of the named frames (mbs.dynamics); equations_ready: called with the C of the equations
+        as soon as it is written (pipeline.generate)."""
         key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
         if key not in self._compiled:
             self._compiled[key] = derivation_cache.generate(
                 self.model, self.scene(scene), cache_dir=self.cache_dir, jacobian=jacobian,
-                parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames))
+                parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames),
+                equations_ready=equations_ready)
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
                 dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate.
         hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
                binding.key if binding is not None else None)
         if key not in self._compiled:
+            c_back_end = self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler())
+            # the C compiler starts on the equations while the outputs are derived (runtime/build.py prebuild)
+            prebuild = functools.partial(_build.prebuild, cache_dir=self.cache_dir) if c_back_end else None
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
-                                frames=frames)
+                                frames=frames, equations_ready=prebuild)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, z_names=gen.z_names,
                         p_names=gen.p_names,
@@ -146,8 +152,7 @@ class System:
         # parameters checked before the (slow) first compile
         values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
                                                         **parameter_overrides(self.model, params)})
-        binding = hooks if isinstance(hooks, _hooks.HookBinding) else _hooks.bind(self.model.hooks, hooks,
-                                                                                    self.model.name)
+        binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
         if binding is not None:
             binding.attach(compiled)
@@ -162,12 +167,13 @@ class System:
         return data, settings
 
     def accuracy(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
-                 t_end: float | None = None, **options):
+                 t_end: float | None = None, hooks: Mapping | None = None, **options):
         """The work-precision table of a scene (mbs.runtime.accuracy.work_precision; options: integrators,
-        tolerances, repeats), built with the generated Jacobian for the stiff integrators."""
+        tolerances, repeats), built with the generated Jacobian for the stiff integrators. hooks: as for
+        simulate."""
         from mbs.runtime.accuracy import work_precision
         from mbs.runtime.simulate import output_times
-        data, settings = self.start(scene, params=params, jacobian=True)
+        data, settings = self.start(scene, params=params, jacobian=True, hooks=hooks)
         t_end = settings["t_end"] if t_end is None else t_end
         times = output_times(data.t, t_end, sample=settings.get("sample"))
         return work_precision(data.model, data, t_end, t_eval=times, **options)
@@ -181,7 +187,7 @@ class System:
     def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]):
         """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops)."""
         data = Workspace(compiled)
-        data.p = [values.get(n, 0.0) for n in compiled.p_names]  # switch flags (compiler/events.py) start at 0
+        data.p = pipeline.parameter_vector(compiled.p_names, values)
         data.x = pipeline.initial_state(gen, values)
         rows = gen.layout.constraint_rows
         if rows is None:
@@ -203,10 +209,12 @@ class System:
             binding.attach(compiled)
         return compiled, self.generate(scene), values
 
-    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None):
+    def assemble(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
+                 hooks: Mapping | None = None):
         """How the closed loops of a scene's start are closed (mbs.runtime.assembly.Assembly: the consistent state,
-        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops."""
-        return self._start(*self._scene_parameters(scene, params))[1]
+        what changed, rank, degrees of freedom, redundant rows), or None for a model without loops. hooks: as
+        for simulate."""
+        return self._start(*self._scene_parameters(scene, params, hooks))[1]
 
     def equilibrium(self, scene: str | None = None, *, params: Mapping[str, float | str] | None = None,
                     hooks: Mapping | None = None):

@@ -26,6 +26,7 @@ import numpy as np
 from mbs.language.diagnostics import Diagnostic, MbsError
 
 from .errors import UsageError
+from .friction import stick_rows_released
 from .model import CompiledModel
 from .workspace import Workspace, check_workspace
 
@@ -113,6 +114,11 @@ def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None 
     if missing:
         raise UsageError(f"model {model.name} has no loop functions ({', '.join(missing)}): it has no closed "
                          "loops, or it was built with the NumPy back end")
+    with stick_rows_released(model, data):  # friction's locks are no part of the loops' geometry
+        return _assemble(model, data, x0, t, fixed, row_names, spans, tolerance)
+
+
+def _assemble(model, data, x0, t, fixed, row_names, spans, tolerance) -> Assembly:
     t = float(data.t if t is None else t)
     fixed = tuple(fixed)
     given = np.array(data.x if x0 is None else x0, dtype=float)

@@ -6,10 +6,17 @@ into the glue unit and a few units of the model's functions, compiled at once (a
 biggest first) and linked; only the module's init function is exported (-fvisibility=hidden).
 
 The result is cached under a hash of everything that can change the binary: the model source, the
-run-time C files, the flags, the compiler's version, the Python and NumPy versions.  A fresh build is
-made in a temporary directory inside the cache and moved into place with ``os.replace``, so processes
-compiling the same model at once each end up with a complete file (the last rename wins; both are
-identical).
+run-time C files, the splitter and this module, the flags, the compiler's version, the Python and NumPy
+versions.  A fresh build is made in a temporary directory inside the cache and moved into place with
+``os.replace``, so processes compiling the same model at once each end up with a complete file (the last rename
+wins; both are identical).
+
+The objects of a split build are cached too, each under a hash of its unit's text, the header it includes (the
+run-time C files for the glue unit), its flags and the compiler: a model whose text changed in one unit only (a
+scene asking for other outputs changes outputs.c alone, runtime/translation_units.py) recompiles that unit and
+links. The module's name is compiled into a tiny init unit only (PyInit_<name> calls the glue's
+mbs_module_init), so the glue's object serves every module. Objects are recorded and verified like modules
+(runtime/cache.py) and written the same way (a temporary file, then ``os.replace``).
 """
 
 from __future__ import annotations
@@ -26,7 +33,8 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
-from concurrent.futures import ThreadPoolExecutor
+import threading
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -39,7 +47,7 @@ from . import translation_units as _units
 from .errors import BuildError, EvaluationError
 
 #: Bump when the layout of the build unit changes in a way the hashed inputs do not show.
-BUILD_FORMAT = 2
+BUILD_FORMAT = 3
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The run-time C files compiled into every model (all hashed).
 RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c", "loops.c", "loop_jacobian.c",
@@ -72,6 +80,8 @@ class BuildResult:
     key: str            #: hex SHA-256 of all inputs
     cached: bool        #: True when the file was already in the cache (no compiler run)
     warnings: str       #: compiler messages of a fresh build ('' when cached or clean)
+    compiled: tuple[str, ...] = ()  #: the units a fresh build compiled ('unit.c' for a one-unit build)
+    reused: tuple[str, ...] = ()    #: the units whose objects a fresh split build took from the cache
 
 
 def default_cache_dir() -> Path:
@@ -121,24 +131,49 @@ def _unit_source(model_source: str, filename: str) -> str:
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
 
 
-def _hash(unit: str, flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
-    h = hashlib.sha256()
+class _Digest:
+    """A SHA-256 of labelled parts (each with its length, so no two sequences of parts give the same stream)."""
 
-    def add(label: str, data: str | bytes) -> None:
+    def __init__(self):
+        self.h = hashlib.sha256()
+
+    def add(self, label: str, data: str | bytes) -> "_Digest":
         data = data.encode() if isinstance(data, str) else data
-        h.update(f"{label}:{len(data)}:".encode())
-        h.update(data)
+        self.h.update(f"{label}:{len(data)}:".encode())
+        self.h.update(data)
+        return self
 
-    add("format", str(BUILD_FORMAT))
-    add("unit", unit)
+    def hexdigest(self) -> str:
+        return self.h.hexdigest()
+
+
+def _environment(digest: _Digest, cc: tuple[str, ...]) -> _Digest:
+    """The compiler, its version, Python and NumPy: what every object and module depends on besides its text."""
+    digest.add("format", str(BUILD_FORMAT)).add("cc", "\0".join(cc)).add("cc-version", compiler_version(cc))
+    digest.add("python", f"{sys.version}\0{sysconfig.get_config_var('EXT_SUFFIX')}\0{platform.machine()}")
+    return digest.add("numpy", np.__version__)
+
+
+def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
+    """The module's key: the generated text and everything that turns it into the module (the split into units
+    is a function of the text, the splitter's and this module's source)."""
+    digest = _environment(_Digest(), cc).add("code", code).add("filename", filename)
     for name in RUNTIME_SOURCES:
-        add(name, (C_DIR / name).read_bytes())
-    add("flags", "\0".join(flags))
-    add("cc", "\0".join(cc))
-    add("cc-version", compiler_version(cc))
-    add("python", f"{sys.version}\0{sysconfig.get_config_var('EXT_SUFFIX')}\0{platform.machine()}")
-    add("numpy", np.__version__)
-    return h.hexdigest()
+        digest.add(name, (C_DIR / name).read_bytes())
+    for module in (_units.__file__, __file__):
+        digest.add(Path(module).name, Path(module).read_bytes())
+    digest.add("split", f"{_units.SPLIT_MIN_CHARS} {_units.UNIT_CHARS} {_units.MAX_MODEL_UNITS}")
+    return digest.add("flags", "\0".join(flags)).add("model units", "\0".join(model_flags)).hexdigest()
+
+
+def _object_key(name: str, files: dict[str, str], command: tuple[str, ...], cc: tuple[str, ...]) -> str:
+    """An object's key: its unit's text, the header it includes, the run-time C files (the glue unit) and its
+    compile command (flags and include folders)."""
+    digest = _environment(_Digest(), cc).add("unit", files[name]).add("model.h", files.get("model.h", ""))
+    if name == _units.GLUE_UNIT:
+        for source in RUNTIME_SOURCES:
+            digest.add(source, (C_DIR / source).read_bytes())
+    return digest.add("command", "\0".join(command)).hexdigest()
 
 
 def _build_files(code: str, filename: str) -> dict[str, str]:
@@ -147,9 +182,19 @@ def _build_files(code: str, filename: str) -> dict[str, str]:
     if split is None:
         return {"unit.c": _unit_source(code, filename)}
     glue = ("/* glue unit written by mbs.runtime.build: do not edit */\n"
-            "#define PY_SSIZE_T_CLEAN\n#include <Python.h>\n#include \"model.h\"\n"
+            "#define PY_SSIZE_T_CLEAN\n#define MBS_SEPARATE_INIT 1\n#include <Python.h>\n#include \"model.h\"\n"
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
     return {**split, _units.GLUE_UNIT: glue}
+
+
+def _init_unit(module_name: str) -> str:
+    """The unit that names the module: PyInit_<name> (exported) returns the glue's module under that name."""
+    return ("/* init unit written by mbs.runtime.build: do not edit */\n"
+            "#if defined(_WIN32)\n#define MBS_EXPORT __declspec(dllexport)\n"
+            "#else\n#define MBS_EXPORT __attribute__((visibility(\"default\")))\n#endif\n"
+            "void *mbs_module_init(const char *name);\n"
+            f"MBS_EXPORT void *PyInit_{module_name}(void);\n"
+            f"MBS_EXPORT void *PyInit_{module_name}(void)\n{{\n    return mbs_module_init(\"{module_name}\");\n}}\n")
 
 
 def _joined(files: dict[str, str]) -> str:
@@ -172,24 +217,155 @@ def build_jobs() -> int:
 
 
 def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...],
-             module_name: str, tmp: Path, filename: str) -> str:
-    """Compile the files in `tmp` into tmp/module.so; the compiler's messages. Raises BuildError."""
-    for name, text in files.items():
-        (tmp / name).write_text(text, encoding="utf-8")
-    includes = (f"-DMBS_MODULE_NAME={module_name}", f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}",
-                f"-I{np.get_include()}")
+             module_name: str, tmp: Path, filename: str, cache: Path) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
+    """Compile the files in `tmp` into tmp/module.so: (the compiler's messages, the units compiled, the units whose
+    objects came from the cache). Raises BuildError."""
     if list(files) == ["unit.c"]:
-        command = (*cc, *flags, *includes, "unit.c", "-o", "module.so", "-lm")
-        return _run(command, tmp, filename)
-    compile_flags = tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
-    sources = sorted((n for n in files if n.endswith(".c")), key=lambda n: -len(files[n]))  # biggest first
-    commands = [(*cc, *compile_flags, *(() if name == _units.GLUE_UNIT else model_flags), *includes, "-c", name,
-                 "-o", name[:-2] + ".o") for name in sources]
+        includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
+        (tmp / "unit.c").write_text(files["unit.c"], encoding="utf-8")
+        command = (*cc, *flags, f"-DMBS_MODULE_NAME={module_name}", *includes, "unit.c", "-o", "module.so", "-lm")
+        return _run(command, tmp, filename), ("unit.c",), ()
+    compile_flags = _compile_flags(flags)
+    (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
+    objects, todo, pending = {}, [], []
+    jobs = _unit_jobs(files, flags, model_flags, cc, cache)
+    for name, command, cached in jobs:
+        if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
+            pending.append((name, command, cached))
+        elif cached.exists() and _cache.problem(cached) is None:
+            objects[name] = cached
+        else:
+            todo.append((name, command, cached))
+    (tmp / "init.c").write_text(_init_unit(module_name), encoding="utf-8")
     with ThreadPoolExecutor(max_workers=build_jobs()) as pool:
-        outputs = list(pool.map(lambda command: _run(command, tmp, filename), commands))
-    objects = [name[:-2] + ".o" for name in sources]
-    link = (*cc, *flags, "-fvisibility=hidden", *objects, "-o", "module.so", "-lm")
-    return "".join(outputs) + _run(link, tmp, filename)
+        outputs = list(pool.map(lambda job: _run(job[1], tmp, filename),
+                                [(None, (*cc, *compile_flags, "-c", "init.c", "-o", "init.o"))]
+                                + [_written(job, files, tmp) for job in todo]))
+    prebuilt = []
+    for name, command, cached in pending:
+        with _PREBUILD_LOCK:
+            job = _PREBUILDS.pop(cached, None)
+        if job is not None:
+            job.exception()  # wait for it (a failed one is compiled here, with its messages)
+        if cached.exists() and _cache.problem(cached) is None:
+            objects[name] = cached
+            prebuilt.append(name)
+        else:
+            outputs.append(_run(_written((name, command, cached), files, tmp)[1], tmp, filename))
+            todo.append((name, command, cached))
+    sources = [name for name, _, _ in jobs]
+    for name, _, cached in todo:  # kept by content for the next build that has the same unit
+        objects[name] = tmp / (name[:-2] + ".o")
+        try:
+            _cache.store_object(objects[name], cached, f"{name} of {_cache.model_label(files['model.h'])}")
+            objects[name] = cached
+        except OSError:  # a cache that cannot keep it still links this build
+            pass
+    link = (*cc, *flags, "-fvisibility=hidden", "init.o", *(str(objects[n]) for n in sources), "-o", "module.so",
+            "-lm")
+    compiled = tuple(name for name, _, _ in todo) + tuple(prebuilt)
+    return "".join(outputs) + _run(link, tmp, filename), compiled, tuple(n for n in sources if n not in compiled)
+
+
+def _compile_flags(flags: tuple[str, ...]) -> tuple[str, ...]:
+    """The flags of a split build's compile steps (-c): the link's without -shared, hidden visibility."""
+    return tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
+
+
+def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path) -> list[tuple[str, tuple, Path]]:
+    """(unit, compile command, where its object is kept) of a split build's units, the longest compile first."""
+    includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
+    jobs = []
+    for name in sorted((n for n in files if n.endswith(".c")), key=lambda n: -_weight(n, files)):
+        command = (*cc, *_compile_flags(flags), *(() if name == _units.GLUE_UNIT else model_flags), *includes,
+                   "-c", name)
+        jobs.append((name, command, _cache.object_path(cache, _object_key(name, files, command, cc))))
+    return jobs
+
+
+def _written(job, files: dict[str, str], tmp: Path) -> tuple[str, tuple]:
+    """(unit, its full compile command) with the unit's text written into `tmp`."""
+    name, command, _ = job
+    (tmp / name).write_text(files[name], encoding="utf-8")
+    return name, (*command, "-o", name[:-2] + ".o")
+
+
+# ------------------------------------------------------------------------------------------ prebuild
+#: Objects being compiled by prebuild in this process (their cache path -> the job), which build waits for.
+_PREBUILDS: dict[Path, Future] = {}
+_PREBUILD_LOCK = threading.Lock()
+_PREBUILD_POOL: list[ThreadPoolExecutor] = []
+
+
+def _forget_prebuilds() -> None:
+    """In a forked child: the parent's compiler threads are not there, so neither are its jobs (build compiles
+    what it does not find in the cache) nor its pool (a new one is made on first use)."""
+    global _PREBUILD_LOCK
+    _PREBUILD_LOCK = threading.Lock()
+    _PREBUILDS.clear()
+    _PREBUILD_POOL.clear()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_prebuilds)
+
+
+def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
+             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> int:
+    """Start compiling, in the background, the units of a file whose equations' part is known and whose outputs'
+    part is not yet (pipeline.generate writes the equations' C, then lowers the outputs): the model units and
+    the glue unit of a split build do not depend on the outputs, so their objects can be made while the outputs
+    are derived; build() (with the same options) then takes them from the cache, or waits for them. One compiler
+    process less than build() runs, so the derivation keeps a core. Returns how many units were started (0 for a
+    model built as one unit, without a compiler, or with every object cached). Never raises for the model's
+    sake: a unit that fails is compiled again by build(), which reports it."""
+    try:
+        cc = tuple(compiler_command())
+        model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
+    except BuildError:
+        return 0
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    files = _build_files(equations_code + "\n" + _units.OUTPUTS_MARKER + "\n", filename)
+    if "model.h" not in files:
+        return 0
+    files.pop(_units.OUTPUTS_UNIT, None)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    started = 0
+    with _PREBUILD_LOCK:
+        if not _PREBUILD_POOL:
+            _PREBUILD_POOL.append(ThreadPoolExecutor(max_workers=max(1, build_jobs() - 1)))
+        for job in _unit_jobs(files, flags, model_flags, cc, cache):
+            if job[2] in _PREBUILDS or job[2].exists():
+                continue
+            _PREBUILDS[job[2]] = _PREBUILD_POOL[0].submit(_prebuild_one, job, files, cache, filename)
+            started += 1
+    return started
+
+
+def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> None:
+    """Compile one unit in a folder of its own and keep its object in the cache."""
+    try:
+        cache.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".prebuild-", dir=cache))
+    except OSError:  # build() reports an unusable cache
+        return
+    try:
+        (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
+        name, command = _written(job, files, tmp)
+        _run(command, tmp, filename)
+        _cache.store_object(tmp / (name[:-2] + ".o"), job[2], f"{name} of {_cache.model_label(files['model.h'])}")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+#: The glue unit's compile time in characters of model code (its text is short, what it includes is not): about
+#: the Iltis's 90-kB units. Started in its place among the model units, the two cores finish together.
+GLUE_WEIGHT = 100_000
+
+
+def _weight(name: str, files: dict[str, str]) -> int:
+    """A unit's expected compile time, in characters of model code."""
+    return GLUE_WEIGHT if name == _units.GLUE_UNIT else len(files[name])
 
 
 def _run(command: tuple[str, ...], cwd: Path, filename: str) -> str:
@@ -221,9 +397,7 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
     model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
-    files = _build_files(code, filename)
-    unit = _joined(files)
-    key = _hash(unit, flags + (("model units:", *model_flags) if len(files) > 1 else ()), cc)
+    key = _hash(code, filename, flags, model_flags, cc)
     module_name = f"mbs_model_{key[:24]}"
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
@@ -240,8 +414,10 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
         why = "a file, not a folder" if cache.exists() and not cache.is_dir() else (exc.strerror or str(exc))
         raise BuildError(f"the build cache {cache} cannot be used ({why}): set {CACHE_ENV} to a writable "
                          "folder") from None
+    files = _build_files(code, filename)
+    unit = _joined(files)
     try:
-        output = _compile(files, flags, model_flags, cc, module_name, tmp, filename)
+        output, compiled, reused = _compile(files, flags, model_flags, cc, module_name, tmp, filename, cache)
         # keep the sources beside the module for inspection (one file); both appear atomically
         (tmp / "unit.c").write_text(unit, encoding="utf-8")
         os.replace(tmp / "unit.c", cache / (module_name + ".c"))
@@ -252,7 +428,11 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
                          "to a writable folder") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    return BuildResult(target, module_name, key, False, output.strip())
+    if reused:
+        logging.getLogger("mbs.cache").info("C build of %s: compiled %s; objects of %s from the cache",
+                                            _cache.model_label(unit), ", ".join(compiled) or "nothing",
+                                            ", ".join(reused))
+    return BuildResult(target, module_name, key, False, output.strip(), compiled, reused)
 
 
 def load(result: BuildResult) -> ModuleType:

@@ -5,6 +5,9 @@ size and SHA-256, when it was built, and the model it came from. Before a cached
 hash are compared with the record; a truncated or overwritten file (a full disk, a copy cut short, a stray
 editor) would otherwise crash the process when loaded (a bus error, not an exception). A module without a
 record, or with one that does not match, is rebuilt with a note, never loaded.
+
+The objects of split builds (``mbs_object_<key>.o``, runtime/build.py) have records of the same kind and are
+checked the same way before they are linked.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from mbs.base.atomic import write_text_atomic
 EXT_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 PREFIX = "mbs_model_"
 DERIVED_PREFIX = "mbs_derived_"
+OBJECT_PREFIX = "mbs_object_"
 
 
 @dataclass(frozen=True)
@@ -36,7 +40,10 @@ class Entry:
 
     @property
     def kind(self) -> str:
-        """'build' (a compiled model) or 'derivation' (derived equations and generated code)."""
+        """'build' (a compiled model), 'object' (a compiled unit of one) or 'derivation' (derived equations and
+        generated code)."""
+        if self.name.startswith(OBJECT_PREFIX):
+            return "object"
         return "derivation" if self.name.startswith(DERIVED_PREFIX) else "build"
 
     @property
@@ -79,11 +86,22 @@ def model_label(unit: str) -> str:
     return f"{label} ({Path(path).name}{', ' + rest if rest else ''})"
 
 
-def record(module: Path, key: str, unit: str) -> None:
-    """Write the record of a module just built (atomically, after the module is in place)."""
+def record(module: Path, key: str, unit: str, label: str | None = None) -> None:
+    """Write the record of a module (or object) just built (atomically, after the file is in place)."""
     data = {"key": key, "size": module.stat().st_size, "sha256": sha256(module), "built": time.time(),
-            "model": model_label(unit)}
+            "model": label or model_label(unit)}
     write_text_atomic(record_path(module), json.dumps(data, indent=1) + "\n")
+
+
+def object_path(cache: Path, key: str) -> Path:
+    """Where the object of a split build's unit with this key is kept."""
+    return cache / f"{OBJECT_PREFIX}{key[:32]}.o"
+
+
+def store_object(built: Path, path: Path, label: str) -> None:
+    """Move a freshly compiled object into the cache (atomically) and record it."""
+    os.replace(built, path)
+    record(path, path.stem[len(OBJECT_PREFIX):], "", label)
 
 
 def read_record(module: Path) -> dict | None:
@@ -124,12 +142,12 @@ def entries(cache: Path) -> list[Entry]:
         if path.name.startswith(DERIVED_PREFIX) and path.name.endswith(".json") and path.is_file():
             derived.append(Entry(path.name[:-5], path, read_derived_record(path), (path,)))
             continue
-        if not path.name.startswith(PREFIX) or not path.is_file():
+        if not path.name.startswith((PREFIX, OBJECT_PREFIX)) or not path.is_file():
             continue
         stem = path.name[: -len(EXT_SUFFIX)] if path.name.endswith(EXT_SUFFIX) else path.name.rsplit(".", 1)[0]
         groups.setdefault(stem, []).append(path)
-    out = [Entry(stem, cache / (stem + EXT_SUFFIX), read_record(cache / (stem + EXT_SUFFIX)), tuple(sorted(files)))
-           for stem, files in groups.items()]
+    main = {stem: cache / (stem + (".o" if stem.startswith(OBJECT_PREFIX) else EXT_SUFFIX)) for stem in groups}
+    out = [Entry(stem, main[stem], read_record(main[stem]), tuple(sorted(files))) for stem, files in groups.items()]
     return sorted(out + derived, key=lambda e: e.built)
 
 

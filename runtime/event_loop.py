@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import EvaluationError
-from .events import (DEPARTURE_STEP, ZENO_WINDOW, EventRecord, against_motion, apply_events, crossings,
-                     init_switches, is_zeno, resolution_message, zeno_message)
+from .events import (DEPARTURE_STEP, ZENO_WINDOW, EventRecord, against_motion, apply_events, crossing_rows,
+                     crossings, init_switches, is_zeno, resolution_message, zeno_message)
 from .friction import is_friction_event, start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
@@ -23,7 +23,8 @@ from .integrators.base import EVENT
 
 @dataclass
 class Segments:
-    """Rows of the run: times, states, and per row the index of the p copy in force."""
+    """Rows of the run: times, states, and per row the index of the p copy in force.  Blocks of sample rows and
+    single rows at events are kept as they come (views, no copies) and joined once at the end."""
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
@@ -31,24 +32,36 @@ class Segments:
     p: list = field(default_factory=list)
 
     def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
-        if len(times) == 0:
-            return
-        if not self.p or not (self.p[-1] == p).all():
+        if len(times):
+            self.append(times, states, self.in_force(p))
+
+    def in_force(self, p: np.ndarray) -> int:
+        """The index of the p copy equal to ``p``, the last one or a new copy."""
+        if not self.p or not np.array_equal(self.p[-1], p):
             self.p.append(p.copy())
-        self.times.append(np.asarray(times, dtype=float).reshape(-1))
-        self.states.append(np.asarray(states, dtype=float).reshape(len(self.times[-1]), -1))
-        self.counts.append((len(self.times[-1]), len(self.p) - 1))
+        return len(self.p) - 1
+
+    def append(self, times, states: np.ndarray, which: int) -> None:
+        """Rows in the p copy ``which`` (from in_force): ``times`` a sequence, ``states`` one row or rows."""
+        if len(times):
+            self.times.append(times)
+            self.states.append(states)
+            self.counts.append((len(times), which))
 
     def arrays(self, nx: int):
-        if not self.times:
-            return np.empty(0), np.empty((0, nx)), np.empty(0, dtype=int)
-        rows, which = zip(*self.counts)
-        return np.concatenate(self.times), np.vstack(self.states), np.repeat(which, rows)
+        rows = sum(n for n, _ in self.counts)
+        times, states, which = np.empty(rows), np.empty((rows, nx)), np.empty(rows, dtype=int)
+        i = 0
+        for t, x, (n, k) in zip(self.times, self.states, self.counts):
+            times[i:i + n], states[i:i + n], which[i:i + n] = t, x, k
+            i += n
+        return times, states, which
 
 
-def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks: int = 100):
+def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks=100):
     """Integrate over ``times`` from (data.t, data.x) with events; ``make_solver(t0, y0, events, first_step)``
-    starts an integrator (first_step None: its own choice).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
+    starts an integrator (first_step None: its own choice); ``progress`` is called after each of ``chunks`` parts
+    of the samples (a number, or a function of none that tells it once the first integrator is made).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
     and data.x are left at the last state reached."""
     g = data.function("events")
     directions = np.array([e.direction for e in model.events], dtype=np.intc)
@@ -59,7 +72,6 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     segments, fired_times = Segments(), []
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
-    chunk = max(1, math.ceil(times.size / chunks)) if progress is not None else times.size
     solver, stats, hint = None, {}, None
     tables = c_restart_tables(model)
     actions = data.function("event_actions") if "event_actions" in model.functions else None
@@ -69,6 +81,8 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             if settle_switches(model, data, g_start):  # a branch at its kink takes the side the motion leaves to
                 g_start = departing(data, g, t, x)
             solver = make_solver(t, x, (g, directions, g_start), hint)
+            parts = chunks() if callable(chunks) else chunks
+            chunk = max(1, math.ceil(times.size / parts)) if progress is not None else times.size
             in_c = tables is not None and hasattr(solver, "restart_events_in_c")
             if in_c:
                 solver.restart_events_in_c(actions, tables, C_LOG_CAPACITY, ZENO_WINDOW)
@@ -115,11 +129,12 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             x, new = apply_events(model, data, fired, solver.g_old, g_event, t_event, y_event, names)
             if "project" in model.functions:  # closed loops: new speeds consistent with the constraints
                 x = data.project(t_event, x)
+            jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
             # integrator had; after a jump (an impact) it chooses its own first step
-            jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
             hint = None if jumped else solver.step_hint
-            new += start_friction_modes(model, data, t_event, x, moving=False)  # held beyond the limit: let go
+            new += start_friction_modes(model, data, t_event, x, moving=False,  # held beyond the limit: let go
+                                        fired=tuple(model.events[k].name for k in fired))
             records += new
             fired_times += [t_event] * len(new)
             t = t_event
@@ -145,7 +160,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     return segments, status, message, records, stats
 
 
-#: Events the C sampling loop handles between two returns to Python (the log's rows).
+#: Rows of the C event log to start with (it grows as needed until Python takes it, c/ode.c).
 C_LOG_CAPACITY = 64
 
 
@@ -175,21 +190,26 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     action values) as the Python loop books its own: the sample rows before each in the run-time values in force
     then (``p_now``, brought up to date in place), the rows at the event before and after, the log records.
     Returns the first sample row not yet booked."""
+    if len(log) == 0:
+        return start
     nx, nev = model.nx, len(model.events)
     directions = np.array([e.direction for e in model.events], dtype=np.intc)
-    for row in log:
-        t_event, y, x = row[0], row[1:1 + nx], row[1 + nx:1 + 2 * nx]
-        g_old, g_event = row[1 + 2 * nx:1 + 2 * nx + nev], row[1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-        j = start + int(np.searchsorted(times[start:], t_event, side="left"))
-        segments.add(times[start:j], states[start:j], p_now)
-        segments.add([t_event], y[None, :], p_now)
-        fired = crossings(g_old, g_event, directions)
-        _, new = apply_events(model, data, fired, g_old, g_event, t_event, y, model.x_names,
-                              values=row[1 + 2 * nx + 2 * nev:], p=p_now)
+    g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
+    fired_rows = crossing_rows(g_old, g_event, directions)
+    split = np.maximum(np.searchsorted(times, log[:, 0], side="left"), start)  # first sample row at or after it
+    which = segments.in_force(p_now)
+    for row, fired, j, g_before, g_at in zip(log, fired_rows, split.tolist(), g_old, g_event):
+        t_event = float(row[0])
+        segments.append(times[start:j], states[start:j], which)
+        segments.append((t_event,), row[1:1 + nx], which)
+        _, new = apply_events(model, data, np.flatnonzero(fired), g_before, g_at, t_event, row[1:1 + nx],
+                              model.x_names, values=row[1 + 2 * nx + 2 * nev:], p=p_now)
         records += new
         fired_times += [t_event] * len(new)
+        segments.p.append(p_now.copy())  # the values after the event (an event always changes one)
+        which = len(segments.p) - 1
         if j >= times.size or times[j] != t_event:
-            segments.add([t_event], x[None, :], p_now)
+            segments.append((t_event,), row[1 + nx:1 + 2 * nx], which)
         start = j
     return start
 

@@ -47,9 +47,14 @@ class EventSpec:
 def crossings(g_old: np.ndarray, g_new: np.ndarray, directions: np.ndarray) -> np.ndarray:
     """Indices whose indicator left its old sign in an allowed direction (zero counts as arrived; a value that
     starts at zero has not left yet)."""
+    return np.flatnonzero(crossing_rows(g_old, g_new, directions))
+
+
+def crossing_rows(g_old: np.ndarray, g_new: np.ndarray, directions: np.ndarray) -> np.ndarray:
+    """:func:`crossings` as a mask, for one pair of indicator vectors or for rows of them (a log of events)."""
     rising = (g_old < 0) & (g_new >= 0) & (directions >= 0)
     falling = (g_old > 0) & (g_new <= 0) & (directions <= 0)
-    return np.flatnonzero(rising | falling)
+    return rising | falling
 
 
 def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, fb: float) -> float:

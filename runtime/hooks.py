@@ -10,7 +10,12 @@ is named by the caller of a run. A C file is appended to the generated model's b
 of the cache key; compiler messages name the file and line through ``#line``). A Python callable reaches
 the C back end through a ctypes callback stored in a pointer the binding exports (one per loaded library:
 fine for prototyping, slow, and not for parallel runs of one model with different callables); the NumPy
-back end calls it directly. Values cross in the units the hook declares.
+back end calls it directly. Values cross in the units the hook declares. What is given (a callable,
+'file.c', 'module.py:function') is resolved by hook_implementations.py, the same for every command.
+
+Derivatives (for the generated Jacobians, compiler/hooks.py): a C file may define NAME_derivative, a Python
+callable may carry `.derivative`; the binding adds a trampoline for the latter. The NumPy back end gets the
+same central differences as the C helpers when there is none.
 
 A failing hook (a Python exception, a C status other than 0, a non-finite result) ends the run: the
 generated helper returns NaN, the model function reports a non-finite value, the integrator stops with the
@@ -28,13 +33,14 @@ from pathlib import Path
 from typing import Callable, Mapping
 
 from mbs.language.diagnostics import Diagnostic, MbsError
+from mbs.language.hooks import DIFFERENCE_STEP, derivative_name
 
 from .errors import UsageError
+from .hook_implementations import derivative_of, implementation, loaded, read_source
 
 #: How a run supplies a hook, for messages.
-HOW_TO_SUPPLY = ("give its implementation when running: `mbs simulate ... --hook {name}=file.c` (or "
-                 "`--hook {name}=module.py:function`), or `System.simulate(..., hooks={{'{name}': function or "
-                 "'file.c'}})`")
+HOW_TO_SUPPLY = ("give its implementation with the run: `--hook {name}=file.c` (or `--hook {name}=module.py:function`) "
+                 "on the command line, or `hooks={{'{name}': function, 'file.c' or 'module.py:function'}}` in Python")
 _CALLBACK = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_double), ctypes.POINTER(ctypes.c_double))
 
 
@@ -66,27 +72,47 @@ class HookBinding:
 
     @property
     def key(self) -> tuple:
-        """What decides the compiled library: which hooks are Python and each C file's name and text."""
-        return tuple(sorted([(n, "python") for n in self.python]
+        """What decides the compiled library: which hooks are Python (with a derivative or not) and each C file's
+        name and text."""
+        return tuple(sorted([(n, "python", derivative_of(fn) is not None) for n, fn in self.python.items()]
                             + [(n, "c", p, hashlib.sha256(text.encode()).hexdigest()) for n, (p, text)
                                in self.c_files.items()]))
 
-    def c_source(self) -> str:
-        """The text appended to the generated C: the C files, then one trampoline per Python hook."""
-        parts, seen = [], set()
-        for name, (path, text) in self.c_files.items():
-            if os.path.realpath(path) in seen:  # one file may implement several hooks
-                continue
-            seen.add(os.path.realpath(path))
-            shown = path.replace("\\", "\\\\").replace('"', '\\"')
-            parts.append(f'#line 1 "{shown}"\n{text}\n')
+    def c_paths(self) -> list[str]:
+        """The C files, each once (one file may implement several hooks)."""
+        return list({os.path.realpath(path): path for path, _ in self.c_files.values()}.values())
+
+    def c_file_names(self) -> dict[str, tuple[str, str]]:
+        """{file name: (path, text)} of the C files under names unique among them (an FMU's sources/)."""
+        out: dict[str, tuple[str, str]] = {}
+        for path in self.c_paths():
+            stem, name, k = Path(path).stem, Path(path).name, 2
+            while name in out:
+                name, k = f"{stem}_{k}.c", k + 1
+            out[name] = (path, next(text for p, text in self.c_files.values() if p == path))
+        return out
+
+    def c_source(self, include: bool = False) -> str:
+        """The text appended to the generated C: the C files, then one trampoline per Python hook. include:
+        `#include "NAME.c"` of each file under its name in c_file_names (to build beside copies of them), else
+        the files' text itself (compiler messages name the files through #line)."""
+        parts = []
+        for name, (path, text) in self.c_file_names().items():
+            if include:
+                parts.append(f'#include "{name}"')
+            else:
+                shown = path.replace("\\", "\\\\").replace('"', '\\"')
+                parts.append(f'#line 1 "{shown}"\n{text}\n')
         if self.python:
             parts.append("#line 1 \"<python hooks: runtime/hooks.py>\"\n"
                          "/* Python hooks: a ctypes callback per hook, set by runtime/hooks.py before a run */")
-            for name in self.python:
-                parts.append(f"int (*mbs_hook_python_{name})(const double *, double *) = NULL;\n"
-                             f"int {name}(const double *arg, double *res)\n{{\n"
-                             f"    return mbs_hook_python_{name} != NULL ? mbs_hook_python_{name}(arg, res) : -1;\n}}\n")
+            for name, fn in self.python.items():
+                functions = [name] + ([f"{name}_derivative"] if derivative_of(fn) is not None else [])
+                for function in functions:
+                    parts.append(f"int (*mbs_hook_python_{function})(const double *, double *) = NULL;\n"
+                                 f"int {function}(const double *arg, double *res)\n{{\n"
+                                 f"    return mbs_hook_python_{function} != NULL ? "
+                                 f"mbs_hook_python_{function}(arg, res) : -1;\n}}\n")
         return "\n".join(parts)
 
     # -- before a run ---------------------------------------------------------------------------------
@@ -96,31 +122,47 @@ class HookBinding:
         backend = compiled.backend
         if backend.kind == "numpy":
             for spec in self.specs:
-                for k in range(len(spec.results)):
-                    setattr(backend.module, f"mbs_hook__{spec.name}__{k}__{len(spec.results)}",
-                            self._numpy_helper(spec, k))
+                n = len(spec.results)
+                for k in range(n):
+                    setattr(backend.module, f"mbs_hook__{spec.name}__{k}__{n}", self._numpy_helper(spec, k))
+                    for j in range(len(spec.args)):
+                        setattr(backend.module, derivative_name(spec.name, k, n, j), self._numpy_partial(spec, k, j))
             return
         lib = _library(backend.module)
         for spec in self.specs:
             if spec.name in self.python:
-                callback = _CALLBACK(self._c_callback(spec))
-                # kept alive while the library points to it (until the next attach replaces it): the binding
-                # itself may be gone long before the last call of a model function
-                _CALLBACKS[(backend.module.__file__, spec.name)] = callback
-                pointer = ctypes.c_void_p.in_dll(lib, f"mbs_hook_python_{spec.name}")
-                pointer.value = ctypes.cast(callback, ctypes.c_void_p).value
+                fn = loaded(self.python[spec.name])
+                self._point(lib, backend.module.__file__, spec.name, self._c_callback(spec, fn, len(spec.results)))
+                derivative = derivative_of(fn)
+                if derivative is not None:
+                    self._point(lib, backend.module.__file__, f"{spec.name}_derivative",
+                                self._c_callback(spec, derivative, len(spec.results) * len(spec.args), jacobian=True))
         lib.mbs_hook_reset()
 
-    def _c_callback(self, spec) -> Callable:
-        fn, nargs, nres, record = self.python[spec.name], len(spec.args), len(spec.results), self._record
+    @staticmethod
+    def _point(lib, path: str, function: str, python) -> None:
+        """Set the library's pointer mbs_hook_python_<function> to a ctypes callback of `python`."""
+        callback = _CALLBACK(python)
+        # kept alive while the library points to it (until the next attach replaces it): the binding
+        # itself may be gone long before the last call of a model function
+        _CALLBACKS[(path, function)] = callback
+        pointer = ctypes.c_void_p.in_dll(lib, f"mbs_hook_python_{function}")
+        pointer.value = ctypes.cast(callback, ctypes.c_void_p).value
+
+    def _c_callback(self, spec, fn, nres: int, jacobian: bool = False) -> Callable:
+        """The Python side of a ctypes callback: fn's results (or, jacobian, its derivative's row-major
+        matrix) into res; a failure kept for the message and reported to C as status -1."""
+        nargs, record = len(spec.args), self._record
+        call = _call_derivative if jacobian else _call
 
         def callback(arg, res) -> int:
             values = [arg[i] for i in range(nargs)]
             try:
-                results = _call(spec, fn, values)
+                results = call(spec, fn, values)
             except BaseException as exc:  # noqa: BLE001 - nothing may cross the C boundary; reported after the run
                 if record.failure is None:
-                    record.failure = HookFailure(spec.name, math.nan, tuple(values), _describe(exc))
+                    what = "its derivative: " if jacobian else ""
+                    record.failure = HookFailure(spec.name, math.nan, tuple(values), what + _describe(exc))
                 return -1
             for i in range(nres):
                 res[i] = results[i]
@@ -128,7 +170,7 @@ class HookBinding:
         return callback
 
     def _numpy_helper(self, spec, k: int) -> Callable:
-        fn, record = self.python.get(spec.name), self._record
+        fn, record = loaded(self.python.get(spec.name)), self._record
 
         def helper(t, *args):
             values = tuple(float(a) for a in args)
@@ -142,6 +184,40 @@ class HookBinding:
                 return math.nan
             return results[k]
         return helper
+
+    def _numpy_partial(self, spec, k: int, j: int) -> Callable:
+        """d(result k)/d(argument j) for the NumPy back end: the hook's derivative, else the central difference
+        the C helpers take (compiler/hooks.py)."""
+        value = self._numpy_helper(spec, k)
+        derivative, record, nargs = derivative_of(self.python.get(spec.name)), self._record, len(spec.args)
+
+        def partial(t, *args):
+            if derivative is not None:
+                values = tuple(float(a) for a in args)
+                try:
+                    d = _call_derivative(spec, derivative, values)[k * nargs + j]
+                    if not math.isfinite(d):
+                        raise ArithmeticError(f"returned a non-finite derivative {d}")
+                    return d
+                except BaseException as exc:  # noqa: BLE001 - reported after the run
+                    if record.failure is None:
+                        record.failure = HookFailure(spec.name, float(t), values, "its derivative: " + _describe(exc))
+                    return math.nan
+            a = float(args[j])
+            h = DIFFERENCE_STEP * max(abs(a), 1.0)
+            h = (a + h) - a
+            up, down = list(args), list(args)
+            up[j], down[j] = a + h, a - h
+            return (value(t, *up) - value(t, *down)) / (2.0 * h)
+        return partial
+
+    def value(self, name: str, result: int, args) -> float:
+        """Result `result` of the Python hook `name` at `args` (a failure raises, naming the hook)."""
+        spec = next(s for s in self.specs if s.name == name)
+        try:
+            return _call(spec, loaded(self.python[name]), list(args))[result]
+        except Exception as exc:  # noqa: BLE001 - the user's code: a message naming the hook
+            raise UsageError(self.message(HookFailure(name, math.nan, tuple(args), _describe(exc)))) from None
 
     # -- after a run ----------------------------------------------------------------------------------
     def failure(self, compiled) -> HookFailure | None:
@@ -158,13 +234,15 @@ class HookBinding:
             return python
         name = name.decode()
         values = tuple(args[i] for i in range(narg.value))
+        derivative = name not in {s.name for s in self.specs}  # NAME_derivative (compiler/hooks.py)
+        name = name.removesuffix("_derivative") if derivative else name
         if python is not None and python.name == name:
             reason = python.reason
         elif status.value == -2:
             reason = "returned a non-finite result"
         else:
             reason = f"returned status {status.value}"
-        return HookFailure(name, t.value, values, reason)
+        return HookFailure(name, t.value, values, ("its derivative " if derivative and python is None else "") + reason)
 
     def message(self, failure: HookFailure) -> str:
         """``hook 'friction_law' failed at t = 0.5 s (w = 0.2 m/s, n = 9.81 N): ValueError: ...``"""
@@ -191,6 +269,26 @@ def _call(spec, fn, values) -> list[float]:
         raise ValueError(f"returned {len(values)} values; the hook declares {n} result(s) "
                          f"({', '.join(r.name for r in spec.results)})")
     return values
+
+
+def _call_derivative(spec, fn, values) -> list[float]:
+    """A Python derivative's matrix d res[i]/d arg[j] as floats, row-major (one result: a flat row is fine)."""
+    rows = fn(*values)
+    nres, nargs = len(spec.results), len(spec.args)
+    flat = [float(v) for v in _flatten(rows)]
+    if len(flat) != nres * nargs:
+        raise ValueError(f"the derivative returned {len(flat)} values; {nres} result(s) x {nargs} argument(s) = "
+                         f"{nres * nargs} expected")
+    return flat
+
+
+def _flatten(rows):
+    if hasattr(rows, "ravel"):
+        return list(rows.ravel())
+    out = []
+    for row in (rows if isinstance(rows, (list, tuple)) else [rows]):
+        out.extend(row if isinstance(row, (list, tuple)) else [row])
+    return out
 
 
 def _describe(exc: BaseException) -> str:
@@ -221,7 +319,10 @@ def _library(module) -> ctypes.CDLL:
 def bind(specs: tuple, supplied: Mapping[str, object] | None, model_name: str = "model") -> HookBinding | None:
     """The binding of the hooks a caller supplies, checked against the model's declarations; None when the
     model declares none and none are given. A hook the model does not declare is a usage error; a declared
-    hook without an implementation is an error located at its declaration (before anything is compiled)."""
+    hook without an implementation is an error located at its declaration (before anything is compiled).
+    A binding given again is returned as it is."""
+    if isinstance(supplied, HookBinding):
+        return supplied
     supplied = dict(supplied or {})
     declared = {s.name: s for s in specs}
     unknown = [name for name in supplied if name not in declared]
@@ -238,19 +339,28 @@ def bind(specs: tuple, supplied: Mapping[str, object] | None, model_name: str = 
         return None
     python, c_files = {}, {}
     for name, given in supplied.items():
+        given = implementation(name, given)
         if callable(given):
             python[name] = given
-        elif isinstance(given, (str, os.PathLike)) and os.fspath(given).endswith(".c"):
-            path = Path(given)
-            try:
-                c_files[name] = (os.fspath(given), path.read_text(encoding="utf-8"))
-            except (OSError, UnicodeDecodeError) as exc:
-                raise UsageError(f"hook '{name}': cannot read the C file {os.fspath(given)} "
-                                 f"({getattr(exc, 'strerror', None) or exc})") from None
         else:
-            raise UsageError(f"hook '{name}': expected a Python callable or the path of a C source file (.c), got "
-                             f"{given!r}")
+            c_files[name] = (os.fspath(given), read_source(name, given, "C file"))
     return HookBinding(tuple(specs), python, c_files)
+
+
+def require_python(binding: HookBinding | None, why: str) -> None:
+    """Refuse C hooks where nothing is compiled (the equations evaluated by sympy)."""
+    if binding is not None and binding.c_files:
+        names = ", ".join(binding.c_files)
+        raise UsageError(f"hook(s) {names}: a C file cannot be used there, {why}; give the hook as a Python "
+                         f"function (--hook {next(iter(binding.c_files))}=module.py:function)")
+
+
+def require_c(binding: HookBinding | None, why: str) -> None:
+    """Refuse Python hooks where the model runs without Python (an FMU, a standalone library)."""
+    if binding is not None and binding.python:
+        names = ", ".join(binding.python)
+        raise UsageError(f"hook(s) {names}: a Python implementation cannot go there, {why}; give the hook as a C "
+                         f"file (--hook {next(iter(binding.python))}=file.c)")
 
 
 def check_numpy(binding: HookBinding | None) -> None:

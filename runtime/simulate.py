@@ -197,13 +197,15 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         guard.watch(solver)
         return solver
 
-    segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress)
+    # one call into C for all samples when the guard watches the C integrator between its budgets of steps
+    segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
+                                                                lambda: guard.chunks or PROGRESS_CHUNKS)
     ts, xs, which = segments.arrays(model.nx)
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
     if "project" in model.functions and len(ts):
-        projected = project_samples(data, ts, xs)
+        projected = _project_segments(data, segments.p, ts, xs, which)
         if projected < len(ts):
             ts, xs, which = ts[:projected], xs[:projected], which[:projected]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
@@ -211,14 +213,15 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     if outputs and model.ny and "outputs" in model.functions:
         ys = np.empty((len(ts), model.ny))
         saved = data.p.copy()
+        # the rows of one p copy are consecutive (the copies are numbered in time order)
+        bounds = np.r_[0, np.flatnonzero(np.diff(which)) + 1, len(which)]
         try:
-            for k, p in enumerate(segments.p):
-                rows = np.flatnonzero(which == k)
-                data.p = p
-                part, error = _outputs(data, ts[rows], xs[rows], model.ny)
-                ys[rows[:len(part)]] = part
+            for first, end in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
+                data.p = segments.p[which[first]]
+                part, error = _outputs(data, ts[first:end], xs[first:end], model.ny)
+                ys[first:first + len(part)] = part
                 if error is not None:
-                    keep = int(rows[len(part)])
+                    keep = first + len(part)
                     ts, xs, ys, columns = ts[:keep], xs[:keep], ys[:keep], [ts[:keep, None], xs[:keep]]
                     status = FAILED
                     message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
@@ -237,6 +240,25 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
 
 
+def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
+    """_project_rows for a run with events, each row with the run-time values p it was computed with (a
+    sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
+    the number of leading rows projected."""
+    saved, failed = data.p.copy(), len(ts)
+    try:
+        for k, p in enumerate(ps):
+            rows = np.flatnonzero(which == k)
+            data.p = p
+            part = xs[rows]
+            done = _project_rows(data, ts[rows], part)
+            xs[rows] = part
+            if done < len(rows):
+                failed = min(failed, int(rows[done]))
+    finally:
+        data.p = saved
+    return failed
+
+
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
          chunks: int = PROGRESS_CHUNKS):
     """Sample all times (in chunks when reporting progress).  Returns (status, rows filled)."""
@@ -253,6 +275,19 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
         if progress(float(times[filled - 1]), t_end) is False and filled < times.size:
             return "stopped", filled
     return FINISHED, filled
+
+
+def _project_rows(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
+    """project_samples for the rows of a run with events, where the rows at both sides of an event without a jump
+    are the same state: each such repetition takes its row's projection instead of computing it again."""
+    again = np.r_[False, (times[1:] == times[:-1]) & (states[1:] == states[:-1]).all(axis=1)]
+    if not again.any():
+        return project_samples(data, times, states)
+    own = np.flatnonzero(~again)
+    rows = states[own]
+    projected = project_samples(data, times[own], rows)
+    states[:] = rows[np.cumsum(~again) - 1]  # every row from the last row projected on its own
+    return int(own[projected]) if projected < len(own) else len(times)
 
 
 def _outputs(data: Workspace, times: np.ndarray, states: np.ndarray, ny: int):

@@ -13,7 +13,6 @@ that is not a motion, so it is not used here.
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import least_squares, root
 
 from mbs.language.diagnostics import Diagnostic, MbsError
 
@@ -38,6 +37,8 @@ def equilibrium_with_states(model: CompiledModel, data: Workspace, x0, t: float 
 
     def residual(u: np.ndarray) -> np.ndarray:
         return data.rhs(t, state(u))[nq:]
+
+    from scipy.optimize import least_squares, root  # only a model with extra states needs them: not at start-up
 
     u0 = np.concatenate([x[:nq], x[nq + nv:]])
     loops = "project" in model.functions  # closed loops: rhs projects q, so the dependent ones do not count

@@ -8,7 +8,11 @@ on one core. The generated file (compiler/ccode.py) has a fixed layout, which th
     the contract's functions (int mbs_rhs(...) { ... }, name tables)  -> model_1.c .. model_n.c, by size
 
 model.h ends with the prototype of every contract function, so the units may call each other, and the glue unit
-(<Python.h>, model.h, c/mbs_glue.c with the integrators) sees them all. Static helpers go only where they are
+(<Python.h>, model.h, c/mbs_glue.c with the integrators) sees them all. The outputs' part at the end of a file
+(after OUTPUTS_MARKER, compiler/ccode.py generate_c_outputs) becomes outputs.c, and model.h then declares
+mbs_outputs and their number `mbs_ny` without naming them: model.h, the model units and the glue unit are the same
+text whatever outputs a scene asks for, and the build cache (runtime/build.py) keeps their objects by content, so
+another output set recompiles outputs.c alone. Static helpers go only where they are
 called, so no unit defines a function it does not use (-Wall stays quiet). Each function keeps its place in
 the generated file for the compiler's messages (#line). A text not in this layout (a hand-written model) is
 built as one unit, as before.
@@ -26,6 +30,9 @@ SPLIT_MIN_CHARS = 96_000
 UNIT_CHARS = 120_000
 MAX_MODEL_UNITS = 8
 GLUE_UNIT = "glue.c"
+OUTPUTS_UNIT = "outputs.c"
+#: The first line of a generated file's outputs part (written by compiler/ccode.py, read here).
+OUTPUTS_MARKER = "/* ==== The outputs (MBS_NY, mbs_outputs, mbs_output_name): a part of their own ==== */"
 
 _DEFINITION = re.compile(r"^(?:int|double|void|const char \*)\s*(mbs_\w+)\(([^;{}]*)\)$")
 _STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
@@ -49,10 +56,13 @@ class Layout:
     header: str
     helpers: tuple[Block, ...]
     functions: tuple[Block, ...]
+    outputs: str | None = None   # the outputs' part after OUTPUTS_MARKER (None: the file has none)
+    outputs_line: int = 0        # the line of the file where it starts
 
 
 def read_layout(code: str) -> Layout | None:
     """The layout of a generated file; None when the text is not laid out as compiler/ccode.py writes it."""
+    code, marker, outputs = code.partition("\n" + OUTPUTS_MARKER + "\n")
     lines = code.split("\n")
     header: list[str] = []
     helpers: list[Block] = []
@@ -87,7 +97,8 @@ def read_layout(code: str) -> Layout | None:
         i = end + 1
     if not functions or any(text.strip() for text in pending):
         return None
-    return Layout("\n".join(header), tuple(helpers), tuple(functions))
+    return Layout("\n".join(header), tuple(helpers), tuple(functions), outputs if marker else None,
+                  len(lines) + 1)
 
 
 def _trailing_comment(lines: list[str]) -> int:
@@ -120,8 +131,14 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
     layout = read_layout(code)
     if layout is None:
         return None
+    marker, outputs = layout.outputs is not None, layout.outputs
     where = line_name(filename)
     prototypes = "\n".join(b.prototype for b in layout.functions)
+    if marker:
+        prototypes += ("\n/* The outputs, in outputs.c (their number: mbs_ny). */\n#define MBS_OUTPUTS_UNIT 1\n"
+                       "extern const int mbs_ny;\n"
+                       "int mbs_outputs(double t, const double *x, const double *p, double *y, double *work);\n"
+                       "const char *mbs_output_name(int i);")
     files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.translation_units: do not edit */\n"
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
@@ -134,6 +151,13 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
         for block in group:
             texts += [f"#line {block.line} \"{where}\"", block.text]
         files[f"model_{k}.c"] = "\n".join(texts) + "\n"
+    if marker:
+        texts = [f"/* The outputs of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
+        for helper in _helpers_for(outputs, layout.helpers):
+            texts += [f"#line {helper.line} \"{where}\"", helper.text]
+        texts += [f"#line {layout.outputs_line} \"{where}\"", OUTPUTS_MARKER, outputs,
+                  "const int mbs_ny = MBS_NY;"]
+        files[OUTPUTS_UNIT] = "\n".join(texts) + "\n"
     return files
 
 

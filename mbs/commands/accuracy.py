@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import model_args, param_arg, params_from_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Accuracy:
@@ -14,6 +15,7 @@ class Accuracy:
         model_args(p)
         p.add_argument("--scene", help="scene to run (default: the model's first scene, if any)")
         param_arg(p)
+        hook_arg(p)
         p.add_argument("--integrators", help="comma-separated integrators (default: every C and SUNDIALS method, "
                                              "DOP853, Radau and BDF; mbs.runtime.accuracy.DEFAULT_INTEGRATORS)")
         p.add_argument("--tolerances", default="1e-3..1e-10",
@@ -32,7 +34,8 @@ class Accuracy:
         table = system.accuracy(scene, params=params_from_args(args, system), t_end=args.t_end,
                                 integrators=([s.strip() for s in args.integrators.split(",") if s.strip()]
                                              if args.integrators else None),
-                                tolerances=parse_tolerances(args.tolerances, UsageError), repeats=args.repeats)
+                                tolerances=parse_tolerances(args.tolerances, UsageError), repeats=args.repeats,
+                                hooks=hooks_from_args(args))
         print(f"{system.model.name}" + (f" / scene {scene}" if scene else "") + f", t = {table.times[0]:g} .. "
               f"{table.times[-1]:g} s")
         print(table.text())

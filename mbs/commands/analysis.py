@@ -17,6 +17,7 @@ class Info:
                        help="close the loops at the start (compiles the model): rank, degrees of freedom, "
                             "redundant constraints, what assembly changed")
         p.add_argument("--scene", help="with --assemble: the scene whose start to assemble")
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -38,7 +39,7 @@ class Info:
             unit = f" [{U.unit_text(state.dimension)}]" if state.dimension is not None else ""
             print(f"  state {state.name}{unit}" + (f"  {state.description}" if state.description else ""))
         if args.assemble and topo.cuts:
-            _print_assembly(system.assemble(args.scene), system.generate(args.scene))
+            _print_assembly(system.assemble(args.scene, hooks=hooks_from_args(args)), system.generate(args.scene))
         return 0
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import ProgressBar, model_args, param_arg, params_from_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Animate:
@@ -15,6 +16,7 @@ class Animate:
         p.add_argument("-o", "--output", required=True, metavar="PAGE.html", help="the page to write")
         p.add_argument("--t-end", type=float, help="end time [s]")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -28,9 +30,10 @@ class Animate:
         system = mbs.load(args.file, args.model)
         scene = args.scene or (system.model.scenes[0].name if system.model.scenes else None)
         params = params_from_args(args, system)
+        hooks = hooks_from_args(args)
         progress = ProgressBar()
         try:
-            res = system.simulate(scene, t_end=args.t_end, params=params, progress=progress)
+            res = system.simulate(scene, t_end=args.t_end, params=params, progress=progress, hooks=hooks)
         finally:
             progress.close()
         values = pipeline.parameter_values(system.model, {**pipeline.scene_overrides(system.scene(scene)), **params})

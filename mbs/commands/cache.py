@@ -52,7 +52,7 @@ def _list(folder, args) -> int:
     entries = cache.entries(folder)
     now = time.time()
     for e in entries:
-        kind = "  (derived equations)" if e.kind == "derivation" else ""
+        kind = {"derivation": "  (derived equations)", "object": "  (compiled unit)"}.get(e.kind, "")
         print(f"{e.name}  {_size(e.size):>9}  {_age(now - e.built):>8} old  {e.model}{kind}")
     total = sum(e.size for e in entries)
     print(f"{len(entries)} entr{'y' if len(entries) == 1 else 'ies'}, {_size(total)} in {folder}")

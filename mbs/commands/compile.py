@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .common import model_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Compile:
@@ -19,14 +20,17 @@ class Compile:
                        help="also mbs_inverse_dynamics, mbs_bias_forces, mbs_gravity_forces (docs/equations.md)")
         p.add_argument("--frame", action="append", default=[], metavar="PART.FRAME",
                        help="with --dynamics: position, velocity and Jacobian of this frame (repeatable)")
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
         import mbs
         from mbs.standalone import write_standalone
+        from mbs.runtime.hooks import bind
         system = mbs.load(args.file, args.model)
+        binding = bind(system.model.hooks, hooks_from_args(args), system.model.name)  # before the derivation
         gen = system.generate(args.scene, dynamics=args.dynamics or bool(args.frame), frames=tuple(args.frame))
-        paths = write_standalone(gen, Path(args.output))
+        paths = write_standalone(gen, Path(args.output), binding)
         for path in paths:
             print(path)
         return 0

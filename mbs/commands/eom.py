@@ -5,6 +5,7 @@ from __future__ import annotations
 import sys
 
 from .common import model_args, param_arg, params_from_args, split_assignment
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Eom:
@@ -23,6 +24,7 @@ class Eom:
                        help="print the numbers M, k, q at this state (unit optional: joint1.phi=30deg "
                             "der(joint1.phi)=1); unnamed coordinates and speeds take their initial values")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -34,13 +36,18 @@ class Eom:
         from mbs.language.diagnostics import Diagnostic, MbsError
         system = mbs.load(args.file, args.model)
         params = params_from_args(args, system)
+        hooks = hooks_from_args(args)
+        if args.at is not None:  # a hook needed for the numbers is missing: said before the derivation
+            from mbs.runtime.hooks import bind, require_python
+            require_python(bind(system.model.hooks, hooks, system.model.name), "mbs eom --at evaluates the "
+                           "equations in Python")
 
         def progress(message: str) -> None:
             print(f"mbs eom: {message}", file=sys.stderr, flush=True)
         eq = equations_of_motion(system, simplify=not args.no_simplify, progress=progress)
         if args.at is not None:
             state = dict(_parse_state(text) for text in args.at)
-            M, k, q = eq.at(state, params)
+            M, k, q = eq.at(state, params, hooks=hooks)
             with np.printoptions(precision=10, linewidth=160, suppress=False):
                 print(f"{system.model.name} at " + ", ".join(f"{n} = {v:g}" for n, v in state.items()))
                 print(f"y = [{', '.join(map(str, eq.y))}]\nv = [{', '.join(map(str, eq.v))}]")

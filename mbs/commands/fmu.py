@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import model_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Fmu:
@@ -14,6 +15,7 @@ class Fmu:
         p.add_argument("--scene", help="scene whose outputs, start state and settings the FMU takes "
                                        "(default: the model's first scene, if any)")
         p.add_argument("-o", "--output", required=True, metavar="FILE.fmu", help="the FMU file to write")
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -25,7 +27,8 @@ class Fmu:
         system = mbs.load(args.file, args.model)
         scene = args.scene or (system.model.scenes[0].name if system.model.scenes else None)
         system.scene(scene)
-        path = export_fmu(system, scene, args.output)
-        compiled = system.compile(scene)
+        hooks = hooks_from_args(args)
+        path = export_fmu(system, scene, args.output, hooks)
+        compiled = system.compile(scene, hooks=hooks)
         print(f"{path}: FMI 2.0 ME+CS, {compiled.nx} states, {compiled.np} parameters, {compiled.ny} outputs")
         return 0

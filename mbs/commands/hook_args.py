@@ -1,13 +1,9 @@
-"""`--hook NAME=file.c` and `--hook NAME=module.py:function`: the implementations of a model's user hooks.
-
-A Python file is imported only because the command names it (a model file never can); its module gets a
-private name, so it cannot shadow an installed package.
+"""`--hook NAME=file.c` and `--hook NAME=module.py:function`: the implementations of a model's user hooks, one
+option for every command that runs or builds a model (runtime/hooks.py resolves what is given, as it does for
+`hooks={...}` of the Python API).
 """
 
 from __future__ import annotations
-
-import importlib.util
-from pathlib import Path
 
 from .common import ArgumentError
 
@@ -20,7 +16,9 @@ def hook_arg(p) -> None:
 
 
 def hooks_from_args(args) -> dict:
-    """{name: 'file.c' or callable} from the --hook options (ArgumentError: exit status 2)."""
+    """{name: 'file.c' or the Python function} from the --hook options, each file read and each Python file
+    imported once, here (bad usage: exit status 2)."""
+    from mbs.runtime.hook_implementations import implementation
     hooks: dict = {}
     for text in getattr(args, "hook", None) or []:
         name, sep, impl = text.partition("=")
@@ -29,30 +27,7 @@ def hooks_from_args(args) -> dict:
             raise ArgumentError(f"--hook {text}: expected NAME=file.c or NAME=module.py:function")
         if name in hooks:
             raise ArgumentError(f"--hook {name} is given twice")
-        if impl.endswith(".c"):
-            if not Path(impl).is_file():
-                raise ArgumentError(f"--hook {name}: no C file {impl}")
-            hooks[name] = impl
-        else:
-            hooks[name] = _python_function(name, impl)
+        if not impl.endswith(".c") and not impl.rpartition(":")[0].endswith(".py"):
+            raise ArgumentError(f"--hook {name}={impl}: expected a C file (.c) or module.py:function")
+        hooks[name] = implementation(name, impl)
     return hooks
-
-
-def _python_function(name: str, impl: str):
-    path, sep, function = impl.rpartition(":")
-    if not sep or not path.endswith(".py") or not function.isidentifier():
-        raise ArgumentError(f"--hook {name}={impl}: expected a C file (.c) or module.py:function")
-    if not Path(path).is_file():
-        raise ArgumentError(f"--hook {name}: no Python file {path}")
-    spec = importlib.util.spec_from_file_location(f"mbs_user_hook_{name}", path)
-    if spec is None or spec.loader is None:
-        raise ArgumentError(f"--hook {name}: cannot import {path}")
-    module = importlib.util.module_from_spec(spec)
-    try:
-        spec.loader.exec_module(module)
-    except Exception as exc:  # noqa: BLE001 - the user's module: its failure is a message, not our traceback
-        raise ArgumentError(f"--hook {name}: importing {path} failed: {type(exc).__name__}: {exc}") from None
-    fn = getattr(module, function, None)
-    if not callable(fn):
-        raise ArgumentError(f"--hook {name}: {path} has no function '{function}'")
-    return fn

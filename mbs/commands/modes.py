@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import model_args, param_arg, params_from_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 def parse_speeds(text: str) -> list[float]:
@@ -36,6 +37,7 @@ class Modes:
         p.add_argument("--plot", help="root locus over the speeds (PNG/PDF/SVG)")
         p.add_argument("--shapes", help="the mode shapes as a picture: energy shares per mode, at the first speed")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -51,7 +53,7 @@ class Modes:
                                                 f"'{args.speed_param}' (name it with --speed-param)", None)])
         params = params_from_args(args, system)
         locus = root_locus(system, args.scene, parse_speeds(args.speed), params=params,
-                           speed_param=args.speed_param)
+                           speed_param=args.speed_param, hooks=hooks_from_args(args))
         for speed, modes in locus.items():
             print(f"{system.model.name}" + (f" / scene {args.scene}" if args.scene else "")
                   + f": modes about the steady run at {speed:g} m/s")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import model_args, param_arg, params_from_args
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Numerics:
@@ -14,6 +15,7 @@ class Numerics:
         model_args(p)
         p.add_argument("--scene", help="scene whose start and parameters to use (default: the first scene)")
         param_arg(p)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -21,7 +23,8 @@ class Numerics:
         from mbs.runtime.numerics_report import numerics_report
         system = mbs.load(args.file, args.model)
         scene = args.scene or (system.model.scenes[0].name if system.model.scenes else None)
-        data, settings = system.start(scene, params=params_from_args(args, system), jacobian=True)
+        data, settings = system.start(scene, params=params_from_args(args, system), jacobian=True,
+                                      hooks=hooks_from_args(args))
         report = numerics_report(data.model, data, settings["t_end"], system.coordinate_owners(data.model))
         print(f"{system.model.name}" + (f" / scene {scene}" if scene else "") + f", at t = {data.t:g} s")
         print(report.text())

@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from .common import model_args, parse_param
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Optimize:
@@ -32,6 +33,7 @@ class Optimize:
         p.add_argument("-o", "--output", metavar="FILE.mbs",
                        help="write the model file with the optimum appended as scene SCENE_optimum (imports resolve "
                             "next to FILE, else in the library)")
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -47,6 +49,7 @@ class Optimize:
         scene = args.scene or (system.model.scenes[0].name if system.model.scenes else None)
         system.scene(scene)
         bounds, fixed = parameter_bounds(args.param, system.model)
+        hooks = hooks_from_args(args)
 
         def log(entry):
             x = ", ".join(f"{k} = {v:.6g}" for k, v in entry["x"].items())
@@ -56,7 +59,7 @@ class Optimize:
         objective = args.minimize or f"-({args.maximize})"
         opt = optimize(system, scene, objective, bounds, constraints=args.constraint, fixed=fixed,
                        maxiter=args.maxiter, popsize=args.popsize, seed=args.seed, scheduler=args.scheduler,
-                       log=log)
+                       log=log, hooks=hooks)
         x = ", ".join(f"{k} = {v:.10g}" for k, v in opt.x.items())
         print(f"optimum: {objective} = {opt.value:.8g} at {x} ({opt.evaluations} runs; {opt.message})")
         for metric, value in opt.constraints.items():
@@ -72,7 +75,8 @@ class Optimize:
             source = Path(args.file).read_text(encoding="utf-8")
             write_text_atomic(args.output, source.rstrip("\n") + "\n\n" + opt.scene_text)
             name = f"{scene}_optimum" if scene else "optimum"
-            print(f"optimum written to {args.output}: mbs simulate {args.output} --scene {name}")
+            hooks = "".join(f" --hook {text}" for text in args.hook)
+            print(f"optimum written to {args.output}: mbs simulate {args.output} --scene {name}{hooks}")
         else:
             print("\n" + opt.scene_text)
         if not opt.feasible:

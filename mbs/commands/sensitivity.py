@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .common import model_args, parse_param
+from .hook_args import hook_arg, hooks_from_args
 
 
 class Sensitivity:
@@ -24,6 +25,7 @@ class Sensitivity:
                             "(default: %(default)s; checked by mbs.runtime.sensitivity)")
         p.add_argument("--t-end", type=float, help="end time [s] (default: the scene's)")
         p.add_argument("--out", help="CSV of the table (metric, parameter, value, p, derivative, normalised)")
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -40,7 +42,7 @@ class Sensitivity:
                 name = text.strip()
             names.append(name)
         table = sensitivities(system, scene, params=names, values=at, metrics=args.metric, t_end=args.t_end,
-                              method=args.method)
+                              method=args.method, hooks=hooks_from_args(args))
         print(f"{system.model.name}" + (f" / scene {scene}" if scene else "") +
               f": forward sensitivities, {args.method}")
         print(table.text())

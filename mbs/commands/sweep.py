@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 from .common import model_args, parse_param
+from .hook_args import hook_arg, hooks_from_args
 
 TABLE_FORMATS = (".csv", ".h5", ".hdf5")
 
@@ -39,6 +40,7 @@ class Sweep:
         p.add_argument("--integrator")
         p.add_argument("--rtol", type=float)
         p.add_argument("--atol", type=float)
+        hook_arg(p)
 
     @staticmethod
     def run(args) -> int:
@@ -51,13 +53,14 @@ class Sweep:
         scene = args.scene or (system.model.scenes[0].name if system.model.scenes else None)
         system.scene(scene)
         swept, fixed = sweep_values(args.param, system.model)
+        hooks = hooks_from_args(args)
         kind, n = _design(args.design)
         bar = CountBar()
         try:
             table = sweep(system, scene, swept, design=kind, n=n, seed=args.seed, metrics=args.metric or None,
                           fixed=fixed, scheduler=args.scheduler, workers=args.workers, progress=bar,
                           t_end=args.t_end, sample=args.sample, integrator=args.integrator, rtol=args.rtol,
-                          atol=args.atol)
+                          atol=args.atol, hooks=hooks)
         finally:
             bar.close()
         for path in args.out:

@@ -77,12 +77,12 @@ class Optimum:
 class _Evaluator:
     """Runs batches of designs on Dask and remembers every result (objective and constraints read one cache)."""
 
-    def __init__(self, system, scene, names, metrics, fixed, client):
+    def __init__(self, system, scene, names, metrics, fixed, client, package):
         from mbs.system import _settings
         self.system, self.names, self.metrics, self.client = system, names, tuple(metrics), client
         self.sc = system.scene(scene)
-        self.compiled, self.gen = system.compile(scene), system.generate(scene)
-        self.package = client.scatter(ModelPackage.of(system, scene), broadcast=True, hash=False)  # shipped once
+        self.compiled, self.gen = system.compile(scene, hooks=package.hooks), system.generate(scene)
+        self.package = client.scatter(package, broadcast=True, hash=False)  # shipped once
         self.settings = _settings(self.sc, None, None, None, None, None)
         self.fixed = dict(fixed or {})
         self.cache: dict[bytes, Outcome] = {}
@@ -92,7 +92,7 @@ class _Evaluator:
         values = dict(zip(self.names, map(float, x)))
         every = pipeline.parameter_values(self.system.model, {**pipeline.scene_overrides(self.sc), **self.fixed,
                                                               **values})
-        return Variant(index, values, np.array([every[p] for p in self.compiled.p_names]),
+        return Variant(index, values, np.array(pipeline.parameter_vector(self.compiled.p_names, every)),
                        pipeline.initial_state(self.gen, every), self.settings,
                        self.sc.start if self.sc is not None else "initial")
 
@@ -111,22 +111,27 @@ class _Evaluator:
 def optimize(system, scene: str | None, objective: str, bounds: Mapping[str, tuple[float, float]], *,
              constraints: Sequence[str] = (), fixed: Mapping | None = None, maxiter: int = 20, popsize: int = 6,
              seed: int = 0, tol: float = 1e-3, scheduler: str | None = None, client=None,
-             log: Callable[[dict], None] | None = None) -> Optimum:
+             log: Callable[[dict], None] | None = None, hooks=None) -> Optimum:
     """Minimise `objective` (a metric) over the parameters in `bounds` (SI), subject to `constraints`
-    ("METRIC <= NUMBER"); returns the Optimum. Each generation's members run in parallel on Dask."""
+    ("METRIC <= NUMBER"); returns the Optimum. Each generation's members run in parallel on Dask. hooks: the
+    implementations of the model's user hooks, as for System.simulate (package.py: how they reach the workers)."""
     from scipy.optimize import NonlinearConstraint, differential_evolution
+
+    from mbs.runtime.hooks import bind
+    binding = bind(system.model.hooks, hooks, system.model.name)  # checked before anything compiles
     if not bounds:
         raise _error("optimize needs at least one parameter with bounds (--param NAME=LOW:HIGH)")
     for name, (low, high) in bounds.items():
         if not low < high:
             raise _error(f"parameter '{name}': the lower bound {low:g} must lie below the upper bound {high:g}")
     limits = [Constraint.parse(text) for text in constraints]
-    compiled = system.compile(scene)
+    package = ModelPackage.of(system, scene, binding)  # unpicklable hooks refused before the first run
+    compiled = system.compile(scene, hooks=binding)
     columns = ("time",) + compiled.x_names + compiled.y_names
     metrics = [parse(objective, columns).text] + [parse(c.metric, columns).text for c in limits]
     with dask_client(scheduler, client) as client:
         names = list(bounds)
-        ev = _Evaluator(system, scene, names, metrics, fixed, client)
+        ev = _Evaluator(system, scene, names, metrics, fixed, client, package)
         history: list[dict] = []
 
         def objective_of(xs):

@@ -1,6 +1,11 @@
 """A compiled model packed for other processes: what a Dask worker needs to run variants without deriving or
 compiling anything.
 
+User hooks travel with it: a C hook is in the built binary (and its text in the source, for a rebuild); Python
+hooks are in the package's binding, pickled: a `module.py:function` as the file's path, text and function name
+(each worker imports the file itself, once), any other callable by value as Dask pickles a task (cloudpickle:
+lambdas and closures too). A callable that cannot be pickled is a usage error naming the hook, before any run.
+
 The client derives and compiles once; the package carries the built extension module's bytes (plus the C
 source, for a worker on another platform, which then compiles it once), the names, defaults and units of the
 CompiledModel, and what starting a run needs (the loop rows and the states the user fixed). Parameters are
@@ -42,24 +47,30 @@ class ModelPackage:
     loops: bool = False            #: closed loops: every start is assembled
     fixed: tuple[str, ...] = ()    #: states the user gave initial values (assembly keeps them)
     rows: tuple[str, ...] = ()     #: names of the loop-closure rows (for assembly messages)
+    hooks: object = None           #: runtime.hooks.HookBinding of the model's user hooks, or None
 
     @classmethod
-    def of(cls, system, scene: str | None) -> "ModelPackage":
-        """Pack the compiled model of a System's scene (compiled here if it was not yet)."""
+    def of(cls, system, scene: str | None, hooks=None) -> "ModelPackage":
+        """Pack the compiled model of a System's scene (compiled here if it was not yet); hooks: the
+        implementations of the model's user hooks, as for System.simulate."""
         from mbs import pipeline
-        compiled = system.compile(scene)
+        from mbs.runtime.hooks import bind
+        binding = bind(system.model.hooks, hooks, system.model.name)
+        _check_picklable(binding)
+        compiled = system.compile(scene, hooks=binding)
         gen = system.generate(scene)
         info = dict(name=compiled.name, q_names=compiled.q_names, v_names=compiled.v_names, z_names=compiled.z_names,
                     p_names=compiled.p_names, y_names=compiled.y_names, p_default=np.array(compiled.p_default),
-                    x0=np.array(compiled.x0), units=dict(compiled.units))
+                    x0=np.array(compiled.x0), units=dict(compiled.units),
+                    events=compiled.events)  # the events and switches: without them a variant ran as written
         rows = gen.layout.constraint_rows
         loops = dict(loops=rows is not None, fixed=tuple(pipeline.fixed_state_names(gen)) if rows is not None else (),
-                     rows=tuple(rows or ()))
+                     rows=tuple(rows or ()), hooks=binding)
         if compiled.backend.kind == "c":
             module = compiled.backend.module
             return cls(key=module.__name__, kind="c", module_name=module.__name__,
-                       binary=Path(module.__file__).read_bytes(), platform=_platform_tag(), source=gen.c_source,
-                       info=info, **loops)
+                       binary=Path(module.__file__).read_bytes(), platform=_platform_tag(),
+                       source=gen.c_source + (binding.c_source() if binding is not None else ""), info=info, **loops)
         import hashlib
         key = "numpy_" + hashlib.sha256(gen.numpy_source.encode()).hexdigest()[:24]
         return cls(key=key, kind="numpy", module_name="", binary=b"", platform="", source=gen.numpy_source,
@@ -79,6 +90,25 @@ class ModelPackage:
         module = _build.load(_build.BuildResult(path, self.module_name, self.key, True, ""))
         from mbs.runtime.backends import CBackend
         return CompiledModel.from_backend(CBackend(module), **self.info)
+
+
+def _check_picklable(binding) -> None:
+    """Every Python hook can go to another process (a PythonFileHook always can), or a usage error naming it."""
+    if binding is None:
+        return
+    import cloudpickle
+
+    from mbs.runtime.errors import UsageError
+    from mbs.runtime.hook_implementations import PythonFileHook
+    for name, fn in binding.python.items():
+        if isinstance(fn, PythonFileHook):
+            continue
+        try:
+            cloudpickle.dumps(fn)
+        except Exception as exc:  # noqa: BLE001 - whatever pickling raises, the message says which hook
+            raise UsageError(f"hook '{name}': the Python callable cannot be sent to the Dask workers "
+                             f"({type(exc).__name__}: {exc}); put it in a file and give 'module.py:function' "
+                             "(each worker imports the file), or give the hook as a C file") from None
 
 
 _LOADED: dict[str, CompiledModel] = {}

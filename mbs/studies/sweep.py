@@ -36,14 +36,19 @@ def sweep(system, scene: str | None, params: Mapping[str, Sequence[float]], *, d
           n: int | None = None, seed: int = 0, metrics: Sequence[str] | None = None, fixed: Mapping | None = None,
           scheduler: str | None = None, client=None, workers: int | None = None, progress: Progress | None = None,
           t_end: float | None = None, sample: float | None = None, integrator: str | None = None,
-          rtol: float | None = None, atol: float | None = None) -> StudyTable:
+          rtol: float | None = None, atol: float | None = None, hooks=None) -> StudyTable:
     """Run every variant of the design (values of `params`, SI units) and measure it; `fixed` parameters are set
     in every run. Metrics default to the peak and final value of each of the scene's outputs. The runs go to
     `client`, else to the cluster at `scheduler`, else to a local cluster of `workers` processes (default: one
-    per core). Returns the table in variant order; failed variants are rows with NaN metrics and their message."""
+    per core). hooks: the implementations of the model's user hooks, as for System.simulate (package.py: how
+    they reach the workers). Returns the table in variant order; failed variants are rows with NaN metrics and
+    their message."""
+    from mbs.runtime.hooks import bind
     from mbs.system import _settings
+    binding = bind(system.model.hooks, hooks, system.model.name)  # checked before anything compiles
     sc = system.scene(scene)
-    compiled = system.compile(scene)
+    package = ModelPackage.of(system, scene, binding)  # unpicklable hooks refused before the first run
+    compiled = system.compile(scene, hooks=binding)
     gen = system.generate(scene)
     columns = ("time",) + compiled.x_names + compiled.y_names
     texts = list(metrics) if metrics else default_metrics(compiled.y_names or compiled.q_names)
@@ -60,9 +65,8 @@ def sweep(system, scene: str | None, params: Mapping[str, Sequence[float]], *, d
         except Exception as exc:  # a variant whose start cannot be computed is a row, not a lost study
             early.append(Outcome(index, values, {m.text: np.nan for m in parsed}, "failed", str(exc)))
             continue
-        variants.append(Variant(index, values, np.array([every[p] for p in compiled.p_names]), x0, settings,
+        variants.append(Variant(index, values, np.array(pipeline.parameter_vector(compiled.p_names, every)), x0, settings,
                                 start))
-    package = ModelPackage.of(system, scene)
     rows = early + run_on_dask(package, variants, tuple(m.text for m in parsed), scheduler=scheduler,
                                client=client, workers=workers, progress=progress, done=len(early),
                                total=len(points))

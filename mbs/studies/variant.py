@@ -62,7 +62,10 @@ def simulate_variant(package: ModelPackage, variant: Variant):
     from mbs.runtime.equilibrium import static_equilibrium
     from mbs.runtime.simulate import simulate
     from mbs.runtime.workspace import Workspace
+    from mbs.runtime.hooks import report
     model = compiled_model(package)
+    if package.hooks is not None:
+        package.hooks.attach(model)
     data = Workspace(model)
     data.p = variant.p
     data.x = variant.x0
@@ -71,4 +74,7 @@ def simulate_variant(package: ModelPackage, variant: Variant):
     if variant.start == "equilibrium":
         data.x = static_equilibrium(model, data, data.x).x
     settings = dict(variant.settings)
-    return simulate(model, data, settings.pop("t_end"), **settings)
+    results = simulate(model, data, settings.pop("t_end"), **settings)
+    if package.hooks is not None:
+        report(package.hooks, model, results)  # a hook that failed: its name, time and arguments in the row
+    return results

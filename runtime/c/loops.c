@@ -296,12 +296,15 @@ static void mbs_loop_swap_rows(mbs_loop_work *w, int k, int pi)
 /* One elimination step with pivot A[k][k]: rows k+1 .. rows-1 lose their column k (multipliers stored there). */
 static void mbs_loop_eliminate(double *A, int k, int rows)
 {
-    int i, j;
+    int i, j, n = -1, nz[MBS_NV];
     for (i = k + 1; i < rows; i++) {
         double l;
         if (A[i * MBS_NV + k] == 0.0) continue;  /* another loop's row (independent blocks): nothing to do */
+        if (n < 0)  /* the pivot row's nonzero columns, listed once (a loop's row touches a few columns) */
+            for (n = 0, j = k + 1; j < MBS_NV; j++)
+                if (A[k * MBS_NV + j] != 0.0) nz[n++] = j;
         l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
-        for (j = k + 1; j < MBS_NV; j++) A[i * MBS_NV + j] -= l * A[k * MBS_NV + j];
+        for (j = 0; j < n; j++) A[i * MBS_NV + nz[j]] -= l * A[k * MBS_NV + nz[j]];
     }
 }
 
@@ -673,6 +676,37 @@ static int mbs_loop_singular_rows(double t, const double *p, mbs_loop_work *w, i
     return added > 0;
 }
 
+/* The nonzeros of the factors in w->G (rank r) by rows: for pivot row k, col[at[k]] .. col[at[k] + nl[k] - 1] the
+ * columns j < k of L11, then up to col[u[k] - 1] those of U11 (k < j < r), then up to col[at[k + 1] - 1] those
+ * of U12 (j >= r).  Independent loops leave a row a few nonzeros among NV columns: the solves of
+ * mbs_loop_accelerations then follow the loops' own sizes rather than NC x NV.  The columns live in the unused
+ * half of the room of Ti (NV x NV doubles hold 2 NV^2 ints; Ti takes at most NV^2, the lists r (NV - 1)). */
+typedef struct {
+    int *col;
+    int at[MBS_NC + 1], nl[MBS_NC], u[MBS_NC];
+} mbs_loop_rows;
+
+static void mbs_loop_row_lists(const mbs_loop_work *w, int r, mbs_loop_rows *rows, int *cpi)
+{
+    const double *A = w->G;
+    int j, k, e = 0;
+    rows->col = w->Ti + MBS_NV * MBS_NV;
+    for (j = 0; j < MBS_NV; j++) cpi[j] = (int)w->cp[j];
+    for (k = 0; k < r; k++) {
+        const double *row = A + k * MBS_NV;
+        rows->at[k] = e;
+        for (j = 0; j < k; j++)
+            if (row[j] != 0.0) rows->col[e++] = j;
+        rows->nl[k] = e - rows->at[k];
+        for (j = k + 1; j < r; j++)
+            if (row[j] != 0.0) rows->col[e++] = j;
+        rows->u[k] = e;
+        for (j = r; j < MBS_NV; j++)
+            if (row[j] != 0.0) rows->col[e++] = j;
+    }
+    rows->at[r] = e;
+}
+
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
  * their factors and w->G0, w->h the rows themselves). */
 static int mbs_loop_limit_rows(double t, const double *p, mbs_loop_work *w, int r, int *status)
@@ -684,13 +718,75 @@ static int mbs_loop_limit_rows(double t, const double *p, mbs_loop_work *w, int 
     return mbs_loop_factor(w, &pivot);
 }
 
+#ifdef MBS_NLOADED
+static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda);
+
+/* Bearing friction in the loops (compiler/friction_loops.py): the m kinetic forces F grow with the bearings'
+ * loads, which come from the accelerations and multipliers, which depend on F.  All of it is affine in F: the
+ * solve at F = 0 (f without them, mbs_forces) gives (a0, lambda0), the same factors give the response (Wv, Wl)
+ * to each bearing's generalized force E_j (mbs_friction_directions), and mbs_friction_loads solves the bearing
+ * laws exactly (a quadratic, or Newton's method on the tape for several); then f += E F, vdot += Wv F, and
+ * each F_l rides on its row's multiplier (mbs_loop_multipliers_of).  The room: MBS_FRICTION_NWORK doubles at
+ * the end of the loop solver's work, [x; a0; lambda0; Wv; Wl] first (the input of mbs_friction_loads). */
+static double *mbs_loop_friction_area(const mbs_loop_work *w)
+{
+    return w->tree + MBS_TREE_NWORK + MBS_LOOP_NWORK - MBS_FRICTION_NWORK;
+}
+
+static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w, int r, int dof, const int *start)
+{
+    const int m = MBS_NLOADED;
+    double *xin = mbs_loop_friction_area(w), *a0 = xin + MBS_NX, *l0 = a0 + MBS_NV, *Wv = l0 + MBS_NC;
+    double *Wl = Wv + MBS_NV * m, *E = Wl + MBS_NC * m, *F = E + MBS_NV * m, *g = F + m, *a = g + MBS_NV;
+    double *vj = a + MBS_NV, *f0 = vj + MBS_NV, *lj = f0 + MBS_NV;
+    const double *A = w->A, *T = w->T;
+    const int *Ti = w->Ti;
+    int i, j, k, l, e, s;
+    memcpy(xin, w->xc, MBS_NX * sizeof(double));
+    memcpy(a0, w->vd, MBS_NV * sizeof(double));
+    memcpy(f0, w->f, MBS_NV * sizeof(double));
+    if ((s = mbs_loop_lambda(w, r, l0)) != 0) return s;
+    if ((s = mbs_friction_directions(t, w->xc, p, E, w->tree)) != 0) return s;
+    for (l = 0; l < m; l++) {
+        mbs_loop_work wj = *w;
+        for (i = 0; i < MBS_NV; i++) g[i] = E[i * m + l];
+        for (j = 0; j < dof; j++) {  /* T^T g, then the factors of T^T M T (as mbs_loop_accelerations) */
+            double sum = 0.0;
+            for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * g[Ti[e]];
+            a[j] = sum;
+        }
+        for (j = 0; j < dof; j++)
+            for (k = 0; k < j; k++) a[j] -= A[j * MBS_NV + k] * a[k];
+        for (j = 0; j < dof; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
+        for (j = dof - 1; j >= 0; j--)
+            for (k = j + 1; k < dof; k++) a[j] -= A[k * MBS_NV + j] * a[k];
+        memset(vj, 0, MBS_NV * sizeof(double));
+        for (j = 0; j < dof; j++)
+            for (e = start[j]; e < start[j + 1]; e++) vj[Ti[e]] += T[e] * a[j];
+        wj.f = g;  /* the multipliers of that response: M vj = g + G^T lj */
+        wj.vd = vj;
+        if ((s = mbs_loop_lambda(&wj, r, lj)) != 0) return s;
+        for (i = 0; i < MBS_NV; i++) Wv[i * m + l] = vj[i];
+        for (i = 0; i < MBS_NC; i++) Wl[i * m + l] = lj[i];
+    }
+    if ((s = mbs_friction_loads(t, xin, p, F, w->tree)) != 0) return s;
+    for (i = 0; i < MBS_NV; i++)
+        for (l = 0; l < m; l++) {
+            w->f[i] += E[i * m + l] * F[l];
+            w->vd[i] += Wv[i * m + l] * F[l];
+        }
+    return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+#endif
+
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
  * position (mbs_loop_limit_rows). */
 static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
-    int *Ti = w->Ti, start[MBS_NV + 1];
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    mbs_loop_rows rows;
     int i, j, k, s;
     if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
     r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
@@ -708,43 +804,60 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
      * the value T[e] at velocity Ti[e]; first the independent velocity cp[r + j] (1), then the dependent ones it
      * moves.  Independent loops (blocks of G that share no column) leave most of T zero: only its nonzeros are
      * stored and touched below. */
+    mbs_loop_row_lists(w, r, &rows, cpi);
     {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
-        * row upwards so that the inner loops run over the columns and skip the zeros of U11 */
+        * row upwards, each row from the nonzeros of U11 and U12 (independent loops: a few per row) */
         const double *G = w->G;
         double *Y = w->K;
         int e = 0;
         for (k = r - 1; k >= 0; k--) {
             double *yk = Y + k * MBS_NV;
-            for (j = 0; j < m; j++) yk[j] = -G[k * MBS_NV + r + j];
-            for (i = k + 1; i < r; i++) {
-                const double u = G[k * MBS_NV + i];
-                if (u != 0.0)
-                    for (j = 0; j < m; j++) yk[j] -= u * Y[i * MBS_NV + j];
+            const double d = G[k * MBS_NV + k];
+            memset(yk, 0, m * sizeof(double));
+            for (e = rows.u[k]; e < rows.at[k + 1]; e++) yk[rows.col[e] - r] = -G[k * MBS_NV + rows.col[e]];
+            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) {
+                const double u = G[k * MBS_NV + rows.col[e]];
+                const double *yi = Y + rows.col[e] * MBS_NV;
+                for (j = 0; j < m; j++) yk[j] -= u * yi[j];
             }
             for (j = 0; j < m; j++)
-                if (yk[j] != 0.0) yk[j] /= G[k * MBS_NV + k];  /* other loops' columns stay 0: no division */
+                if (yk[j] != 0.0) yk[j] /= d;  /* other loops' columns stay 0: no division */
         }
+        e = 0;
         for (j = 0; j < m; j++) {
             int first = start[j] = e;
             T[e] = 1.0;
-            Ti[e++] = (int)w->cp[r + j];
+            Ti[e++] = cpi[r + j];
             for (k = 0; k < r; k++)
-                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order: the sums below then add in the */
-                    int at = e++;                 /* order of the dense products they replace, term for term */
-                    for (; at > first && Ti[at - 1] > (int)w->cp[k]; at--) {
+                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order (the sums below read M along */
+                    int at = e++;                 /* its rows in order) */
+                    for (; at > first && Ti[at - 1] > cpi[k]; at--) {
                         T[at] = T[at - 1];
                         Ti[at] = Ti[at - 1];
                     }
                     T[at] = Y[k * MBS_NV + j];
-                    Ti[at] = (int)w->cp[k];
+                    Ti[at] = cpi[k];
                 }
         }
         start[m] = e;
+        /* c0: G_D c0_D = -gddot0 on the pivot rows, c0_I = 0 (mbs_loop_solve, by the row lists) */
+        for (k = 0; k < r; k++) {
+            double sum = -w->h[(int)w->rp[k]];
+            for (e = rows.at[k]; e < rows.at[k] + rows.nl[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
+            w->y[k] = sum;
+        }
+        for (k = r - 1; k >= 0; k--) {
+            double sum = w->y[k];
+            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
+            w->y[k] = sum / G[k * MBS_NV + k];
+        }
+        memset(w->c0, 0, MBS_NV * sizeof(double));
+        for (k = 0; k < r; k++) w->c0[cpi[k]] = w->y[k];
     }
-    memset(w->c0, 0, MBS_NV * sizeof(double));
-    mbs_loop_solve(w, r, w->h, w->c0);
-    /* b = f - M c0 (c0 is zero on the independent velocities), then column by column: M T_j into w->vd (M is
-     * symmetric: row Ti[e] of M is its column Ti[e]), the lower triangle of A = T^T M T and a_j = T_j^T b */
+    /* b = f - M c0 (c0 is zero on the independent velocities), a_j = T_j^T b and the lower triangle of
+     * A = T^T M T entry by entry from the nonzeros of T: A_ij = sum over the nonzeros T_f of column i and T_e of
+     * column j of T_f M(Ti_f, Ti_e) T_e, which costs nnz_i nnz_j (a suspension's column moves its loop's few
+     * velocities, a free body's one) rather than an nv-long product M T_j per column */
     memcpy(w->b, w->f, MBS_NV * sizeof(double));
     for (k = 0; k < MBS_NV; k++) {
         const double c = w->c0[k];
@@ -753,20 +866,20 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     }
     for (j = 0; j < m; j++) {
         double sum = 0.0;
-        int e;
-        memset(w->vd, 0, MBS_NV * sizeof(double));
-        for (e = start[j]; e < start[j + 1]; e++) {
-            const double *Mrow = M + Ti[e] * MBS_NV, tk = T[e];
-            for (i = 0; i < MBS_NV; i++) w->vd[i] += Mrow[i] * tk;
-            sum += tk * w->b[Ti[e]];
-        }
+        int e, f;
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->b[Ti[e]];
         w->a[j] = sum;
         for (i = j; i < m; i++) {
             sum = 0.0;
-            for (e = start[i]; e < start[i + 1]; e++) sum += T[e] * w->vd[Ti[e]];
+            for (f = start[i]; f < start[i + 1]; f++) {
+                const double *Mrow = M + Ti[f] * MBS_NV;
+                double column = 0.0;
+                for (e = start[j]; e < start[j + 1]; e++) column += Mrow[Ti[e]] * T[e];
+                sum += T[f] * column;
+            }
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
-        dmax = fmax(dmax, A[j * MBS_NV + j]);
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
     for (j = 0; j < m; j++) {
@@ -795,6 +908,9 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
     for (j = 0; j < m; j++)
         for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
+#ifdef MBS_NLOADED
+    if (isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL))) return mbs_loop_bearing_friction(t, p, w, r, m, start);
+#endif
     return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
@@ -931,11 +1047,26 @@ static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
     return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
+/* The multipliers of the rows; with bearing friction in the loops each bearing's kinetic force on its row's. */
+static int mbs_loop_multipliers_of(mbs_loop_work *w, int r, double *lambda)
+{
+    int s = mbs_loop_lambda(w, r, lambda);
+#ifdef MBS_NLOADED
+    {
+        const double *F = mbs_loop_friction_area(w) + MBS_NX + MBS_NV + MBS_NC
+                          + (MBS_NV + MBS_NC + MBS_NV) * MBS_NLOADED;  /* after [x; a0; lambda0; Wv; Wl] and E */
+        int l;
+        for (l = 0; l < MBS_NLOADED; l++) lambda[mbs_loaded_row[l]] += F[l];
+    }
+#endif
+    return s;
+}
+
 int mbs_loop_multipliers(double t, const double *x, const double *p, double *lambda, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
     int r, s = mbs_loop_project_and_solve(t, x, p, &w, 0, &r);
-    return s != 0 ? s : mbs_loop_lambda(&w, r, lambda);
+    return s != 0 ? s : mbs_loop_multipliers_of(&w, r, lambda);
 }
 
 /* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
@@ -945,7 +1076,7 @@ int mbs_loop_rates(double t, const double *x, const double *p, double *out, doub
     mbs_loop_work w = mbs_loop_layout(work);
     int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, out, &w);
-    return s != 0 ? s : mbs_loop_lambda(&w, r, out + MBS_NX);
+    return s != 0 ? s : mbs_loop_multipliers_of(&w, r, out + MBS_NX);
 }
 
 int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, double *work)
@@ -953,7 +1084,8 @@ int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, dou
     mbs_loop_work w = mbs_loop_layout(work);
     int s = mbs_loop_jacobian_at(t, x, p, &w, 0);
     memcpy(G, w.G, MBS_NC * MBS_NV * sizeof(double));
-    return s;
+    /* the generated G does not test its entries (the solver's scan for the largest does) */
+    return s != 0 ? s : isfinite(mbs_loop_maxabs(G, MBS_NC * MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }
 
 int mbs_loop_normalize(double t, const double *x, const double *p, double *out, double *work)

@@ -9,6 +9,14 @@
  *
  * Value references: states x [0, NX), their derivatives [NX, 2 NX), parameters [2 NX, 2 NX + NP), outputs
  * after them.  Parameters are tunable: the model reads p at every evaluation.
+ *
+ * Events (MBS_FMU_FROZEN defined: the model has indicators, mbs_events): the comparisons and kinks of the model
+ * are switches whose branch flags (slots of p, not listed in modelDescription.xml) hold while the importer
+ * integrates, as in `mbs simulate`.  Model Exchange reports the indicators (fmi2GetEventIndicators); in event
+ * mode every switch takes the side its indicator is on (or, at zero, leaves to) and the `set` actions of the
+ * events that crossed are applied.  Co-Simulation locates the crossings on DOPRI5's dense output and restarts
+ * there (ode.c, mbs_ode_restart), as the C sampling loop of a run does.  mbs/fmu.py refuses models with events
+ * the FMU cannot apply (a jump of the state, the end of the run).
  */
 #include <float.h>
 #include <math.h>
@@ -36,6 +44,21 @@
 #define VR_PAR (2 * MBS_NX)
 #define VR_OUT (2 * MBS_NX + MBS_NP)
 #define VR_END (VR_OUT + MBS_FMU_NY)
+#ifdef MBS_FMU_FROZEN
+#define MBS_FMU_NEV MBS_NEV
+#else
+#define MBS_FMU_NEV 0
+#endif
+#ifdef MBS_NACT
+#define MBS_FMU_NACT MBS_NACT
+#define MBS_FMU_ACTIONS mbs_event_actions
+#else
+#define MBS_FMU_NACT 0
+#define MBS_FMU_ACTIONS NULL
+#endif
+/* Chattering in co-simulation: this many events within ZENO_WINDOW s end the step with an error. */
+#define MBS_FMU_ZENO_EVENTS 10
+#define MBS_FMU_ZENO_WINDOW 1e-9
 
 typedef struct {
     fmi2Type type;
@@ -49,6 +72,9 @@ typedef struct {
     int xdot_valid, y_valid;
     mbs_ode ode;        /* co-simulation integrator; ode.n == 0: not started */
     int ode_stale;      /* a state, parameter or time was set since the integrator started */
+    /* events: indicators at the last completed step or event (Model Exchange), a trial state, action values */
+    double g_prev[MBS_FMU_NEV + 1], g[MBS_FMU_NEV + 1], g_try[MBS_FMU_NEV + 1], x_try[MBS_NX + 1];
+    double values[MBS_FMU_NACT + 1];
 } mbs_fmu;
 
 typedef struct { double t, x[MBS_NX + 1], p[MBS_NP + 1]; } mbs_fmu_state;
@@ -99,6 +125,80 @@ static fmi2Status fmu_outputs(mbs_fmu *m)
     (void)m;
     return fmi2OK;
 }
+
+/* ---- events ------------------------------------------------------------------------------------------------- */
+#ifdef MBS_FMU_FROZEN
+static int fmu_sign(double g) { return (g > 0) - (g < 0); }
+
+/* The indicators at (t, x) with the branches held, an indicator at zero replaced by its value an Euler step of
+ * 1e-12 s later: the side it leaves to (ode.c, mbs_ode_depart; runtime/event_loop.departing). */
+static int fmu_departing(mbs_fmu *m, double *g)
+{
+    double dt = 1e-12 * fmax(1.0, fabs(m->t));
+    int i, k;
+    if (mbs_events(m->t, m->x, m->p, g, m->work) != MBS_OK) return -1;
+    m->xdot_valid = 0;
+    if (fmu_derivatives(m) != fmi2OK) return -1;
+    for (i = 0; i < MBS_NX; i++) m->x_try[i] = m->x[i] + dt * m->xdot[i];
+    if (mbs_events(m->t + dt, m->x_try, m->p, m->g_try, m->work) != MBS_OK) return -1;
+    for (k = 0; k < MBS_NEV; k++)
+        if (fmu_sign(m->g_try[k]) != fmu_sign(g[k]) && isfinite(m->g_try[k])) g[k] = m->g_try[k];
+    return 0;
+}
+
+/* Every switch takes the side its indicator is on at (t, x), or leaves to at zero (twice: a branch that changes
+ * may move another indicator); g_prev is left at the indicators after.  At the start (the frozen flag 0) the
+ * comparisons are first evaluated as written. */
+static fmi2Status fmu_settle_switches(mbs_fmu *m)
+{
+    int k, pass, changed;
+    if (m->p[MBS_FMU_FROZEN] == 0.0) {
+        if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return fmi2Error;
+        for (k = 0; k < MBS_NEV; k++)
+            if (MBS_FMU_FLAG[k] >= 0)
+                m->p[MBS_FMU_FLAG[k]] = (m->g[k] > 0 || (MBS_FMU_INCLUSIVE[k] && m->g[k] == 0)) ? 1.0 : 0.0;
+        m->p[MBS_FMU_FROZEN] = 1.0;
+    }
+    for (pass = 0; pass < 2; pass++) {
+        if (fmu_departing(m, m->g_prev) != 0) {
+            fmu_log(m, fmi2Error, "logStatusError", "the event indicators failed at t = %g s", m->t);
+            return fmi2Error;
+        }
+        for (k = changed = 0; k < MBS_NEV; k++) {
+            double side = m->g_prev[k] > 0 ? 1.0 : 0.0;
+            if (MBS_FMU_FLAG[k] >= 0 && m->g_prev[k] != 0 && m->p[MBS_FMU_FLAG[k]] != side) {
+                m->p[MBS_FMU_FLAG[k]] = side;
+                changed = 1;
+            }
+        }
+        if (!changed) break;
+    }
+    m->xdot_valid = m->y_valid = 0;
+    return fmi2OK;
+}
+
+/* Whether indicator k crossed from g_old to g_new in its direction (ode.c, mbs_ode_crossed). */
+static int fmu_crossed(int k, double g_old, double g_new)
+{
+    int d = MBS_FMU_DIRECTIONS[k];
+    return (d >= 0 && g_old < 0 && g_new >= 0) || (d <= 0 && g_old > 0 && g_new <= 0);
+}
+
+/* Event mode of Model Exchange: the `set` actions of the events that crossed since the last completed step
+ * (values computed before any is applied, Modelica's pre), then every switch settles. */
+static fmi2Status fmu_event_update(mbs_fmu *m)
+{
+    int k, j;
+    if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return fmi2Error;
+#ifdef MBS_NACT
+    if (mbs_event_actions(m->t, m->x, m->p, m->values, m->work) != MBS_OK) return fmi2Error;
+#endif
+    for (k = 0; k < MBS_NEV; k++)
+        if (fmu_crossed(k, m->g_prev[k], m->g[k]))
+            for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) m->p[MBS_FMU_INDEX[j]] = m->values[MBS_FMU_SLOT[j]];
+    return fmu_settle_switches(m);
+}
+#endif
 
 /* ---- common functions -------------------------------------------------------------------------------------- */
 FMI2_EXPORT const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
@@ -160,10 +260,11 @@ FMI2_EXPORT fmi2Status fmi2SetupExperiment(fmi2Component c, fmi2Boolean has_tol,
 FMI2_EXPORT fmi2Status fmi2EnterInitializationMode(fmi2Component c) { (void)c; return fmi2OK; }
 
 /* Closed loops: a parameter set before initialisation may have moved the loops; close them again. */
+/* Switches: each branch from its comparison at the start. */
 FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c)
 {
-#ifdef MBS_NC
     mbs_fmu *m = c;
+#ifdef MBS_NC
     double xc[MBS_NX + 1];
     if (mbs_project(m->t, m->x, m->p, xc, m->work) != MBS_OK) {
         fmu_log(m, fmi2Error, "logStatusError", "the closed loops cannot be closed at the start");
@@ -171,10 +272,14 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     }
     memcpy(m->x, xc, sizeof(double) * MBS_NX);
     fmu_changed(m);
-#else
-    (void)c;
 #endif
+#ifdef MBS_FMU_FROZEN
+    m->p[MBS_FMU_FROZEN] = 0.0;
+    return fmu_settle_switches(m);
+#else
+    (void)m;
     return fmi2OK;
+#endif
 }
 
 FMI2_EXPORT fmi2Status fmi2Terminate(fmi2Component c) { (void)c; return fmi2OK; }
@@ -287,19 +392,36 @@ FMI2_EXPORT fmi2Status fmi2EnterEventMode(fmi2Component c) { (void)c; return fmi
 
 FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info)
 {
-    (void)c;
     memset(info, 0, sizeof *info);
+#ifdef MBS_FMU_FROZEN
+    return fmu_event_update((mbs_fmu *)c);
+#else
+    (void)c;
     return fmi2OK;
+#endif
 }
 
 FMI2_EXPORT fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { (void)c; return fmi2OK; }
 
+/* An indicator that changed sign since the last completed step or event asks for event mode (an importer that
+ * located the crossing itself enters it anyway); g_prev keeps the values before it until the event. */
 FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean no_set_prior,
                                                    fmi2Boolean *enter_event_mode, fmi2Boolean *terminate)
 {
+#ifdef MBS_FMU_FROZEN
+    mbs_fmu *m = c;
+    int k, crossed = 0;
+    (void)no_set_prior;
+    *terminate = fmi2False;
+    if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return fmi2Error;
+    for (k = 0; k < MBS_NEV; k++) crossed |= fmu_sign(m->g[k]) != fmu_sign(m->g_prev[k]) && m->g_prev[k] != 0;
+    if (!crossed) memcpy(m->g_prev, m->g, sizeof(double) * MBS_NEV);
+    *enter_event_mode = crossed ? fmi2True : fmi2False;
+#else
     (void)c; (void)no_set_prior;
     *enter_event_mode = fmi2False;
     *terminate = fmi2False;
+#endif
     return fmi2OK;
 }
 
@@ -329,7 +451,16 @@ FMI2_EXPORT fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real xdot[], size
 }
 
 FMI2_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real g[], size_t n)
-{ (void)c; (void)g; return n ? fmi2Error : fmi2OK; }
+{
+#ifdef MBS_FMU_FROZEN
+    mbs_fmu *m = c;
+    if (n != MBS_NEV || mbs_events(m->t, m->x, m->p, g, m->work) != MBS_OK) return fmi2Error;
+    return fmi2OK;
+#else
+    (void)c; (void)g;
+    return n ? fmi2Error : fmi2OK;
+#endif
+}
 
 FMI2_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t n)
 {
@@ -352,6 +483,9 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
 {
     double atol = MBS_FMU_ATOL * (m->rtol / MBS_FMU_RTOL);
     if (m->ode.n) mbs_ode_free(&m->ode);
+#ifdef MBS_FMU_FROZEN
+    if (fmu_settle_switches(m) != fmi2OK) return fmi2Error;  /* a restart: each branch from where it starts */
+#endif
     if (mbs_dopri5_init(&m->ode, MBS_NX, mbs_rhs, m->p, m->work, m->t, m->x, m->t_stop, m->rtol, &atol, 1, 0.0,
                         0.0, 0.0, 10000000L)) return fmi2Fatal;
 #ifdef MBS_NC
@@ -359,8 +493,49 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
     if (!m->ode.yproj) return fmi2Fatal;
     m->ode.project = mbs_project;
 #endif
+#ifdef MBS_FMU_FROZEN
+    {   /* every event is applied in C (mbs/fmu.py refuses the others): all handled */
+        int handled[MBS_NEV + 1], k;
+        for (k = 0; k < MBS_NEV; k++) handled[k] = 1;
+        if (mbs_ode_set_events(&m->ode, mbs_events, MBS_NEV, MBS_FMU_DIRECTIONS)
+            || mbs_ode_set_restarts(&m->ode, m->p, MBS_FMU_ACTIONS, MBS_FMU_NACT, handled,
+                                    MBS_FMU_FLAG, MBS_FMU_FIRST, MBS_FMU_INDEX, MBS_FMU_SLOT, 64,
+                                    MBS_FMU_ZENO_WINDOW)) return fmi2Fatal;
+        memcpy(m->ode.g_old, m->g_prev, sizeof(double) * MBS_NEV);  /* an indicator at zero: the side it leaves to */
+    }
+#else
+    (void)mbs_ode_set_events; (void)mbs_ode_set_restarts;  /* ode.c's event set-up: not needed without events */
+#endif
     m->ode_stale = 0;
     return fmi2OK;
+}
+
+/* Samples the co-simulation integrator up to *target: an event the sampling loop hands back (its log full, or
+ * one closer than the chattering window after the last) is restarted here; MBS_FMU_ZENO_EVENTS of them within
+ * the window end the step (chattering).  Returns the last status of mbs_ode_sample. */
+static int fmu_sample(mbs_fmu *m, double *target, long *index)
+{
+    int status, close = 0;
+    for (;;) {
+#ifdef MBS_FMU_FROZEN
+        m->ode.restarts->count = 0;
+#endif
+        status = mbs_ode_sample(&m->ode, target, 1, index, m->x);
+        if (*index >= 1 || status != MBS_ODE_EVENT) return status;
+#ifdef MBS_FMU_FROZEN
+        close = m->ode.t - m->ode.restarts->last_t <= MBS_FMU_ZENO_WINDOW * fmax(1.0, fabs(m->ode.t)) ? close + 1 : 0;
+        if (close >= MBS_FMU_ZENO_EVENTS) {
+            fmu_log(m, fmi2Error, "logStatusError", "chattering (Zeno behaviour) at t = %.12g s: %d events within "
+                    "%g s", m->ode.t, MBS_FMU_ZENO_EVENTS, MBS_FMU_ZENO_WINDOW);
+            return status;
+        }
+        m->ode.restarts->last_t = -HUGE_VAL;  /* apply it: the count above watches for chattering */
+        if (!mbs_ode_restart(&m->ode)) return status;
+#else
+        (void)close;
+        return status;
+#endif
+    }
 }
 
 FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_set_prior)
@@ -379,7 +554,7 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2B
         m->t_stop = DBL_MAX;
         if (fmu_start_integrator(m) != fmi2OK) return fmi2Fatal;
     }
-    status = mbs_ode_sample(&m->ode, &target, 1, &index, m->x);
+    status = fmu_sample(m, &target, &index);
     if (index < 1) {
         fmu_log(m, fmi2Error, "logStatusError", "integration failed at t = %g s (status %d, model status %d)",
                 m->ode.t, status, m->ode.model_status);

@@ -14,8 +14,20 @@
  *
  * Adding a generated function is one row of MBS_TABLE (guarded by the size macro it needs).
  */
-#ifndef MBS_MODULE_NAME
+#if !defined(MBS_MODULE_NAME) && !defined(MBS_SEPARATE_INIT)
 #error "compile with -DMBS_MODULE_NAME=<module name>"
+#endif
+/* MBS_SEPARATE_INIT (a split build, runtime/build.py): the module's name is not compiled in, so that this unit's
+ * object serves every module built from the same model; a small unit of the build defines PyInit_<name>, which
+ * calls mbs_module_init(name). MBS_OUTPUTS_UNIT (model.h of a split build): the outputs are compiled in a unit of
+ * their own, which defines mbs_outputs and their number mbs_ny, so that this unit does not depend on them. */
+#ifdef MBS_SEPARATE_INIT
+#define MBS_TYPE_NAME(kind) "mbs_model." kind  /* the module's own name is put in by mbs_module_init */
+#else
+#define MBS_TYPE_NAME(kind) MBS_STR(MBS_MODULE_NAME) "." kind
+#endif
+#ifdef MBS_OUTPUTS_UNIT
+extern const int mbs_ny;
 #endif
 #if !defined(MBS_NQ) || !defined(MBS_NV) || !defined(MBS_NX) || !defined(MBS_NP) || !defined(MBS_NWORK)
 #error "the model must define MBS_NQ, MBS_NV, MBS_NX, MBS_NP and MBS_NWORK"
@@ -52,13 +64,16 @@ typedef struct {
     int nin;         /* length of the input x; 0: MBS_NX (mbs_inverse_dynamics reads [q; v; a]) */
 } mbs_entry;
 
-static const mbs_entry MBS_TABLE[] = {
+/* not const: the number of outputs of a split build is set when the module is created */
+static mbs_entry MBS_TABLE[] = {
     {"rhs", mbs_rhs, MBS_NX, 0},
     {"mass_matrix", mbs_mass_matrix, MBS_NV, MBS_NV},
     {"forces", mbs_forces, MBS_NV, 0},
     {"qdot", mbs_qdot, MBS_NQ, 0},
 #ifdef MBS_NY
     {"outputs", mbs_outputs, MBS_NY, 0},
+#elif defined(MBS_OUTPUTS_UNIT)
+    {"outputs", mbs_outputs, 0, 0},  /* rows: mbs_ny, set in module_create */
 #endif
 #ifdef MBS_JACOBIAN
     {"jacobian", mbs_jacobian, MBS_NX, MBS_NX + 1},
@@ -296,7 +311,7 @@ static PyGetSetDef function_getset[] = {
 
 static PyTypeObject FunctionType = {
     PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = MBS_STR(MBS_MODULE_NAME) ".Function",
+    .tp_name = MBS_TYPE_NAME("Function"),
     .tp_basicsize = sizeof(FunctionObject),
     .tp_dealloc = (destructor)function_dealloc,
     .tp_vectorcall_offset = offsetof(FunctionObject, vectorcall),
@@ -365,6 +380,13 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     Py_INCREF(fn_obj);
     self->function = fn_obj;
     rhs = fn->entry->fn;
+#ifdef MBS_NC
+    /* the mechanism's own rhs in DOPRI5: x' at the integrated state itself (mbs_loop_rhs_direct, the kept
+     * partition), the accepted states projected below; the projecting mbs_loop_rhs at every stage would project
+     * each stage's state again (the bump: two thirds of the integration's work).  rodasp keeps the projecting
+     * rhs, whose Jacobian loop_jacobian.c assembles. */
+    if (fn->entry->fn == mbs_rhs && MBS_METHODS[i].init == mbs_dopri5_init) rhs = mbs_loop_rhs_direct;
+#endif
     rc = MBS_METHODS[i].init(&self->ode, MBS_NX, rhs, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);
@@ -653,7 +675,7 @@ static PyMethodDef solver_methods[] = {
 
 static PyTypeObject SolverType = {
     PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = MBS_STR(MBS_MODULE_NAME) ".Solver",
+    .tp_name = MBS_TYPE_NAME("Solver"),
     .tp_basicsize = sizeof(SolverObject),
     .tp_dealloc = (destructor)solver_dealloc,
     .tp_flags = Py_TPFLAGS_DEFAULT,
@@ -681,15 +703,23 @@ static PyMethodDef module_methods[] = {
 };
 
 static struct PyModuleDef module_def = {
+#ifdef MBS_SEPARATE_INIT
+    PyModuleDef_HEAD_INIT, "mbs_model", "A Baukasten model compiled to C.", -1, module_methods,
+#else
     PyModuleDef_HEAD_INIT, MBS_STR(MBS_MODULE_NAME), "A Baukasten model compiled to C.", -1, module_methods,
+#endif
     NULL, NULL, NULL, NULL,
 };
 
-PyMODINIT_FUNC MBS_CAT(PyInit_, MBS_MODULE_NAME)(void)
+static PyObject *module_create(void)
 {
     PyObject *m, *functions, *methods;
     int i;
     import_array();
+#ifdef MBS_OUTPUTS_UNIT
+    for (i = 0; i < MBS_TABLE_SIZE; i++)
+        if (MBS_TABLE[i].fn == mbs_outputs) MBS_TABLE[i].rows = mbs_ny;
+#endif
     if (PyType_Ready(&FunctionType) < 0 || PyType_Ready(&SolverType) < 0) return NULL;
     m = PyModule_Create(&module_def);
     if (!m) return NULL;
@@ -721,6 +751,8 @@ PyMODINIT_FUNC MBS_CAT(PyInit_, MBS_MODULE_NAME)(void)
         || PyModule_AddIntConstant(m, "NWORK", MBS_NWORK) < 0
 #ifdef MBS_NY
         || PyModule_AddIntConstant(m, "NY", MBS_NY) < 0
+#elif defined(MBS_OUTPUTS_UNIT)
+        || PyModule_AddIntConstant(m, "NY", mbs_ny) < 0
 #else
         || PyModule_AddIntConstant(m, "NY", -1) < 0
 #endif
@@ -733,3 +765,23 @@ fail:
     Py_DECREF(m);
     return NULL;
 }
+
+#ifdef MBS_SEPARATE_INIT
+/* The module under `name` (a static string of the init unit): what its PyInit_<name> returns. */
+PyObject *mbs_module_init(const char *name)
+{
+    /* the types' qualified names tell which module a function belongs to (runtime/integrators/native.py) */
+    static char function_name[200], solver_name[200];
+    snprintf(function_name, sizeof function_name, "%s.Function", name);
+    snprintf(solver_name, sizeof solver_name, "%s.Solver", name);
+    FunctionType.tp_name = function_name;
+    SolverType.tp_name = solver_name;
+    module_def.m_name = name;
+    return module_create();
+}
+#else
+PyMODINIT_FUNC MBS_CAT(PyInit_, MBS_MODULE_NAME)(void)
+{
+    return module_create();
+}
+#endif

@@ -28,7 +28,10 @@ typedef struct mbs_ode_restarts {
     int *index, *slot;      /* p index assigned, and the slot of the actions' output it takes */
     double window;          /* an event this close after the previous one goes back to the caller (chattering) */
     double last_t;          /* time of the last event handled here */
-    long capacity, count;   /* log entries */
+    double h_cut;           /* size of the step in which the pending event was located */
+    double t_next;          /* the next crossing located in that step after the event (HUGE_VAL: none) */
+    double h_resume;        /* > 0: the step size to go on with after the short step to t_next */
+    long capacity, count;   /* log entries: room for, and taken */
     size_t width;           /* doubles per entry: t, y before [n], x after [n], g before [nev], g at [nev], values */
     double *log;            /* [capacity * width] */
 } mbs_ode_restarts;
@@ -255,21 +258,29 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
 static void mbs_ode_find_event(mbs_ode *o)
 {
     int k, s, found = 0;
-    double t_event = o->t, *swap;
+    double t_event = o->t, t_next = HUGE_VAL, *swap;
+    mbs_ode_restarts *r = o->restarts;
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
     for (k = 0; k < o->nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
             double tk = mbs_ode_locate(o, k, o->t_old, o->t, o->g_old[k], o->g_new[k]);
-            if (!found || tk < t_event) t_event = tk;
+            if (!found || tk < t_event) {
+                if (found) t_next = t_event;
+                t_event = tk;
+            } else if (tk > t_event && tk < t_next) {
+                t_next = tk;
+            }
             found = 1;
         }
     }
     if (!found) {
         swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;
+        if (r && r->h_resume > 0) { o->h = r->h_resume; r->h_resume = 0; }  /* the next crossing was not there */
         return;
     }
+    if (r) { r->h_cut = o->t - o->t_old; r->t_next = t_next; }
     o->dense(o, t_event, o->y);
     o->t = t_event;
     o->status = MBS_ODE_EVENT;
@@ -277,8 +288,8 @@ static void mbs_ode_find_event(mbs_ode *o)
 
 /* Handle events in C: ``handled[k]`` marks the indicators whose actions only assign parameters (the
  * ``nassign`` pairs index[j] <- actions output slot[j], grouped per event by first[]) or flip a switch's branch
- * flag (flag[k] >= 0); up to ``capacity`` of them are logged per call of mbs_ode_sample.  Returns 0, or -1
- * without memory (the solver then returns every event, as without this call). */
+ * flag (flag[k] >= 0); ``capacity`` log entries to start with (the log grows as needed until the caller
+ * takes it).  Returns 0, or -1 without memory (the solver then returns every event, as without this call). */
 static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalues, const int *handled,
                                 const int *flag, const int *first, const int *index, const int *slot,
                                 long capacity, double window)
@@ -287,6 +298,7 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     mbs_ode_restarts *r = calloc(1, sizeof *r);
     if (!r) return -1;
     r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window; r->last_t = -HUGE_VAL;
+    r->t_next = HUGE_VAL;
     r->capacity = capacity > 0 ? capacity : 1;
     r->width = 1 + 2 * (size_t)o->n + 2 * (size_t)nev + (size_t)nvalues;
     r->handled = calloc((size_t)nev + 1, sizeof(int));
@@ -304,6 +316,19 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     for (k = 0; k < nassign; k++) { r->index[k] = index[k]; r->slot[k] = slot[k]; }
     mbs_ode_free_restarts(o->restarts);
     o->restarts = r;
+    return 0;
+}
+
+/* Room for one more log entry: the log doubles when full (between steps, once per so many events, never on the
+ * hot path).  Returns 0, or -1 without memory (the event then goes back to the caller, which empties the log). */
+static int mbs_ode_log_room(mbs_ode_restarts *r)
+{
+    double *grown;
+    if (r->count < r->capacity) return 0;
+    grown = realloc(r->log, (size_t)(2 * r->capacity) * r->width * sizeof(double));
+    if (!grown) return -1;
+    r->log = grown;
+    r->capacity *= 2;
     return 0;
 }
 
@@ -347,8 +372,8 @@ static int mbs_ode_restart(mbs_ode *o)
 {
     mbs_ode_restarts *r = o->restarts;
     int k, j, n = o->n, nev = o->nev, fired = 0, pass;
-    double *entry, *g_event, *values;
-    if (!r || r->count >= r->capacity || o->t - r->last_t <= r->window * fmax(1.0, fabs(o->t))) return 0;
+    double *entry, *g_event, *values, h_step;
+    if (!r || o->t - r->last_t <= r->window * fmax(1.0, fabs(o->t)) || mbs_ode_log_room(r)) return 0;
     entry = r->log + (size_t)r->count * r->width;
     g_event = entry + 1 + 2 * (size_t)n + nev;
     values = g_event + nev;
@@ -368,11 +393,14 @@ static int mbs_ode_restart(mbs_ode *o)
         for (j = r->first[k]; j < r->first[k + 1]; j++) r->p[r->index[j]] = values[r->slot[j]];
         if (r->flag[k] >= 0) r->p[r->flag[k]] = g_event[k] > o->g_old[k] ? 1.0 : 0.0;
     }
-    if (o->project && o->project(o->t, o->y, o->p, o->yproj, o->work) == MBS_OK)
-        memcpy(o->y, o->yproj, (size_t)n * sizeof(double));
+    /* no projection here: the state did not jump, and the dense output at the event is as near the constraints
+     * as any state inside a step (the next accepted step is projected).  Projecting it would move the indicators
+     * that just fired by the integration error, back across zero at times: the switch would then settle on its
+     * old side and fire again within 1e-11 s. */
     memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
     r->count++;
     r->last_t = o->t;
+    h_step = r->h_resume > 0 ? r->h_resume : r->h_cut;
     o->t_old = o->t;
     for (pass = 0;; pass++) {
         if (mbs_ode_eval(o, o->t, o->y, o->f) != MBS_OK) {
@@ -381,6 +409,20 @@ static int mbs_ode_restart(mbs_ode *o)
         }
         mbs_ode_depart(o, o->g_old);
         if (pass == 1 || !mbs_ode_settle(o, o->g_old)) break;
+    }
+    /* the method goes on with the step size it had: the one its controller proposed, but no larger than the step
+     * just taken (that proposal was made across the switch, where the solution's derivatives jump); after a short
+     * step to a second crossing, the step size from before it */
+    if (r->h_resume > 0) o->h = r->h_resume;
+    else if (h_step > 0 && o->h > h_step) o->h = h_step;
+    r->h_resume = 0;
+    /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
+     * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
+     * branch (rejected) and then be cut short by it */
+    if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && 2.0 * (r->t_next - o->t) >= o->h_min
+        && r->t_next > o->t) {
+        r->h_resume = o->h;
+        o->h = 2.0 * (r->t_next - o->t);
     }
     o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
     return 1;

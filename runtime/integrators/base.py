@@ -124,6 +124,8 @@ class OdeSolver:
         """After an accepted step: locate the earliest zero crossing on the dense output and stop there."""
         from ..events import crossings, locate_crossing
         g, directions = self.events
+        if self.t == self.t_old:  # a step below the round-off of t (IDA's first after a restart): nothing crossed
+            return
         g_new = np.asarray(g(self.t, self.y), dtype=float)
         crossed = crossings(self.g_old, g_new, directions)
         if crossed.size == 0:

@@ -20,7 +20,6 @@ the error test the equivalent way, by an absolute tolerance far above their size
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 #: Rank tolerance of the row choice, relative to the largest |G_ij| (the loop solver's MBS_LOOP_RANK_TOL).
 RANK_TOL = 1e-9
@@ -39,6 +38,7 @@ class GGL:
         self._G = data.function("constraint_jacobian")
         x0 = data.function("project")(t0, np.asarray(x0, dtype=float))
         G = self._G(t0, x0).reshape(-1, self.nv)
+        import scipy.linalg  # loaded by the first GGL run, not by every command line start
         _, r, pivots = scipy.linalg.qr(G.T, pivoting=True, mode="economic")
         diagonal = np.abs(np.diag(r))
         rank = int(np.count_nonzero(diagonal > RANK_TOL * max(np.abs(G).max(), 1e-300)))

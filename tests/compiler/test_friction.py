@@ -158,13 +158,26 @@ def test_a_normal_force_the_compiler_cannot_solve_is_an_error(tmp_path, model, o
         system.simulate(t_end=0.1)
 
 
-@pytest.mark.parametrize("interaction, law, message", [
-    ("wrist_pin \"closes the loop\"", "coulomb(mu_k = 0.1, normal = 10 N, radius = 1 cm)", "closes a kinematic loop"),
-    ("guide", "coulomb(mu_k = 0.1, normal = reaction)", "bearing friction"),
-])
-def test_what_switched_friction_cannot_do_in_a_closed_loop_is_refused(tmp_path, interaction, law, message):
+def test_bearing_friction_in_a_slider_of_a_closed_loop_is_mu_times_its_reaction(tmp_path):
+    """The guide of library/examples/slider_crank.mbs (a tree joint of the loop) with normal = reaction: its load
+    comes from the inverse dynamics with the loop's multipliers (compiler/friction_loops.py); the reaction sensor
+    derives the same load on its own path (compiler/reactions.py) for the outputs."""
     example = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
-    head = f"interact {interaction} {{\n"
-    new = f"{head}        force friction = {law}\n"
-    with pytest.raises(MbsError, match=message):
-        mbs.load(edited(tmp_path, head, new, source=example)).simulate(t_end=0.1)
+    text = example.read_text()
+    for old, new in (("init der(phi) = 10 rad/s", "init phi = 30 deg\n            init der(phi) = 10 rad/s"),
+                     ("init phi = 0 deg", ""), ("init s = 0.5 m", ""),
+                     ("interact guide {\n", "interact guide {\n        force friction = coulomb(mu_s = 0.3, "
+                      "mu_k = 0.2, normal = reaction)\n        sensor f = force(element = friction)\n"
+                      "        sensor R = reaction()\n"),
+                     ("    }\n}", "    }\n    output f = guide.f\n    output fy = guide.R.fy\n"
+                      "    output fz = guide.R.fz\n}")):
+        assert old in text
+        text = text.replace(old, new, 1)
+    path = tmp_path / "slider_crank_bearing.mbs"
+    path.write_text(text)
+    res = mbs.load(path).simulate(t_end=0.25, t_eval=np.linspace(0.0, 0.25, 26), rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    assert [(e["event"], e["direction"]) for e in res.events] == [("guide.friction.slip", "start")]
+    assert "0 -> -1" in res.events[0]["changes"]  # the crank pulls the slider back at 30 deg
+    np.testing.assert_allclose(res["f"], 0.2 * np.hypot(res["fy"], res["fz"]), rtol=1e-10)
+    assert np.all(res["f"] * res["der(guide.s)"] < 0)  # against the motion

@@ -11,6 +11,7 @@ import pytest
 import sympy as sp
 
 from mbs.compiler.equations import derive_equations, display_equations
+from mbs.compiler.events import FROZEN
 from mbs.compiler.lower import lower
 from mbs.compiler.topology import build_topology
 from mbs.compiler.tree import t
@@ -18,9 +19,11 @@ from mbs.language.frontend import load, load_text
 
 
 def numeric(lowered, exprs, x, t_value=0.0, overrides=None):
-    """Evaluate tape expressions by full substitution (small models only), with parameter defaults."""
+    """Evaluate tape expressions by full substitution (small models only), with parameter defaults; switches
+    (compiler/events.py) with the frozen flag 0, so every comparison is evaluated as written."""
     tree = lowered.tree
     values = {sp.Symbol(p.name): p.value for p in lowered.model.parameters}
+    values.update({s.symbol: 0 for s in lowered.switches} | {FROZEN: 0})
     values.update(overrides or {})
     values.update(dict(zip(tree.q_symbols + tree.v_symbols, x)))
     values[t] = t_value

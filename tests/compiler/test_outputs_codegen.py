@@ -2,6 +2,7 @@
 texts, warning-free compilation, values against hand-written formulas and mbs.language.expr.interpolate."""
 
 import ctypes
+import dataclasses
 import math
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from mbs.compiler.equations import derive_equations  # noqa: E402
 from mbs.compiler.kinematics import Kinematics  # noqa: E402
 from mbs.compiler.lower import lower  # noqa: E402
 from mbs.compiler.symbolic import parameter_symbol  # noqa: E402
+from mbs.pipeline import run_parameters  # noqa: E402
 from mbs.compiler.tree import JointSpec, Tree, TreeBody, t  # noqa: E402
 from mbs.language import expr as X  # noqa: E402
 from mbs.language.frontend import load, load_text  # noqa: E402
@@ -200,10 +202,12 @@ def test_table_registry_is_accepted_and_bad_tables_refused():
 # ---- whole models ---------------------------------------------------------------------------------------------
 
 def _quarter_car():
+    """The quarter car with its run-time parameters: the model's, then the branch flags of the road's and the tyre's
+    switches (the bump's ends, the contact's max) and the frozen flag, which the tests leave 0: every comparison as
+    written, the formulas by hand below."""
     model = load(EXAMPLES / "two_mass_quarter_car.mbs")
     lowered = lower(model, model.scene("bump"))
-    params = [parameter_symbol(p.name) for p in model.parameters]
-    return model, lowered, derive_equations(lowered.kinematics), params
+    return model, lowered, derive_equations(lowered.kinematics), run_parameters(model, lowered)
 
 
 def _quarter_car_outputs_by_hand(t_value, x, p):
@@ -217,13 +221,13 @@ def _quarter_car_outputs_by_hand(t_value, x, p):
 def test_quarter_car_outputs_equal_the_formulas(tmp_path):
     model, lowered, eqs, params = _quarter_car()
     assert [p.name for p in params] == ["m_body", "m_wheel", "k_susp", "d_susp", "k_tyre", "l0_susp", "r0", "v",
-                                        "h", "L"]
+                                        "h", "L", "switch.1", "switch.2", "switch.3", "switch.frozen"]
     source = generate_c(eqs, params, model.name, outputs=lowered.outputs, tables=lowered.tables)
     call = _c_outputs(source, tmp_path, 3)
     compiled = load_c(code=source, cache_dir=tmp_path / "cache", y_names=[n for n, _ in lowered.outputs])
     data = Workspace(compiled)
     rng = np.random.default_rng(7)
-    p = np.array([p.value for p in model.parameters])
+    p = np.array([p.value for p in model.parameters] + [0.0] * 4)
     data.p = p
     for t_value in (0.0, 0.2, 0.5, 0.9, 1.3):  # before, on and after the bump (v = 2.78 m/s, L = 2 m)
         x = np.concatenate([rng.uniform(-0.5, 1.0, 2), rng.normal(size=2)])
@@ -344,7 +348,9 @@ def test_every_function_compiles_without_warnings(tmp_path, every_model):
 
 @pytest.fixture(scope="module")
 def every_model():
-    model = load_text(EVERY_TEXT, "every.mbs")
+    """As written (switches = false): the functions themselves are printed (fmax, fabs, comparisons), not the
+    switched branches; tests/compiler/test_pycode.py runs it with switches as well."""
+    model = dataclasses.replace(load_text(EVERY_TEXT, "every.mbs"), switches=False)
     lowered = lower(model)
     params = [parameter_symbol(p.name) for p in model.parameters]
     return model, lowered, derive_equations(lowered.kinematics), params

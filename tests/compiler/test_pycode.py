@@ -20,6 +20,7 @@ from mbs.compiler.equations import derive_equations  # noqa: E402
 from mbs.compiler.lower import lower  # noqa: E402
 from mbs.compiler.pycode import CodegenError, PyPrinter, generate_numpy  # noqa: E402
 from mbs.compiler.symbolic import parameter_symbol  # noqa: E402
+from mbs.pipeline import run_parameters  # noqa: E402
 from mbs.compiler.tree import t  # noqa: E402
 from mbs.language import expr as X  # noqa: E402
 from mbs.language.frontend import load, load_text  # noqa: E402
@@ -109,7 +110,7 @@ def _compile_model(text_or_path, scene, tmp_path):
     model = load_text(text_or_path, "every.mbs") if isinstance(text_or_path, str) else load(text_or_path)
     lowered = lower(model, model.scene(scene) if scene else None)
     eqs = derive_equations(lowered.kinematics)
-    params = [parameter_symbol(p.name) for p in model.parameters]
+    params = run_parameters(model, lowered)  # with the switches' branch flags and the frozen flag
     kw = dict(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
     c_source = generate_c(eqs, params, model.name, **kw)
     py_path = tmp_path / f"{model.name}_numpy.py"
@@ -133,8 +134,11 @@ def test_c_numpy_and_the_tape_agree(name, scene, tmp_path):
     data_c, data_np = Workspace(c_model), Workspace(np_model)
     rng = np.random.default_rng(11)
     p_default = np.array([p.value for p in model.parameters])
+    flags = len(params) - p_default.size  # switches: the branches as run-time flags, then the frozen flag
     for trial in range(6):
         p = p_default * (rng.uniform(0.7, 1.3, size=p_default.size) if trial else 1.0)
+        # odd trials hold random branches (frozen = 1), even ones evaluate the comparisons as written
+        p = np.concatenate([p, rng.integers(0, 2, size=flags - 1), [trial % 2]] if flags else [p])
         data_c.p, data_np.p = p, p
         t_value = rng.uniform(0.0, 5.0)
         x = np.concatenate([rng.uniform(-1.2, 1.2, size=eqs.tree.nq), rng.normal(size=eqs.tree.nv)])

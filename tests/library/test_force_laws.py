@@ -69,7 +69,8 @@ def probe():
     system = mbs.loads(LAWS)
     compiled = system.compile()
     data = Workspace(compiled)
-    data.p = [{"k": K, "k3": K3, "d": D, "l0": L0, "f0": F0, "gap": GAP, "m": 1.0}[n] for n in compiled.p_names]
+    values = {"k": K, "k3": K3, "d": D, "l0": L0, "f0": F0, "gap": GAP, "m": 1.0}
+    data.p = [values.get(n, 0.0) if n.startswith("switch.") else values[n] for n in compiled.p_names]  # as written
 
     def evaluate(s, rate):
         x = np.array(data.x)
@@ -170,6 +171,12 @@ def test_a_mass_on_a_linear_spring_oscillates_at_sqrt_k_over_m(spring_stop):
     assert np.all(res["stop_tension"] == 0.0)
 
 
+#: A stop's force at the located opening of its contact [N]: the switches hold the contact branch up to the
+#: crossing, whose row (just before the event) has the law at its zero to the crossing's round-off, k x with x a
+#: few doubles of l_stop = 0.45 m (k_stop = 2e4 N/m: ~1e-12 N; observed 8.7e-13 N).  Without switches it was 0.
+AT_OPENING = 1e-9
+
+
 def test_energy_is_conserved_over_spring_and_progressive_stop_without_damping(spring_stop):
     m, k, l0 = 2.0, 800.0, 0.5
     l_stop, k_stop, k3_stop = 0.45, 20000.0, 4e7
@@ -181,7 +188,7 @@ def test_energy_is_conserved_over_spring_and_progressive_stop_without_damping(sp
     energy = 0.5 * m * v**2 + m * G * s + 0.5 * k * (s - l0) ** 2 + 0.5 * k_stop * x**2 + 0.25 * k3_stop * x**4
     assert x.max() > 0.005  # it does run into the stop, into its progressive range
     assert np.ptp(energy) < 1e-8 * energy.max()
-    assert np.all(res["stop_tension"] <= 0.0)
+    assert np.all(res["stop_tension"] <= AT_OPENING)
 
 
 def test_contact_with_a_linear_stop_is_half_a_period_and_the_mass_leaves_at_its_impact_speed():
@@ -206,13 +213,13 @@ def test_a_damped_stop_never_pulls_and_lets_the_mass_go():
     assert res.success, res.message
     tension = res["stop_tension"]
     assert tension.min() < -100.0          # it did hit the stop
-    assert tension.max() <= 0.0            # and never pulled
+    assert tension.max() <= AT_OPENING     # and never pulled
     # while the stop is compressed on the way out (s < l_stop, v > 0) the unclipped law k x - d v crosses
     # zero before the stop opens: from there the force is exactly zero
     s, v = res["slide.s"], res["der(slide.s)"]
     unclipped = 20000.0 * (0.45 - s) - 150.0 * v
     late = (s < 0.45) & (v > 0) & (unclipped < 0)
-    assert late.any() and np.all(tension[late] == 0.0)
+    assert late.any() and np.all(np.abs(tension[late]) <= AT_OPENING)
     assert v[-1] > 0.0 and s[-1] > 0.45     # it left, slower than it came
     assert v[-1] < 0.8
 

@@ -36,15 +36,18 @@ def test_two_scenes_give_one_motion_plot_one_tyre_plot_and_a_results_file_each(t
     assert slow.t[-1] == pytest.approx(0.3) and fast.t[-1] == pytest.approx(0.3)
     # the two files are the two speeds: at 10 m/s the wheel is pushed up faster in the first 0.3 s
     assert fast["heave"].max() > slow["heave"].max()
+    # the road's bump and the tyre's contact are switches (events by default): each run writes its event log
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fig18.png", "fig18_tyres.png", "run_bump_10.csv",
-                                                          "run_bump_5.csv"]  # no temporary file left
+                                                          "run_bump_10.events.csv", "run_bump_5.csv",
+                                                          "run_bump_5.events.csv"]  # no temporary file left
 
 
 def test_one_scene_keeps_the_file_names_it_was_given(tmp_path):
     status = main(["simulate", QUARTER, "--scene", "bump_5", "--t-end", "0.05", "--out", str(tmp_path / "r.csv"),
                    "--plot", str(tmp_path / "r.png")])
     assert status == 0
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.csv", "r.events.csv", "r.png"]
+    assert (tmp_path / "r.events.csv").read_text().splitlines() == ["time,event,direction,changes"]  # none by 0.05 s
     image(tmp_path / "r.png")
 
 

@@ -1,5 +1,7 @@
 """The derivation cache (mbs/derivation_cache.py): a second run of the same content derives nothing, any change of
-what the derivation reads derives again, and a damaged or foreign entry is never read."""
+what the derivation reads derives again, and a damaged or foreign entry is never read. A scene asking for other
+outputs derives only those on the cached equations (the same text a whole derivation gives), and its build compiles
+only the outputs' unit (runtime/build.py keeps the objects of split builds by content)."""
 
 from __future__ import annotations
 
@@ -8,13 +10,18 @@ import logging
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbs
 from mbs import derivation_cache, pipeline
+from mbs.runtime import build
 from mbs.runtime import cache as store
+from mbs.runtime import translation_units as units
+
+CRANK = Path(__file__).resolve().parent / "fixtures" / "crank_outputs.mbs"
 
 LAWS = """\
 param k = {k} N/m "spring rate"
@@ -87,6 +94,20 @@ def derivations(monkeypatch):
     return calls
 
 
+@pytest.fixture
+def outputs_derived(monkeypatch):
+    """Counts the derivations of outputs alone on cached equations (pipeline.generate_outputs calls)."""
+    calls = []
+    real = pipeline.generate_outputs
+
+    def counting(model, scene, *args, **kwargs):
+        calls.append(scene.name if scene is not None else None)
+        return real(model, scene, *args, **kwargs)
+
+    monkeypatch.setattr(pipeline, "generate_outputs", counting)
+    return calls
+
+
 def _generate(folder, cache, scene="slow"):
     system = mbs.load(folder / "slider.mbs", cache_dir=cache)
     return system, system.generate(scene)
@@ -102,13 +123,19 @@ def test_same_content_is_a_hit_and_gives_the_same_code(project, derivations):
            (first.q_names, first.v_names, first.p_names, first.y_names, first.layout, first.events)
 
 
-def test_scenes_differing_in_parameters_share_one_derivation(project, derivations):
+def test_scenes_differing_in_parameters_share_one_derivation(project, derivations, outputs_derived, caplog):
     folder, cache = project
     system = mbs.load(folder / "slider.mbs", cache_dir=cache)
     slow, fast = system.generate("slow"), system.generate("fast")
     assert derivations == ["slow"] and fast.c_source == slow.c_source
-    system.generate("watched")  # another output: derived on its own
-    assert derivations == ["slow", "watched"]
+    with caplog.at_level(logging.INFO, logger="mbs.cache"):
+        watched = system.generate("watched")  # another output: only the outputs are derived, on the equations
+    assert derivations == ["slow"] and outputs_derived == ["watched"]
+    assert "the equations from the cache" in caplog.text
+    assert watched.c_source[:watched.outputs_at] == slow.c_source[:slow.outputs_at]
+    assert watched.y_names == ("speed",) and slow.y_names == ("position",)
+    mbs.load(folder / "slider.mbs", cache_dir=cache).generate("watched")  # now both parts are kept
+    assert derivations == ["slow"] and outputs_derived == ["watched"]
 
 
 def test_an_edited_default_in_an_imported_file_derives_again(project, derivations):
@@ -140,15 +167,16 @@ def test_the_symbolic_stages_are_derived_again_on_demand(project, derivations):
     assert derivations == ["slow", "slow"]
 
 
-def _entry(cache):
-    (path,) = cache.glob(f"{store.DERIVED_PREFIX}*.json")
+def _entry(cache, kind="outputs"):
+    """The cache's derivation entry of this kind ('equations', or 'outputs': the scene's)."""
+    (path,) = [p for p in cache.glob(f"{store.DERIVED_PREFIX}*.json") if store.read_derived(p)[0]["kind"] == kind]
     return path
 
 
 def test_a_damaged_entry_is_derived_again_with_a_note(project, derivations, caplog):
     folder, cache = project
     _, first = _generate(folder, cache)
-    path = _entry(cache)
+    path = _entry(cache, "equations")
     head, body = path.read_text(encoding="utf-8").split("\n", 1)
     path.write_text(head + "\n" + body.replace("mbs_rhs", "mbs_xyz", 1), encoding="utf-8")
     with caplog.at_level(logging.WARNING, logger="mbs.cache"):
@@ -162,7 +190,7 @@ def test_a_damaged_entry_is_derived_again_with_a_note(project, derivations, capl
 def test_an_entry_others_can_write_is_not_read(project, derivations, caplog):
     folder, cache = project
     _generate(folder, cache)
-    path = _entry(cache)
+    path = _entry(cache, "equations")
     path.chmod(0o666)
     with caplog.at_level(logging.WARNING, logger="mbs.cache"):
         _generate(folder, cache)
@@ -176,6 +204,8 @@ def test_the_payload_is_plain_json(project):
     record, payload = json.loads(head), json.loads(body)
     assert record["model"] == "slider (slider.mbs, scene slow)" and len(body.encode()) == record["size"]
     assert payload["key"].startswith(_entry(cache).stem.removeprefix(store.DERIVED_PREFIX))
+    head, body = _entry(cache, "equations").read_text(encoding="utf-8").split("\n", 1)
+    assert json.loads(head)["model"] == "slider (slider.mbs, equations)" and "mbs_rhs" in json.loads(body)["c_source"]
 
 
 def test_the_key_names_the_code_that_derives(project):
@@ -203,3 +233,59 @@ def test_cache_commands_list_and_verify_derivations(project):
     path.write_bytes(path.read_bytes()[:-10])
     damaged = _mbs("cache", "verify", "--remove", cache=cache)
     assert damaged.returncode == 1 and "damaged: its size is" in damaged.stderr and not path.exists()
+
+
+# ---------------------------------------------------------------------------------- outputs apart from equations
+def test_outputs_on_cached_equations_are_the_text_of_a_whole_derivation(tmp_path, derivations, outputs_derived):
+    """A closed loop whose outputs read the multipliers (reactions): derived whole, and derived on the equations
+    of a scene with other outputs, the file is the same text."""
+    system = mbs.load(CRANK, cache_dir=tmp_path)
+    whole = pipeline.generate(system.model, system.scene("loads"))
+    system.generate("positions")
+    on_cached = system.generate("loads")
+    assert derivations == ["loads", "positions"] and outputs_derived == ["loads"]
+    assert on_cached.c_source == whole.c_source and on_cached.outputs_at == whole.outputs_at
+    assert on_cached.y_names == whole.y_names and len(whole.y_names) == 12  # guide.s is a state
+    assert on_cached.p_names == whole.p_names and on_cached.layout == whole.layout
+
+
+def test_other_outputs_compile_only_their_unit_and_agree(tmp_path, monkeypatch, caplog):
+    """Split builds (every model split, as the Iltis is): the scene with other outputs compiles outputs.c and
+    links the rest from the cache; its results are those of a run derived and built from nothing."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    cache = tmp_path / "cache"
+    first = mbs.load(CRANK, cache_dir=cache)
+    positions = first.simulate("positions")
+    with caplog.at_level(logging.INFO, logger="mbs.cache"):
+        loads = mbs.load(CRANK, cache_dir=cache).simulate("loads")
+    built = [r.getMessage() for r in caplog.records if r.getMessage().startswith("C build of slider_crank")]
+    assert len(built) == 1 and "compiled outputs.c; objects of " in built[0], built
+    reused = built[0].split("objects of ")[1].split(" from the cache")[0].split(", ")
+    assert "glue.c" in reused and len([u for u in reused if u.startswith("model_")]) > 2
+    fresh = mbs.load(CRANK, cache_dir=tmp_path / "fresh").simulate("loads")  # derived whole, built whole
+    for name in loads.names[1:]:
+        assert np.array_equal(loads[name], fresh[name]), name
+    assert np.array_equal(positions["guide.s"], loads["guide.s"])
+    # a frictionless guide transmits nothing along its free direction, only the rod's push across it
+    assert np.abs(loads["guide.load.fz"]).max() > 1.0
+    assert np.abs(loads["guide.load.fx"]).max() < 1e-9 * np.abs(loads["guide.load.fz"]).max()
+
+
+def test_an_edited_model_derives_and_compiles_its_changed_units_again(tmp_path, monkeypatch, derivations,
+                                                                      outputs_derived, caplog):
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    model = tmp_path / "crank.mbs"
+    model.write_text(CRANK.read_text(encoding="utf-8"), encoding="utf-8")
+    before = mbs.load(model, cache_dir=tmp_path / "cache").simulate("loads")
+    model.write_text(CRANK.read_text(encoding="utf-8").replace("com = (L / 2, 0, 0)", "com = (0.6 * L, 0, 0)"),
+                     encoding="utf-8")
+    with caplog.at_level(logging.INFO, logger="mbs.cache"):
+        after = mbs.load(model, cache_dir=tmp_path / "cache").simulate("positions")
+    assert derivations == ["loads", "positions"] and outputs_derived == []  # a new model: nothing reused
+    built = [r.getMessage() for r in caplog.records if r.getMessage().startswith("C build of slider_crank")]
+    # the units whose functions changed are compiled again (an unchanged one, and the glue when model.h is the
+    # same, may come from the cache)
+    assert len(built) == 1 and "model_" in built[0].split("compiled ")[1].split(";")[0], built
+    assert not np.array_equal(before["guide.s"], after["guide.s"])

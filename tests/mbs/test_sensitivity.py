@@ -200,12 +200,19 @@ def test_output_metrics_of_the_quarter_car_over_the_bump_match_differences_of_fu
     metrics = ["final(body_z)", "rms(wheel_load)", "final(suspension.travel)"]
     table = sensitivities(system, "bump", params=["d_susp", "v"], metrics=metrics, t_end=1.5, rtol=1e-10,
                           atol=1e-12)
+    grid = table.run.t  # the metrics reduce the samples; a run adds rows at its events (the bump's ends are
+    # switches), which move with v: the differences are taken of the same metric, over the sample grid
+
+    def on_grid(r):
+        rows = np.searchsorted(r.t, grid)
+        np.testing.assert_allclose(r.t[rows], grid, rtol=0, atol=1e-12)
+        return rows
     for name, value in (("d_susp", 2500.0), ("v", 10 / 3.6)):
         h = 1e-5 * value
         runs = [system.simulate("bump", t_end=1.5, params={name: value + sign * h}, rtol=1e-11, atol=1e-13)
                 for sign in (1, -1)]
-        summary = [np.array([r["body_z"][-1], np.sqrt(np.mean(r["wheel_load"] ** 2)), r["suspension.travel"][-1]])
-                   for r in runs]
+        summary = [np.array([r["body_z"][-1], np.sqrt(np.mean(r["wheel_load"][on_grid(r)] ** 2)),
+                             r["suspension.travel"][-1]]) for r in runs]
         fd = (summary[0] - summary[1]) / (2 * h)
         ours = np.array([table.derivative(m, name) for m in metrics])
         np.testing.assert_allclose(ours, fd, rtol=1e-4, err_msg=name)
@@ -236,3 +243,67 @@ def test_spatial_chain_with_quaternion_joints_matches_differences_of_full_runs()
         fd = np.array([(runs[0][q][-1] - runs[1][q][-1]) / (2 * h) for q in compiled.q_names])
         ours = np.array([table.derivative(m, name) for m in metrics])
         np.testing.assert_allclose(ours, fd, rtol=0, atol=1e-7 * np.max(np.abs(fd)), err_msg=name)
+
+
+PUSHED = """
+model pushed "a block coasting at v0 that a force F pushes from the time T on, and again from the place d on" {
+    param m = 2 kg
+    param v0 = 0.5 m/s
+    param F = 3 N
+    param T = 0.4 s
+    param d = 0.6 m
+    gravity = (0, 0, 0) m/s^2
+    rigid block {
+        body {
+            mass = m
+            com = (0, 0, 0) m
+            inertia = diag(0.01, 0.01, 0.01) kg*m^2
+        }
+    }
+    interact slide {
+        connect inertial.origin -> block.origin
+        joint prismatic(axis = x) {
+            init der(s) = v0
+        }
+        force push = joint(s = if(t > T, F, 0 N) + if(slide.s > d, F, 0 N))
+    }
+}
+"""
+
+
+def pushed_closed_form(m, v0, F, T, d, t_end):
+    """(x, v) at t_end and their derivatives to T and d: coasting until the time push at T, then uniformly
+    accelerated, the place push adding F from the crossing of d on (tau from x(tau) = d)."""
+    import sympy as sp
+    Ts, ds, t = sp.symbols("T d t", positive=True)
+    a = F / m
+    x1 = v0 * t + a / 2 * (t - Ts) ** 2                      # after the time push (T < tau)
+    tau = sp.solve(sp.Eq(x1, ds), t)
+    tau = [r for r in tau if r.subs({Ts: T, ds: d}).is_real and float(r.subs({Ts: T, ds: d})) > T][0]
+    x_tau, v_tau = x1.subs(t, tau), sp.diff(x1, t).subs(t, tau)
+    x_end = x_tau + v_tau * (t_end - tau) + a * (t_end - tau) ** 2     # 2 F after tau: (2a)/2 (t - tau)^2
+    v_end = v_tau + 2 * a * (t_end - tau)
+    at = {Ts: T, ds: d}
+    return {name: float(e.subs(at)) for name, e in
+            (("x", x_end), ("v", v_end), ("dx/dT", sp.diff(x_end, Ts)), ("dx/dd", sp.diff(x_end, ds)),
+             ("dv/dT", sp.diff(v_end, Ts)), ("dv/dd", sp.diff(v_end, ds)))}
+
+
+def test_sensitivities_jump_at_switches_whose_time_moves_with_the_parameters():
+    """A time event at T and a state event at x = d, both moving with the parameters: S jumps by
+    (f- - f+) dtau/dp at each (without the jump d(x)/dd would be 0).  Closed form by sympy."""
+    system = mbs.loads(PUSHED, path="pushed.mbs")
+    table = sensitivities(system, params=["T", "d"], metrics=["final(slide.s)", "final(der(slide.s))"],
+                          t_end=2.0, rtol=RTOL, atol=ATOL)
+    ref = pushed_closed_form(2.0, 0.5, 3.0, 0.4, 0.6, 2.0)
+    assert table.row("final(slide.s)", "T").value == pytest.approx(ref["x"], rel=1e-9)
+    for metric, key in (("final(slide.s)", "x"), ("final(der(slide.s))", "v")):
+        for p in ("T", "d"):
+            assert table.derivative(metric, p) == pytest.approx(ref[f"d{key}/d{p}"], rel=1e-7), (metric, p)
+
+
+def test_an_event_that_makes_the_state_jump_is_a_clear_error_not_a_wrong_answer():
+    from mbs.runtime.errors import UsageError
+    ball = mbs.load("library/examples/bouncing_ball.mbs")
+    with pytest.raises(UsageError, match="event 'impact' makes the state jump"):
+        sensitivities(ball, "drop", params=["e"], metrics=["final(fall.s)"], t_end=1.0)

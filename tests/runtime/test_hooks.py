@@ -264,3 +264,12 @@ def test_mbs_simulate_hook_usage_errors(capsys, argv, status, text):
     assert main(["simulate", str(EXAMPLE), *argv]) == status
     err = capsys.readouterr().err
     assert text in err and "Traceback" not in err
+
+
+@needs_c
+def test_the_python_api_takes_a_module_file_by_name_as_the_command_line_does():
+    system = mbs.load(EXAMPLE)
+    law = f"{HERE / 'hooks' / 'friction_law_derivative.py'}:friction_law"
+    by_name = system.simulate("cycles", t_end=0.5, hooks={"friction_law": law})
+    plain = system.simulate("cycles", t_end=0.5, params={"plain": 1}, hooks={"friction_law": str(C_LAW)})
+    assert by_name.success and np.max(np.abs(by_name["position"] - plain["position"])) < 1e-12

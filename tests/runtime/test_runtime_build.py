@@ -39,9 +39,10 @@ def test_changed_source_misses_the_cache(builds, cache_dir):
 
 def test_flags_and_compiler_enter_the_key():
     unit, cc = "int x;", tuple(build.compiler_command())
-    keys = {build._hash(unit, build.FLAGS, cc), build._hash(unit, build.FLAGS + ("-DX",), cc),
-            build._hash(unit + " ", build.FLAGS, cc)}
-    assert len(keys) == 3
+    keys = {build._hash(unit, "m.c", build.FLAGS, (), cc), build._hash(unit, "m.c", build.FLAGS + ("-DX",), (), cc),
+            build._hash(unit + " ", "m.c", build.FLAGS, (), cc), build._hash(unit, "m.c", build.FLAGS, ("-DX",), cc),
+            build._hash(unit, "n.c", build.FLAGS, (), cc)}
+    assert len(keys) == 5
 
 
 def test_cache_dir_from_environment(builds, tmp_path, monkeypatch):

@@ -3,6 +3,7 @@ exactly one unit, helpers only where called; the split library computes what the
 
 from __future__ import annotations
 
+import os
 import re
 from pathlib import Path
 
@@ -37,6 +38,8 @@ def test_the_generated_layout_is_read_back_whole(generated):
         # nothing lost, nothing twice: every line of the file (but trailing blank ones) is in the header or in
         # exactly one block
         pieces = [layout.header, *(b.text for b in layout.helpers + layout.functions)]
+        if layout.outputs is not None:  # the outputs' part, after its marker line
+            pieces.append(units.OUTPUTS_MARKER + "\n" + layout.outputs)
         assert sum(p.count("\n") + 1 for p in pieces) == code.rstrip("\n").count("\n") + 1
         for block in layout.helpers + layout.functions:
             assert code.split("\n")[block.line - 1:block.line - 1 + block.text.count("\n") + 1] == \
@@ -110,3 +113,39 @@ def test_compiler_messages_name_the_line_of_the_generated_file(generated, tmp_pa
     lines.insert(at, "    int unused_here;")
     result = build.build("\n".join(lines), filename="qc.c", cache_dir=tmp_path)
     assert f"qc.c:{at + 1}:" in result.warnings and "unused_here" in result.warnings
+
+
+def test_prebuild_compiles_the_equations_units_before_the_outputs_are_known(generated, tmp_path, monkeypatch):
+    """prebuild (started with the equations' part while the outputs are derived) leaves the objects that build
+    then links; every unit but outputs.c is compiled once, for this build."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    gen = mbs.load(TABLES).generate()
+    assert gen.outputs_at is not None and gen.y_names
+    started = build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path)
+    files = build._build_files(gen.c_source, "model.c")
+    assert started == len([n for n in files if n.endswith(".c")]) - 1  # all but outputs.c
+    result = build.build(gen.c_source, cache_dir=tmp_path)
+    assert sorted(result.compiled) == sorted(n for n in files if n.endswith(".c")) and result.reused == ()
+    assert not build._PREBUILDS and result.warnings == ""
+    fresh = build.build(gen.c_source, cache_dir=tmp_path / "fresh")
+    assert fresh.module_name == result.module_name
+    a = build.load(result)
+    assert a.NY == len(gen.y_names) and dict(a.FUNCTIONS)["outputs"] == (len(gen.y_names),)
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork")
+def test_a_forked_child_does_not_wait_for_the_parents_prebuilds(tmp_path, monkeypatch):
+    """A sweep's workers may be forked while a prebuild runs: the child compiles what is not cached itself."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    gen = mbs.load(TABLES).generate()
+    assert build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path / "parent") > 0
+    pid = os.fork()
+    if pid == 0:  # the child: a build into another cache, with the parent's jobs forgotten
+        code = 0 if not build._PREBUILDS and build.build(gen.c_source, cache_dir=tmp_path / "child").path.exists() else 1
+        os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    build.build(gen.c_source, cache_dir=tmp_path / "parent")  # the parent's own jobs are still waited for
+    assert not build._PREBUILDS
