@@ -164,10 +164,9 @@ def test_forty_four_bars_dopri5_down_to_rtol_1e_10(forty):
 def test_forty_four_bars_every_integrator(forty, integrator):
     """These integrators finish the 20 s at rtol 1e-6 and 1e-8, the crank closer to the reference at 1e-8
     (measured at 1e-8: auto 3.8e-5, RK45 4.7e-5, DOP853 1.7e-4, cvode_bdf 4.8e-4, cvode_adams 5.7e-4 rad).
-    Not yet: rodasp (through the first crossings now, but slowly: t = 2.69 s in 190 s); ida (its DAE form fails at the second
-    crossing, t = 1.244 s; the ODE form it then continues in was not measured to the end); Radau, BDF and
-    LSODA (Radau passes the
-    first two crossings, but at about four minutes of wall time per simulated second: its Jacobians in the
-    band by central differences, 2 nx right-hand sides each)."""
+    Not yet: rodasp (through the first crossings now, but slowly: t = 2.69 s in 190 s); ida (its DAE form fails
+    at the second crossing, t = 1.244 s; the ODE form it then continues in was not measured to the end); Radau,
+    BDF and LSODA (Radau passes the first two crossings, but at about four minutes of wall time per simulated
+    second: its Jacobians in the band by central differences, 2 nx right-hand sides each)."""
     errors = [forty_error(forty, integrator, rtol) for rtol in (1e-6, 1e-8)]
     assert errors[1] < 1e-3 and errors[1] < errors[0]
