@@ -264,6 +264,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     link = (*cc, *flags, "-fvisibility=hidden", "init.o", *(str(objects[n]) for n in sources), "-o", "module.so",
             "-lm")
     compiled = tuple(name for name, _, _ in todo) + tuple(prebuilt)
+    _forget_finished_prebuilds()
     return "".join(outputs) + _run(link, tmp, filename), compiled, tuple(n for n in sources if n not in compiled)
 
 
@@ -304,6 +305,15 @@ def _forget_prebuilds() -> None:
     _PREBUILD_LOCK = threading.Lock()
     _PREBUILDS.clear()
     _PREBUILD_POOL.clear()
+
+
+def _forget_finished_prebuilds() -> None:
+    """Drop the finished jobs that no build took (a derivation that failed after its prebuild, or whose file was
+    then written whole): their objects are in the cache, and the table would otherwise grow for as long as the
+    process lives."""
+    with _PREBUILD_LOCK:
+        for key in [key for key, job in _PREBUILDS.items() if job.done()]:
+            del _PREBUILDS[key]
 
 
 if hasattr(os, "register_at_fork"):

@@ -57,7 +57,7 @@ def test_cache_dir_from_environment(builds, tmp_path, monkeypatch):
 
 
 def test_runtime_and_fixtures_compile_without_warnings(builds):
-    assert set(builds) == {"pendulum.c", "pendulum_failing.c", "quarter_car.c"}
+    assert set(builds) == {"order_problems.c", "pendulum.c", "pendulum_failing.c", "quarter_car.c"}
     for name, result in builds.items():
         assert not result.cached, name  # a fresh build, so the compiler's messages were seen
         assert result.warnings == "", result.warnings
