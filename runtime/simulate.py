@@ -212,20 +212,19 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
 def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
     """_project_rows for a run with events, each row with the run-time values p it was computed with (a
     sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
-    the number of leading rows projected."""
-    saved, failed = data.p.copy(), len(ts)
+    the number of leading rows projected.  The rows of one p copy are consecutive (the copies are numbered in time
+    order): one pass over the runs of rows, each projected in place."""
+    saved = data.p.copy()
+    bounds = np.r_[0, np.flatnonzero(np.diff(which)) + 1, len(which)].tolist()
     try:
-        for k, p in enumerate(ps):
-            rows = np.flatnonzero(which == k)
-            data.p = p
-            part = xs[rows]
-            done = _project_rows(data, ts[rows], part)
-            xs[rows] = part
-            if done < len(rows):
-                failed = min(failed, int(rows[done]))
+        for first, end in zip(bounds[:-1], bounds[1:]):
+            data.p = ps[which[first]]
+            done = _project_rows(data, ts[first:end], xs[first:end])  # a view: projected in place
+            if done < end - first:
+                return first + done
     finally:
         data.p = saved
-    return failed
+    return len(ts)
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
@@ -249,6 +248,8 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
 def _project_rows(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
     """project_samples for the rows of a run with events, where the rows at both sides of an event without a jump
     are the same state: each such repetition takes its row's projection instead of computing it again."""
+    if len(times) < 2:
+        return project_samples(data, times, states)
     again = np.r_[False, (times[1:] == times[:-1]) & (states[1:] == states[:-1]).all(axis=1)]
     if not again.any():
         return project_samples(data, times, states)
