@@ -213,17 +213,22 @@ def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray,
     """_project_rows for a run with events, each row with the run-time values p it was computed with (a
     sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
     the number of leading rows projected.  The rows of one p copy are consecutive (the copies are numbered in time
-    order): one pass over the runs of rows, each projected in place."""
+    order): one pass over the runs of rows, each projected in place; only a run that repeats a row (same time,
+    state and p) looks for its repetitions."""
     saved = data.p.copy()
-    bounds = np.r_[0, np.flatnonzero(np.diff(which)) + 1, len(which)].tolist()
+    bounds = [0, *(np.flatnonzero(np.diff(which)) + 1).tolist(), len(which)]
+    repeats = (ts[1:] == ts[:-1]) & (which[1:] == which[:-1]) & (xs[1:] == xs[:-1]).all(axis=1)
+    repeating = set((np.searchsorted(bounds, np.flatnonzero(repeats) + 1, side="right") - 1).tolist())
+    p = data.p  # the workspace's own array: the model functions read it
     try:
-        for first, end in zip(bounds[:-1], bounds[1:]):
-            data.p = ps[which[first]]
-            done = _project_rows(data, ts[first:end], xs[first:end])  # a view: projected in place
+        for run, (first, end) in enumerate(zip(bounds[:-1], bounds[1:])):
+            p[:] = ps[which[first]]
+            rows = xs[first:end]  # a view: projected in place
+            done = (_project_rows if run in repeating else project_samples)(data, ts[first:end], rows)
             if done < end - first:
                 return first + done
     finally:
-        data.p = saved
+        p[:] = saved
     return len(ts)
 
 
@@ -248,8 +253,6 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
 def _project_rows(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
     """project_samples for the rows of a run with events, where the rows at both sides of an event without a jump
     are the same state: each such repetition takes its row's projection instead of computing it again."""
-    if len(times) < 2:
-        return project_samples(data, times, states)
     again = np.r_[False, (times[1:] == times[:-1]) & (states[1:] == states[:-1]).all(axis=1)]
     if not again.any():
         return project_samples(data, times, states)
