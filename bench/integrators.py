@@ -31,7 +31,7 @@ MODELS = {
     "slider_crank": ("library/examples/slider_crank.mbs", None),
     "iltis_bump": ("library/iltis/quarter_car.mbs", "bump_5"),
 }
-INTEGRATORS = ("dopri5", "auto", "rodasp", "cvode_adams", "cvode_bdf", "ida", "Radau", "BDF")
+INTEGRATORS = ("dopri5", "auto", "rodasp", "rodas5p", "cvode_adams", "cvode_bdf", "ida", "Radau", "BDF")
 
 
 def run(model, data, settings, integrator, max_steps):

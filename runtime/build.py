@@ -50,8 +50,8 @@ from .errors import BuildError, EvaluationError
 BUILD_FORMAT = 3
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The run-time C files compiled into every model (all hashed).
-RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rodasp.c", "loops.c", "loop_jacobian.c",
-                   "mbs_glue.c")
+RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rosenbrock.c", "rodasp.c", "rodas5p.c",
+                   "loops.c", "loop_jacobian.c", "mbs_glue.c")
 #: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
 FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: Appended to the flags of the model's units in a split build (runtime/translation_units.py) when the compiler is GCC, from

@@ -10,7 +10,7 @@ from .model import CompiledModel
 
 #: C method -> the scipy method closest to it: the same Dormand-Prince 5(4) pair; a stiff, L-stable implicit
 #: method for the Rosenbrock one. Methods not listed fall back to Radau (safe on stiff and non-stiff models).
-NEAREST_SCIPY = {"dopri5": "RK45", "rodasp": "Radau"}
+NEAREST_SCIPY = {"dopri5": "RK45", "rodasp": "Radau", "rodas5p": "Radau"}
 
 
 def runnable_integrator(model: CompiledModel, name) -> tuple[type[OdeSolver], str]:

@@ -89,7 +89,7 @@ def numerics_report(model: CompiledModel, data: Workspace, t_end: float,
     fastest = motions[-1] if motions else None
     stiff = steps > STIFF_STEPS and fastest is not None and -fastest.eigenvalue.real > 0.5 * abs(fastest.eigenvalue)
     if stiff:
-        integrator = "rodasp" if model.nx <= 200 else "cvode_bdf"
+        integrator = "rodas5p" if model.nx <= 200 else "cvode_bdf"
         reason = (f"stiff: the fastest motion is strongly damped and would hold an explicit method to "
                   f"{steps:.3g} steps")
     else:

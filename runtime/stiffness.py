@@ -23,7 +23,7 @@ from .workspace import Workspace
 #: Steps RODASP takes to measure the accuracy-limited step size.
 PROBE_STEPS = 20
 #: What to use instead of an explicit method on a stiff model.
-STIFF_INTEGRATORS = "rodasp (or auto, which switches by itself; Radau, BDF)"
+STIFF_INTEGRATORS = "rodas5p or rodasp (or auto, which switches by itself; Radau, BDF)"
 
 
 def fastest_mode(data: Workspace, t: float, x) -> tuple[complex, str]:
@@ -112,7 +112,7 @@ def stiffness_warnings(model: CompiledModel, data: Workspace, solver, times: np.
     text = describe_stiffness(model, probe, solver.name, found, t, x, t_end, solver.rtol, solver.atol, owners)
     switched = getattr(solver, "switched_at", None)
     if switched is not None:
-        text = text.replace(f". Use integrator {STIFF_INTEGRATORS}.", f"; auto switched to rodasp at "
+        text = text.replace(f". Use integrator {STIFF_INTEGRATORS}.", f"; auto switched to rodas5p at "
                                                                       f"t = {switched:.6g} s.")
     return [text]
 

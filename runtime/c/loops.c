@@ -41,7 +41,12 @@
  * Singular positions (a four-bar stretched flat: the rank of G drops where two branches of motion cross) are
  * told from rows redundant everywhere by the rank a little way along the allowed motion; there the accelerations
  * are those of the limit of the motion through the position (mbs_loop_singular_rows), and such a partition is
- * never kept.
+ * never kept.  So is a band around such a position (pivots between MBS_LOOP_RANK_TOL and MBS_LOOP_BAND_TOL
+ * whose rank returns a little further along the motion): there the rows with small pivots fix the
+ * accelerations as the ratio of two small numbers, and the round-off of the positions bends them by about
+ * 1e-15 / d^3 at the distance d (docs/numerics.md, "Closed loops through singular positions"); the band drops
+ * those rows from the velocities and takes the limit rows for the accelerations, while the position Newton
+ * keeps all rows (w->newton).
  *
  * Newton on positions: dq = qdot(q, dv) with dv_I = 0 and G_D dv_D = -g (the pivot rows), quaternions
  * renormalised after each update; the Jacobian is refreshed when the residual falls by less than a factor
@@ -91,6 +96,15 @@
 /* Pivots below this fraction of the largest |G_ij| count as zero: rank deficiency (redundant rows or a
  * bifurcation point); exactly redundant rows leave pivots near 1e-16, genuine ones stay far above. */
 #define MBS_LOOP_RANK_TOL 1e-9
+/* The band around a singular position: pivots of G below this fraction of max |G_ij| (above
+ * MBS_LOOP_RANK_TOL) where the rank returns a little way along the motion (MBS_LOOP_BAND_PROBE in the largest
+ * coordinate).  Within it the rows with such pivots are treated as at the singular position (the limit rows
+ * of mbs_loop_singular_rows): their own second derivatives amplify the round-off of the positions by the
+ * inverse cube of the distance from the singular position (see mbs_loop_partition). */
+#ifndef MBS_LOOP_BAND_TOL
+#define MBS_LOOP_BAND_TOL 1e-3
+#endif
+#define MBS_LOOP_BAND_PROBE (10.0 * MBS_LOOP_BAND_TOL)
 /* Pivots of T^T M T below this fraction of its largest diagonal entry are motions without inertia. */
 #define MBS_LOOP_MASS_TOL 1e-12
 /* The rows a partition drops hold on its accelerations to this fraction of the size of their terms. */
@@ -122,7 +136,10 @@ typedef struct {
     int *Ti;                    /* NV x NV ints: the velocity of each packed entry of T */
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
-    int singular;               /* ... and their rank is below that of the positions around (a singular one) */
+    int singular;               /* ... and their rank is below that of the positions around (a singular one),
+                                 * or they are in the band around one (mbs_loop_partition) */
+    int rband;                  /* the leading pivots of the last complete pivoting above MBS_LOOP_BAND_TOL */
+    int newton;                 /* the position projection is iterating: the band keeps the full rank */
     double pivot;               /* the smallest pivot of the last factors relative to max |G| */
 } mbs_loop_work;
 
@@ -133,7 +150,8 @@ typedef struct {
 
 /* The kept partition, the one piece of state the loop functions carry from call to call (in the caller's work,
  * so one per workspace): keep[0] a marker (valid when equal to MBS_LOOP_KEEP_MARK), keep[1] its rank r,
- * keep[2] the smallest relative pivot when it was chosen, keep[3] reserved (0), then the NV columns in pivot
+ * keep[2] the smallest relative pivot when it was chosen, keep[3] 1 when all its pivots were above
+ * MBS_LOOP_BAND_TOL then (0: a mechanism whose regular positions have smaller ones), then the NV columns in pivot
  * order (the first r dependent) and the r pivot rows.  Anything else
  * (zeroed or overwritten work) reads as "no partition" and is chosen afresh. */
 #define MBS_LOOP_KEEP_MARK 1517.0
@@ -147,7 +165,7 @@ static mbs_loop_work mbs_loop_layout(double *work)
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
-    w.fresh = w.singular = 0;
+    w.fresh = w.singular = w.rband = w.newton = 0;
     w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
     w.G = s; s += MBS_NC * MBS_NV;
@@ -298,6 +316,7 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
     double *A = w->G, amax0 = mbs_loop_gmax(w);
     int i, j, k, r = 0;
     *minpivot = 0.0;
+    w->rband = 0;
     if (amax0 < 0.0) return -1;
     for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
     for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
@@ -309,6 +328,7 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
                 if (fabs(A[i * MBS_NV + j]) > amax) { amax = fabs(A[i * MBS_NV + j]); pi = i; pj = j; }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) break;
         *minpivot = k == 0 ? amax / amax0 : fmin(*minpivot, amax / amax0);
+        if (w->rband == k && amax >= MBS_LOOP_BAND_TOL * amax0) w->rband = k + 1;
         if (pi != k) mbs_loop_swap_rows(w, k, pi);
         if (pj != k) {
             for (i = 0; i < MBS_NC; i++) {
@@ -348,14 +368,15 @@ static int mbs_loop_keep_valid(const mbs_loop_work *w)
     return seen == MBS_NV;
 }
 
-/* Remember the partition of the factors in w->G (rank r, smallest relative pivot `pivot`). */
-static void mbs_loop_keep_store(mbs_loop_work *w, int r, double pivot)
+/* Remember the partition of the factors in w->G (rank r, smallest relative pivot `pivot`; `clean`: all its
+ * pivots above MBS_LOOP_BAND_TOL, so that one falling below it tells a singular position near). */
+static void mbs_loop_keep_store(mbs_loop_work *w, int r, double pivot, int clean)
 {
     double *kp = w->keep;
     kp[0] = MBS_LOOP_KEEP_MARK;
     kp[1] = r;
     kp[2] = pivot;
-    kp[3] = 0.0;
+    kp[3] = clean ? 1.0 : 0.0;
     memcpy(kp + 4, w->cp, MBS_NV * sizeof(double));
     memcpy(kp + 4 + MBS_NV, w->rp, r * sizeof(double));
 }
@@ -418,11 +439,13 @@ static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, doubl
 }
 
 /* The rank of G at positions near q along a motion the factors in w->G allow (dv in their null space, a fixed
- * mix of the independent velocities, 3e-6 in the largest coordinate): the rank of the regular positions
+ * mix of the independent velocities, `distance` in the largest coordinate): the rank of the regular positions
  * around q.  Where q is regular, or the rows are redundant along the whole motion (an overconstrained but
- * mobile mechanism), the rank stays (the deviation from the motion is of second order, about 1e-11); at a
- * singular position (a bifurcation) the lost rank returns at first order. */
-static int mbs_loop_generic_rank(double t, const double *q, const double *p, mbs_loop_work *w, int r)
+ * mobile mechanism), the rank stays (the deviation from the motion is of second order, about 1e-11 at 3e-6);
+ * at a singular position (a bifurcation) the lost rank returns at first order.  *rband: the number of leading
+ * pivots above MBS_LOOP_BAND_TOL there. */
+static int mbs_loop_generic_rank(double t, const double *q, const double *p, mbs_loop_work *w, int r,
+                                 double distance, int *rband)
 {
     mbs_loop_work v = *w;
     double pivot, scale;
@@ -434,13 +457,15 @@ static int mbs_loop_generic_rank(double t, const double *q, const double *p, mbs
     if (mbs_qdot(t, w->xt, p, w->dq, w->tree) != 0) return -1;
     scale = mbs_loop_maxabs(w->dq, MBS_NQ, NULL);
     if (!(scale > 0.0) || !isfinite(scale)) return -1;
-    for (i = 0; i < MBS_NQ; i++) w->xt[i] = q[i] + 3e-6 / scale * w->dq[i];
+    for (i = 0; i < MBS_NQ; i++) w->xt[i] = q[i] + distance / scale * w->dq[i];
     mbs_loop_normalize_q(w->xt);
     if (mbs_loop_jacobian_into(t, w->xt, p, w, w->K, w->c3) != 0) return -1;
     v.G = v.G0 = w->K;
     v.rp = w->rp2;
     v.cp = w->cp2;
-    return mbs_loop_factor(&v, &pivot);
+    i = mbs_loop_factor(&v, &pivot);
+    *rband = v.rband;
+    return i;
 }
 
 /* Factor G (just evaluated at the positions q by mbs_loop_jacobian_at) and return the rank, -1 if not finite.
@@ -453,22 +478,30 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
                               mbs_loop_info *info)
 {
     double pivot;
-    int r, valid = adopt >= 0 && mbs_loop_keep_valid(w);
+    int r, rb, valid = adopt >= 0 && mbs_loop_keep_valid(w);
     w->fresh = w->singular = 0;
     if (valid) {
         pivot = mbs_loop_factor_kept(w);
         if (pivot < 0.0) return -1;
         w->pivot = pivot;
-        if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2]) return (int)w->keep[1];
+        if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2] && (pivot >= MBS_LOOP_BAND_TOL || w->keep[3] == 0.0))
+            return (int)w->keep[1];
         memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
     }
     r = mbs_loop_factor(w, &pivot);
     w->fresh = 1;
     w->pivot = pivot;
-    if (r > 0 && r < MBS_NC && r < MBS_NV && r < (valid ? (int)w->keep[1] : mbs_loop_generic_rank(t, q, p, w, r)))
+    if (r > 0 && r < MBS_NC && r < MBS_NV
+        && r < (valid ? (int)w->keep[1] : mbs_loop_generic_rank(t, q, p, w, r, 3e-6, &rb)))
         w->singular = 1;
+    if (!w->singular && r > 0 && w->rband < r) {  /* pivots in the band: near a singular position, or ill-scaled */
+        if (mbs_loop_generic_rank(t, q, p, w, w->rband, MBS_LOOP_BAND_PROBE, &rb) >= 0 && rb > w->rband) {
+            w->singular = 1;
+            if (!w->newton) r = w->rband;
+        }
+    }
     if (r > 0 && (adopt > 0 || (adopt == 0 && !valid)) && !w->singular) {
-        mbs_loop_keep_store(w, r, pivot);
+        mbs_loop_keep_store(w, r, pivot, w->rband == r);
         if (info) info->refreshed++;
     }
     return r;
@@ -491,7 +524,7 @@ static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_w
 }
 
 /* Project the positions of w->xc onto g = 0 (velocities of w->xc untouched as a state, used as scratch). */
-static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
+static int mbs_loop_positions_iterate(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
     double *q = w->xc, res;
     int s, i, k, keep = 0;
@@ -536,6 +569,17 @@ static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int a
         if (res > 0.5 * before) break;  /* no longer converging: the floor is near */
     }
     return 0;
+}
+
+/* The positions by Newton on all the rows of full rank, also in the band around a singular position: there the
+ * rows with small pivots move the positions onto the branch to the round-off of g over the pivot. */
+static int mbs_loop_positions(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
+{
+    int s;
+    w->newton = 1;
+    s = mbs_loop_positions_iterate(t, p, w, adopt, info);
+    w->newton = 0;
+    return s;
 }
 
 /* w->xc = x projected onto the position and velocity constraints; leaves G factored at the projected

@@ -42,7 +42,9 @@ extern const int mbs_ny;
 #include "ode.c"
 #include "dense_lu.c"
 #include "dopri5.c"
+#include "rosenbrock.c"
 #include "rodasp.c"
+#include "rodas5p.c"
 #ifdef MBS_NC
 #include "loops.c"  /* closed kinematic loops: projection, partitioning, constrained accelerations */
 #ifdef MBS_LOOP_JACOBIAN
@@ -117,6 +119,7 @@ typedef int (*mbs_init_fn)(mbs_ode *, int, mbs_fn, const double *, double *, dou
 static const struct { const char *name; mbs_init_fn init; } MBS_METHODS[] = {
     {"dopri5", mbs_dopri5_init},
     {"rodasp", mbs_rodasp_init},
+    {"rodas5p", mbs_rodas5p_init},
 };
 #define MBS_METHODS_SIZE ((int)(sizeof MBS_METHODS / sizeof MBS_METHODS[0]))
 
@@ -380,6 +383,13 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     Py_INCREF(fn_obj);
     self->function = fn_obj;
     rhs = fn->entry->fn;
+#ifdef MBS_NC
+    /* the mechanism's own rhs in DOPRI5: x' at the integrated state itself (mbs_loop_rhs_direct, the kept
+     * partition), the accepted states projected below; the projecting mbs_loop_rhs at every stage would project
+     * each stage's state again (the bump: two thirds of the integration's work).  rodasp keeps the projecting
+     * rhs, whose Jacobian loop_jacobian.c assembles. */
+    if (fn->entry->fn == mbs_rhs && MBS_METHODS[i].init == mbs_dopri5_init) rhs = mbs_loop_rhs_direct;
+#endif
     rc = MBS_METHODS[i].init(&self->ode, MBS_NX, rhs, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
                              natol, first_step, max_step, min_step, max_steps);
     Py_XDECREF(y0_tmp);

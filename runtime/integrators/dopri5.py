@@ -5,25 +5,18 @@ The default integrator of the C back end: non-stiff vehicle models at moderate t
 
 from __future__ import annotations
 
-import numpy as np
-
-from .base import DenseOutput
-from .native import NativeSolver
+from .native import CoefficientDense, NativeSolver
 from .registry import register
 
 
-class Dopri5Dense(DenseOutput):
+class Dopri5Dense(CoefficientDense):
     """y(t) = c0 + s (c1 + (1-s) (c2 + s (c3 + (1-s) c4))), s = (t - t_old)/h, as dp_dense in C."""
 
-    def __init__(self, t_old, t, cont, n):
-        super().__init__(t_old, t)
-        self.c = np.asarray(cont[:5 * n]).reshape(5, n)
-        self.h = float(cont[5 * n])
+    rows = 5
 
     def _call_impl(self, t):
-        s = (t - self.t_old) / self.h
+        s, (c0, c1, c2, c3, c4) = self.coefficients(t)
         s1 = 1.0 - s
-        c0, c1, c2, c3, c4 = (ci[:, None] if t.ndim else ci for ci in self.c)
         return c0 + s * (c1 + s1 * (c2 + s * (c3 + s1 * c4)))
 
 

@@ -1,7 +1,8 @@
 """SUNDIALS IDA (variable-order BDF for implicit equations F(t, y, y') = 0). A tree is integrated in residual
 form F = y' - f(t, y), with the generated Jacobian dF/dy + c dF/dy' = c I - J when the model has one. A closed
 mechanism is integrated as the stabilised index-2 DAE of ggl.py (constraints as equations, multipliers among
-the unknowns, no projection); the results hold its state x = [q; v] as for every other integrator."""
+the unknowns, no projection), which continues in the residual form of the projected state where its rows
+lose rank (a singular position); the results hold its state x = [q; v] as for every other integrator."""
 
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ class Ida(SundialsSolver):
 
     def __init__(self, fun, t0, y0, t_bound, *, workspace=None, **options):
         self._ggl = None
+        self.switched_to_ode = None  # the time from which the DAE form gave way to the ODE form (else None)
         if workspace is not None and "constraint_jacobian" in workspace.model.functions:
             self._ggl = GGL(workspace, t0, y0)
             y0 = self._ggl.y0[:self._ggl.nx]
@@ -34,6 +36,7 @@ class Ida(SundialsSolver):
 
     def _make(self, settings):
         from sksundae import ida
+        self._settings = dict(settings)  # before the DAE form adds its own: the ODE form may start later
         if self._ggl is not None:
             ggl = self._ggl
             settings.update(atol=ggl.atol(settings["atol"]), algebraic_idx=ggl.algebraic)
@@ -63,7 +66,19 @@ class Ida(SundialsSolver):
         ok, reason = super()._step_impl()
         if self._ggl is not None:
             self.y = self.y[:self._ggl.nx]  # the multipliers stay inside
+            if not ok and self._error is None:
+                return self._continue_as_ode()
         return ok, reason
+
+    def _continue_as_ode(self):
+        """The DAE form's rows are chosen once; at a singular position of the loops (a four-bar stretched flat)
+        they lose rank and its Newton iteration fails.  From the last accepted state the run goes on in the
+        residual form of the projected tree state, F = x' - f(P(x)), which the loop solver carries through
+        such positions (the limit of the motion, runtime/c/loops.c); counters restart with the new solver."""
+        self._ggl = None
+        self.switched_to_ode = self.t
+        self._solver = self._make(dict(self._settings))
+        return super()._step_impl()
 
     def _interpolate(self, t: float) -> np.ndarray:
         y = super()._interpolate(t)

@@ -32,6 +32,22 @@ def native_module(fun):
     return None
 
 
+class CoefficientDense(DenseOutput):
+    """The dense output of a C method: ``rows`` coefficient vectors of n and the step size h, as the method's
+    cont array holds them; a subclass evaluates them in ``_call_impl``, as the method's dense hook in C."""
+
+    rows: ClassVar[int]
+
+    def __init__(self, t_old, t, cont, n):
+        super().__init__(t_old, t)
+        self.c = np.asarray(cont[:self.rows * n]).reshape(self.rows, n)
+        self.h = float(cont[self.rows * n])
+
+    def coefficients(self, t):
+        """(s, the coefficient vectors) at the times t (columns for an array of times)."""
+        return (t - self.t_old) / self.h, [ci[:, None] if t.ndim else ci for ci in self.c]
+
+
 class NativeSolver(OdeSolver):
     """Base of the C integrators: ``native_method`` names the entry in the C method table, and
     ``dense_class`` turns the C dense-output coefficients into a DenseOutput."""

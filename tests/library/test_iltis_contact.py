@@ -51,7 +51,7 @@ def reference(smooth):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "Radau", "BDF", "cvode_bdf", "ida"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "Radau", "BDF", "cvode_bdf", "ida"])
 def test_every_integrator_takes_the_iltis_over_the_bump_at_10_m_s_with_contact_events(switched, reference,
                                                                                        integrator):
     res = switched.simulate("bump_10", integrator=integrator)

@@ -31,7 +31,7 @@ def smooth():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "Radau", "BDF"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "Radau", "BDF"])
 def test_lift_off_and_touch_down_are_logged_and_every_integrator_finishes(switched, smooth, integrator):
     res = switched.simulate("bump_10", integrator=integrator)
     assert res.success, res.message

@@ -25,7 +25,7 @@ def test_accuracy_writes_table_csv_and_plot(tmp_path, capsys):
 def test_numerics_names_the_recommendation(capsys):
     assert main(["numerics", "tests/runtime/models/stiff_mount.mbs"]) == 0
     text = capsys.readouterr().out
-    assert "recommended: integrator = rodasp" in text and "mostly mount_guide.s" in text
+    assert "recommended: integrator = rodas5p" in text and "mostly mount_guide.s" in text
 
 
 def test_error_estimate_is_close_to_the_true_error(tmp_path, capsys):

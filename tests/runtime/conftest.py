@@ -55,6 +55,14 @@ def failing(builds):
 
 
 @pytest.fixture(scope="session")
+def order_problems(builds):
+    """Linear, Prothero-Robinson and van der Pol with exact Jacobians; p = [problem, ...]
+    (fixtures/order_problems.c)."""
+    return _load(builds, "order_problems.c", name="order_problems", q_names=["x0"], v_names=["x1"],
+                 p_default=[0.0, 1.0, 10.0], x0=[1.0, 0.0])
+
+
+@pytest.fixture(scope="session")
 def quarter_car(builds):
     return _load(builds, "quarter_car.c", name="quarter_car", q_names=["z_wheel", "z_body"],
                  v_names=["vz_wheel", "vz_body"], p_default=QUARTER_CAR_P, x0=[0.0, 0.0, 0.0, 0.0])

@@ -28,7 +28,7 @@ def run_in_python(system, monkeypatch, **kwargs):
         return system.simulate(**kwargs)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p"])
 def test_events_restarted_in_c_match_the_python_loop(stick_slip, monkeypatch, integrator):
     handled = []
     replay = event_loop.replay

@@ -48,7 +48,7 @@ def ball():
     return mbs.load(BALL)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "RK45", "Radau"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "RK45", "Radau"])
 def test_bounce_times_follow_the_closed_form_until_the_ball_comes_to_rest(ball, integrator):
     res = ball.simulate("drop", integrator=integrator)
     times = np.array([e["time"] for e in res.events])
@@ -121,7 +121,7 @@ def arm():
     return mbs.load(ARM)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "BDF", "LSODA"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "BDF", "LSODA"])
 def test_a_stepped_set_point_is_a_time_event_every_integrator_passes(arm, integrator):
     res = arm.simulate(t_end=1.0, sample=0.01, integrator=integrator)
     assert res.success, res.message

@@ -39,14 +39,14 @@ def pendulum_period(model, phi0, integrator, rtol):
     return 2 * (t2 - t1)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p"])
 def test_small_amplitude_period(pendulum, integrator):
     period = pendulum_period(pendulum, 1e-3, integrator, 1e-10)
     # exact T = 2 pi sqrt(l/g) (1 + phi0^2/16 + ...): the correction is 6e-8 relative
     assert period == pytest.approx(2 * math.pi * math.sqrt(1 / G), rel=2e-7)
 
 
-@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "DOP853"])
+@pytest.mark.parametrize("integrator", ["dopri5", "rodasp", "rodas5p", "DOP853"])
 def test_large_amplitude_period_is_the_elliptic_integral(pendulum, integrator):
     phi0 = 2.5  # 143 degrees: 47 % longer than the small-amplitude period
     exact = 4 * math.sqrt(1 / G) * ellipk(math.sin(phi0 / 2) ** 2)
@@ -175,7 +175,7 @@ def test_vector_atol_and_sample_grid(pendulum):
     np.testing.assert_allclose(res.t, np.r_[np.arange(11) * 0.1, 1.05])
 
 
-@pytest.mark.parametrize("integrator, order", [("dopri5", 5), ("rodasp", 4)])
+@pytest.mark.parametrize("integrator, order", [("dopri5", 5), ("rodasp", 4), ("rodas5p", 5)])
 def test_order_of_convergence_with_fixed_steps(pendulum, integrator, order):
     """Loose tolerances and max_step = first_step = h make every step accepted with size h."""
     data = Workspace(pendulum)

@@ -29,7 +29,7 @@ def test_dopri5_warns_once_naming_the_mount(stiff_mount):
     assert quoted == pytest.approx(fast, rel=0.02)
 
 
-@pytest.mark.parametrize("integrator", ["auto", "rodasp", "BDF", "cvode_bdf", "ida"])
+@pytest.mark.parametrize("integrator", ["auto", "rodasp", "rodas5p", "BDF", "cvode_bdf", "ida"])
 def test_auto_and_the_stiff_integrators_finish_in_few_steps(stiff_mount, integrator):
     res = stiff_mount.simulate("drop", integrator=integrator)
     assert res.metadata["status"] == "finished"
