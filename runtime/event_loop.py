@@ -195,14 +195,16 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     nx, nev = model.nx, len(model.events)
     directions = np.array([e.direction for e in model.events], dtype=np.intc)
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-    fired_rows = crossing_rows(g_old, g_event, directions)
+    fired_lists: list[list[int]] = [[] for _ in range(len(log))]  # the indicators that fired, per entry
+    for entry, k in zip(*(a.tolist() for a in np.nonzero(crossing_rows(g_old, g_event, directions)))):
+        fired_lists[entry].append(k)
     split = np.maximum(np.searchsorted(times, log[:, 0], side="left"), start)  # first sample row at or after it
     which = segments.in_force(p_now)
-    for row, fired, j, g_before, g_at in zip(log, fired_rows, split.tolist(), g_old, g_event):
+    for row, fired, j, g_before, g_at in zip(log, fired_lists, split.tolist(), g_old, g_event):
         t_event = float(row[0])
         segments.append(times[start:j], states[start:j], which)
         segments.append((t_event,), row[1:1 + nx], which)
-        _, new = apply_events(model, data, np.flatnonzero(fired), g_before, g_at, t_event, row[1:1 + nx],
+        _, new = apply_events(model, data, fired, g_before, g_at, t_event, row[1:1 + nx],
                               model.x_names, values=row[1 + 2 * nx + 2 * nev:], p=p_now)
         records += new
         fired_times += [t_event] * len(new)

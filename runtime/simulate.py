@@ -243,20 +243,24 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
 def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
     """_project_rows for a run with events, each row with the run-time values p it was computed with (a
     sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
-    the number of leading rows projected."""
-    saved, failed = data.p.copy(), len(ts)
+    the number of leading rows projected.  The rows of one p copy are consecutive (the copies are numbered in time
+    order): one pass over the runs of rows, each projected in place; only a run that repeats a row (same time,
+    state and p) looks for its repetitions."""
+    saved = data.p.copy()
+    bounds = [0, *(np.flatnonzero(np.diff(which)) + 1).tolist(), len(which)]
+    repeats = (ts[1:] == ts[:-1]) & (which[1:] == which[:-1]) & (xs[1:] == xs[:-1]).all(axis=1)
+    repeating = set((np.searchsorted(bounds, np.flatnonzero(repeats) + 1, side="right") - 1).tolist())
+    p = data.p  # the workspace's own array: the model functions read it
     try:
-        for k, p in enumerate(ps):
-            rows = np.flatnonzero(which == k)
-            data.p = p
-            part = xs[rows]
-            done = _project_rows(data, ts[rows], part)
-            xs[rows] = part
-            if done < len(rows):
-                failed = min(failed, int(rows[done]))
+        for run, (first, end) in enumerate(zip(bounds[:-1], bounds[1:])):
+            p[:] = ps[which[first]]
+            rows = xs[first:end]  # a view: projected in place
+            done = (_project_rows if run in repeating else project_samples)(data, ts[first:end], rows)
+            if done < end - first:
+                return first + done
     finally:
-        data.p = saved
-    return failed
+        p[:] = saved
+    return len(ts)
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,

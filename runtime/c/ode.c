@@ -15,6 +15,11 @@
 /* The look ahead after a restart that tells which side an indicator at zero leaves to (DEPARTURE_STEP of
  * runtime/events.py), relative to max(1, |t|). */
 #define MBS_ODE_DEPARTURE_STEP 1e-12
+/* A second crossing at most this far after an event (relative to max(1, |t|)) is reached by an Euler step from the
+ * restart instead of a step of the method (see mbs_ode_bridge) ... */
+#define MBS_ODE_BRIDGE_GAP 1e-6
+/* ... when that step's error estimate, in the method's error norm, is at most this (a step accepted with room) */
+#define MBS_ODE_BRIDGE_ERROR 1e-2
 
 /* Events restarted in C (see mbs_ode_restart): which indicators qualify and what their actions assign, and the
  * log of the events handled since the caller last read it. */
@@ -31,6 +36,8 @@ typedef struct mbs_ode_restarts {
     double h_cut;           /* size of the step in which the pending event was located */
     double t_next;          /* the next crossing located in that step after the event (HUGE_VAL: none) */
     double h_resume;        /* > 0: the step size to go on with after the short step to t_next */
+    double t_fence;         /* the next sample time: an Euler bridge to a second crossing stays before it */
+    double *f_bridge;       /* [n]: the rhs at the end of an Euler bridge */
     long capacity, count;   /* log entries: room for, and taken */
     size_t width;           /* doubles per entry: t, y before [n], x after [n], g before [nev], g at [nev], values */
     double *log;            /* [capacity * width] */
@@ -40,6 +47,7 @@ static void mbs_ode_free_restarts(mbs_ode_restarts *r)
 {
     if (!r) return;
     free(r->handled); free(r->flag); free(r->first); free(r->index); free(r->slot); free(r->log);
+    free(r->f_bridge);
     free(r);
 }
 
@@ -299,6 +307,7 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     if (!r) return -1;
     r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window; r->last_t = -HUGE_VAL;
     r->t_next = HUGE_VAL;
+    r->t_fence = -HUGE_VAL;
     r->capacity = capacity > 0 ? capacity : 1;
     r->width = 1 + 2 * (size_t)o->n + 2 * (size_t)nev + (size_t)nvalues;
     r->handled = calloc((size_t)nev + 1, sizeof(int));
@@ -307,7 +316,8 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     r->index = calloc((size_t)nassign + 1, sizeof(int));
     r->slot = calloc((size_t)nassign + 1, sizeof(int));
     r->log = calloc((size_t)r->capacity * r->width, sizeof(double));
-    if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log) {
+    r->f_bridge = calloc((size_t)o->n + 1, sizeof(double));
+    if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log || !r->f_bridge) {
         mbs_ode_free_restarts(r);
         return -1;
     }
@@ -361,6 +371,62 @@ static int mbs_ode_settle(mbs_ode *o, const double *g)
         }
     }
     return changed;
+}
+
+static int mbs_ode_restart(mbs_ode *o);
+
+/* The Euler step from a restart: y(t) = y + (t - t_restart) f, f evaluated afresh at the restart. */
+static void mbs_ode_euler_dense(const mbs_ode *o, double t, double *out)
+{
+    int i;
+    for (i = 0; i < o->n; i++) out[i] = o->y[i] + (t - o->t) * o->f[i];
+}
+
+/* Just after a restart at t1 (f and the departing indicators g_old evaluated there), another indicator crossed at
+ * r->t_next, a moment later, on the dense output of the step that found the first (the left and the right wheel
+ * over one bump, 1e-8 s apart).  An Euler step from t1 reaches it for one evaluation of f, where a step of the
+ * method (a short one to just beyond it, or a full one running over its kink with the old branch, rejected) costs
+ * one evaluation per stage: the crossing is located on the Euler step as on any dense output (to 1e-12 s or
+ * adjacent doubles), the step's error estimate (half the step times the change of f, in the method's norm) is
+ * checked, and the event there is applied and restarted from as the first was.  Returns 1 when it was (the run
+ * continues, or stops there when its restart hands it back), 0 with nothing changed when the Euler step does not
+ * qualify: no crossing on it, too large an error, a sample time or the end before it, an event closer than the
+ * chattering window, or an indicator crossing there that C does not handle. */
+static int mbs_ode_bridge(mbs_ode *o)
+{
+    mbs_ode_restarts *r = o->restarts;
+    void (*dense)(const mbs_ode *, double, double *) = o->dense;
+    double t1 = o->t, b = t1 + 2.0 * (r->t_next - t1), t2 = HUGE_VAL, err;
+    int i, k, ok = 0;
+    if (!(b < r->t_fence && b <= o->t_bound && r->t_next - t1 > r->window * fmax(1.0, fabs(r->t_next)))) return 0;
+    o->dense = mbs_ode_euler_dense;
+    o->dense(o, b, o->y_try);
+    if (o->events(b, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
+    for (k = 0; k < o->nev; k++) {
+        if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
+            double tk = mbs_ode_locate(o, k, t1, b, o->g_old[k], o->g_new[k]);
+            if (tk < t2) t2 = tk;
+        }
+    }
+    if (!(t2 < HUGE_VAL && t2 - t1 > r->window * fmax(1.0, fabs(t2)))) goto done;
+    o->dense(o, t2, o->y_try);
+    if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
+    for (k = 0; k < o->nev; k++)
+        if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k]) && !r->handled[k]) goto done;
+    o->nfev++;
+    if (o->fn(t2, o->y_try, o->p, r->f_bridge, o->work) != MBS_OK) goto done;
+    for (i = 0; i < o->n; i++) r->f_bridge[i] = 0.5 * (t2 - t1) * (r->f_bridge[i] - o->f[i]);
+    err = mbs_ode_error_norm(o, r->f_bridge, o->y, o->y_try);
+    ok = err <= MBS_ODE_BRIDGE_ERROR;
+done:
+    o->dense = dense;
+    if (!ok) return 0;
+    memcpy(o->y, o->y_try, (size_t)o->n * sizeof(double));
+    o->t = t2;
+    o->status = MBS_ODE_EVENT;
+    r->t_next = HUGE_VAL;
+    mbs_ode_restart(o);  /* 0: the event at t2 goes back to the caller from the state there */
+    return 1;
 }
 
 /* At a located event (status MBS_ODE_EVENT, g_old the indicators at the step's start): when every indicator
@@ -419,12 +485,14 @@ static int mbs_ode_restart(mbs_ode *o)
     /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
      * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
      * branch (rejected) and then be cut short by it */
-    if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && 2.0 * (r->t_next - o->t) >= o->h_min
-        && r->t_next > o->t) {
-        r->h_resume = o->h;
-        o->h = 2.0 * (r->t_next - o->t);
-    }
     o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
+    if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && r->t_next > o->t && o->status == MBS_ODE_RUNNING) {
+        if (r->t_next - o->t <= MBS_ODE_BRIDGE_GAP * fmax(1.0, fabs(o->t)) && mbs_ode_bridge(o)) return 1;
+        if (2.0 * (r->t_next - o->t) >= o->h_min) {
+            r->h_resume = o->h;
+            o->h = 2.0 * (r->t_next - o->t);
+        }
+    }
     return 1;
 }
 
@@ -447,7 +515,13 @@ static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *i
         }
         *index = i;
         /* restart here only with every sample before the event filled (the old step's dense output goes) */
-        if (o->status == MBS_ODE_EVENT && i < n_eval && mbs_ode_restart(o)) continue;
+        if (o->status == MBS_ODE_EVENT && i < n_eval) {
+            int restarted;
+            if (o->restarts) o->restarts->t_fence = t_eval[i];
+            restarted = mbs_ode_restart(o);
+            if (o->restarts) o->restarts->t_fence = -HUGE_VAL;
+            if (restarted) continue;
+        }
         if (i >= n_eval || o->status == MBS_ODE_EVENT) return o->status;
         if (o->status == MBS_ODE_FINISHED) return o->status = MBS_ODE_BAD_SAMPLE;  /* beyond t_bound */
         if (o->status != MBS_ODE_RUNNING) return o->status;
