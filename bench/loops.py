@@ -107,7 +107,7 @@ def workspace(system, scene):
     compiled = system.compile(scene)
     values = pipeline.parameter_values(system.model, pipeline.scene_overrides(system.scene(scene)))
     data = Workspace(compiled)
-    data.p = [values[n] for n in compiled.p_names]
+    data.p = pipeline.parameter_vector(compiled.p_names, values)
     return compiled, data
 
 

@@ -18,16 +18,21 @@ QUARTER_CAR = Path(__file__).resolve().parents[2] / "library" / "iltis" / "quart
 HEADER = 'model quarter_car "Iltis quarter car" {'
 
 
-@pytest.fixture(scope="module")
-def switched():
+def with_switches(flag: str):
+    """The quarter car with its kinks as events (true, the default) or smooth (false)."""
     text = QUARTER_CAR.read_text()
     assert HEADER in text
-    return mbs.loads(text.replace(HEADER, HEADER + "\n    switches = true"), path=str(QUARTER_CAR))
+    return mbs.loads(text.replace(HEADER, HEADER + f"\n    switches = {flag}"), path=str(QUARTER_CAR))
+
+
+@pytest.fixture(scope="module")
+def switched():
+    return with_switches("true")
 
 
 @pytest.fixture(scope="module")
 def smooth():
-    return mbs.load(QUARTER_CAR)
+    return with_switches("false")
 
 
 @pytest.mark.slow
