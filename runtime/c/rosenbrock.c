@@ -63,16 +63,6 @@ struct ro_mem {
     double *jac, *lu, *k[RO_MAX_STAGES], *ynew, *dy, *fx, *tmp;
 };
 
-/* f at the projection of y (closed loops): the Jacobian by differences is then that of f after the projection,
- * as the generated one (runtime/c/loop_jacobian.c).  f at an unprojected state bends off the constraints by the
- * inverse square of the distance from a singular position (a four-bar near flat), so that its own differences
- * there would be of no use to the method. */
-static int ro_eval_projected(mbs_ode *o, double t, const double *y, double *out)
-{
-    if (o->project(t, y, o->p, o->yproj, o->work) != MBS_OK) return -1;
-    return mbs_ode_eval(o, t, o->yproj, out);
-}
-
 /* J = d f/d y (n x n) and fx = d f/d t at (t, y), into m->jac (rows of n + 1: the time derivative is the last
  * column, the layout of the generated mbs_jacobian).  The generated Jacobian when the model has one; finite
  * differences when it has none or it fails (its status is then remembered for the failure message). */
@@ -92,9 +82,9 @@ static int ro_jacobian(mbs_ode *o, ro_mem *m)
             double ysafe = y[j];
             delt = 1e-5 * fmax(1.0, fabs(ysafe));
             y[j] = ysafe + delt;
-            if (ro_eval_projected(o, o->t, y, m->dy) != MBS_OK) { y[j] = ysafe; return -1; }
+            if (mbs_ode_eval(o, o->t, y, m->dy) != MBS_OK) { y[j] = ysafe; return -1; }
             y[j] = ysafe - delt;
-            if (ro_eval_projected(o, o->t, y, m->tmp) != MBS_OK) { y[j] = ysafe; return -1; }
+            if (mbs_ode_eval(o, o->t, y, m->tmp) != MBS_OK) { y[j] = ysafe; return -1; }
             y[j] = ysafe;
             for (i = 0; i < n; i++) m->jac[i * w + j] = (m->dy[i] - m->tmp[i]) / (2 * delt);
         }
