@@ -51,7 +51,7 @@ def test_tape_matches_pinocchio_crba_and_aba(seed):
         _assert_dynamics(numeric(0.0, x, values), M, vdot)
 
 
-@pytest.mark.parametrize("seed", [1, 2, 3] + [pytest.param(s, marks=pytest.mark.slow) for s in (0, 4, 5, 6)])
+@pytest.mark.parametrize("seed", [1] + [pytest.param(s, marks=pytest.mark.slow) for s in (0, 2, 3, 4, 5, 6)])
 def test_compiled_c_matches_pinocchio(seed, tmp_path):
     rng, tree, params, values, eqs = _case(seed)
     model = treekit.pinocchio_model(tree, dict(zip(params, values)))
@@ -65,7 +65,7 @@ def test_compiled_c_matches_pinocchio(seed, tmp_path):
         np.testing.assert_allclose(out["xdot"][:tree.nq], out["qdot"], rtol=0, atol=0)
 
 
-@pytest.mark.parametrize("seed", range(3))
+@pytest.mark.parametrize("seed", [0] + [pytest.param(s, marks=pytest.mark.slow) for s in (1, 2)])
 def test_any_topological_order(seed):
     # Our trees need not be depth-first (Pinocchio's crba needs it; its rnea columns do not).
     rng, tree, params, values, eqs = _case(50 + seed, depth_first=False)

@@ -128,6 +128,7 @@ def lugre_reference(times):
     return sol.y.T[row]
 
 
+@pytest.mark.slow  # its reference, scipy's Radau in Python at rtol 1e-11 across 16 kinks, takes about 40 s
 def test_lugre_friction_in_a_tree_joint_of_a_loop_model():
     system = mbs.load(MODELS / "slider_crank_lugre.mbs")
     res = system.simulate("spin_up", integrator="rodasp", rtol=1e-9, atol=1e-12)
