@@ -80,9 +80,6 @@ typedef struct {
     double event_t[MBS_FMU_ZENO_EVENTS];  /* the times of the last events (a ring, fmu_zeno) */
     long nevents;                          /* events applied since the start */
     int terminated;                        /* an event ended the run (fmi2Terminated) */
-    /* Model Exchange: +1 / -1 for an event whose reinit left its indicator on the side it crossed to (rising /
-     * falling), until the importer sees it leave (fmi2CompletedIntegratorStep) */
-    int stuck[MBS_FMU_NEV + 1];
 } mbs_fmu;
 
 typedef struct { double t, x[MBS_NX + 1], p[MBS_NP + 1]; } mbs_fmu_state;
@@ -224,6 +221,34 @@ static void fmu_log_zeno(mbs_fmu *m)
             m->event_t[(m->nevents - 1) % MBS_FMU_ZENO_EVENTS] - m->event_t[m->nevents % MBS_FMU_ZENO_EVENTS]);
 }
 
+/* A fired event with a reinit whose indicator, at the located crossing, moves back to the side it came from: a
+ * crossing in the integrator's noise, not of the motion (runtime/events.against_motion: a ball near its
+ * accumulation point, where its flights are shorter than the integrator resolves; the reinit would send it into
+ * the ground).  Returns 1 (the run ends here, nothing applied, said in the log), 0, or -1 when the model failed.
+ * m->g holds the indicators at the crossing. */
+static int fmu_against_motion(mbs_fmu *m, const double *g_before)
+{
+    int k, j, jumps = 0;
+    for (k = 0; k < MBS_NEV; k++)
+        if (fmu_crossed(k, g_before[k], m->g[k]))
+            for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) jumps |= MBS_FMU_TARGET[j];
+    if (!jumps) return 0;
+    if (fmu_ahead(m, MBS_FMU_RATE_STEP * fmax(1.0, fabs(m->t))) != 0) return -1;
+    for (k = 0; k < MBS_NEV; k++) {
+        if (!fmu_crossed(k, g_before[k], m->g[k])) continue;
+        for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) {
+            if (MBS_FMU_TARGET[j] && (m->g_try[k] - m->g[k]) * (0.0 - g_before[k]) < 0) {
+                fmu_log(m, fmi2Warning, "logStatusWarning", "chattering (Zeno behaviour) at t = %.12g s: event '%s' "
+                        "(%ld events so far) now crosses against the motion: the motion has come to rest at its "
+                        "threshold below the integrator's resolution; the run ends here with its results", m->t,
+                        MBS_FMU_EVENT_NAMES[k], m->nevents);
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
 /* What fmu_apply_events did (a mask). */
 #define FMU_FIRED 1        /* an event crossed */
 #define FMU_JUMPED 2       /* the state x jumped (a reinit): the importer reads the states again */
@@ -249,6 +274,7 @@ static int fmu_apply_events(mbs_fmu *m, const double *g_before)
         if (MBS_FMU_TERMINAL[k]) mask |= FMU_TERMINAL;
     }
     if (!mask) return 0;
+    if ((k = fmu_against_motion(m, g_before)) != 0) return k < 0 ? -1 : FMU_ZENO;
 #ifdef MBS_NACT
     if (mbs_event_actions(m->t, m->x, m->p, m->values, m->work) != MBS_OK) return -1;
 #endif
@@ -284,50 +310,20 @@ static int fmu_apply_events(mbs_fmu *m, const double *g_before)
 }
 
 /* Event mode of Model Exchange: the events that crossed since the last completed step applied (fmu_apply_events),
- * then every switch settles; info says whether the states jumped and whether the run ends.  An event whose
- * reinit leaves its indicator on the side it crossed to (a ball at rest on the ground to the importer's
- * resolution: it rises by less than the importer's tolerance) is watched by fmi2CompletedIntegratorStep. */
+ * then every switch settles; info says whether the states jumped and whether the run ends. */
 static fmi2Status fmu_event_update(mbs_fmu *m, fmi2EventInfo *info)
 {
-    int k, j, jumps[MBS_FMU_NEV + 1], mask;
-    for (k = 0; k < MBS_NEV; k++) jumps[k] = 0;
-    mask = fmu_apply_events(m, m->g_prev);
+    int mask = fmu_apply_events(m, m->g_prev);
     if (mask < 0) {
         fmu_log(m, fmi2Error, "logStatusError", "the event actions failed at t = %g s", m->t);
         return fmi2Error;
     }
-    for (k = 0; k < MBS_NEV && mask; k++)  /* m->g: the indicators at the event, before its actions */
-        if (fmu_crossed(k, m->g_prev[k], m->g[k]))
-            for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++)
-                if (MBS_FMU_TARGET[j]) jumps[k] = m->g[k] > m->g_prev[k] ? 1 : -1;
     info->valuesOfContinuousStatesChanged = mask & FMU_JUMPED ? fmi2True : fmi2False;
     if (mask & (FMU_TERMINAL | FMU_ZENO)) {
         info->terminateSimulation = fmi2True;
         m->terminated = 1;
     }
-    if (fmu_settle_switches(m) != fmi2OK) return fmi2Error;
-    for (k = 0; k < MBS_NEV; k++) {
-        if (jumps[k]) m->stuck[k] = m->g_prev[k] * jumps[k] >= 0 ? jumps[k] : 0;
-        else if (m->g_prev[k] * m->stuck[k] < 0) m->stuck[k] = 0;
-    }
-    return fmi2OK;
-}
-
-/* After a completed step of the importer: an indicator still stuck on the side its reinit left it on
- * (fmu_event_update) that now moves further into that side has come back without the importer ever seeing it
- * leave: a motion that has come to rest at its threshold below the importer's resolution (a ball near its
- * accumulation point, runtime/events.against_motion).  Returns the event's index (the run ends there), or -1. */
-static int fmu_lost_crossing(mbs_fmu *m)
-{
-    int k, watched = 0;
-    for (k = 0; k < MBS_NEV; k++) {
-        if (m->stuck[k] && m->g[k] * m->stuck[k] < 0) m->stuck[k] = 0;  /* it left: seen as usual from now */
-        watched |= m->stuck[k] != 0;
-    }
-    if (!watched || fmu_ahead(m, MBS_FMU_RATE_STEP * fmax(1.0, fabs(m->t))) != 0) return -1;
-    for (k = 0; k < MBS_NEV; k++)
-        if (m->stuck[k] && (m->g_try[k] - m->g[k]) * m->stuck[k] > 0) return k;
-    return -1;
+    return fmu_settle_switches(m);
 }
 #endif
 
@@ -427,7 +423,6 @@ FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c)
     m->rtol = MBS_FMU_RTOL;
     m->nevents = 0;
     m->terminated = 0;
-    memset(m->stuck, 0, sizeof m->stuck);
     fmu_changed(m);
     return fmi2OK;
 }
@@ -553,14 +548,6 @@ FMI2_EXPORT fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean 
     for (k = 0; k < MBS_NEV; k++) crossed |= fmu_sign(m->g[k]) != fmu_sign(m->g_prev[k]) && m->g_prev[k] != 0;
     if (!crossed) memcpy(m->g_prev, m->g, sizeof(double) * MBS_NEV);
     *enter_event_mode = crossed ? fmi2True : fmi2False;
-    if (!crossed && (k = fmu_lost_crossing(m)) >= 0) {
-        fmu_log(m, fmi2Warning, "logStatusWarning", "chattering (Zeno behaviour) at t = %.12g s: event '%s' "
-                "(%ld events so far) is crossed back against the motion without the importer seeing it leave: the "
-                "motion has come to rest at its threshold below the importer's resolution; the run ends here with "
-                "its results", m->t, MBS_FMU_EVENT_NAMES[k], m->nevents);
-        m->terminated = 1;
-        *terminate = fmi2True;
-    }
 #else
     (void)c; (void)no_set_prior;
     *enter_event_mode = fmi2False;
