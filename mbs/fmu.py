@@ -13,11 +13,13 @@ sources/ holds everything the binary was built from (mbs_fmu.c includes the rest
 platform can rebuild it. User hooks go in as C only (`mbs fmu --hook NAME=file.c`): each file is compiled into
 the binary and shipped in sources/ under its name; a Python hook is refused, since an FMU runs without Python.
 
-Events: the model's switches (comparisons and kinks, on by default) and events that `set` modes or parameters are
-event indicators (numberOfEventIndicators): Model Exchange importers locate their crossings and the FMU applies
-them in event mode; Co-Simulation locates them inside fmi2DoStep (runtime/c/mbs_fmu.c).  The branch flags are
-not listed as parameters.  A model with an event the FMU cannot apply (`reinit`, `terminate`, friction's stick/slip
-check) is refused with a message (event_table).
+Events: the model's switches (comparisons and kinks, on by default) and its events are event indicators
+(numberOfEventIndicators).  Model Exchange importers locate their crossings and the FMU applies them in event mode
+(`set`, `reinit`: valuesOfContinuousStatesChanged, `terminate`: terminateSimulation); Co-Simulation locates them
+inside fmi2DoStep (a `terminate` ends the step with fmi2Discard and the fmi2Terminated status), both in
+runtime/c/mbs_fmu.c, as `mbs simulate` applies them.  The branch flags are not listed as parameters.  A switched
+friction element (its held forces are checked in Python after every event) is refused with a message
+(event_table).
 """
 
 from __future__ import annotations

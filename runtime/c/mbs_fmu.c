@@ -13,10 +13,12 @@
  * Events (MBS_FMU_FROZEN defined: the model has indicators, mbs_events): the comparisons and kinks of the model
  * are switches whose branch flags (slots of p, not listed in modelDescription.xml) hold while the importer
  * integrates, as in `mbs simulate`.  Model Exchange reports the indicators (fmi2GetEventIndicators); in event
- * mode every switch takes the side its indicator is on (or, at zero, leaves to) and the `set` actions of the
- * events that crossed are applied.  Co-Simulation locates the crossings on DOPRI5's dense output and restarts
- * there (ode.c, mbs_ode_restart), as the C sampling loop of a run does.  mbs/fmu.py refuses models with events
- * the FMU cannot apply (a jump of the state, the end of the run).
+ * mode the actions of the events that crossed are applied (fmu_apply_events: `set`, `reinit`, `terminate`) and
+ * every switch takes the side its indicator is on (or, at zero, leaves to).  Co-Simulation locates the crossings
+ * on DOPRI5's dense output: an event that assigns run-time values only is restarted from in the sampling loop
+ * (ode.c, mbs_ode_restart), as the C sampling loop of a run does; a `reinit` or `terminate` comes back to
+ * fmu_sample, which applies it with the same fmu_apply_events.  mbs/fmu.py refuses a switched friction element
+ * (the run checks its held forces in Python after every event).
  */
 #include <float.h>
 #include <math.h>
