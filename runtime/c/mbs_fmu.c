@@ -84,7 +84,13 @@ typedef struct {
     int terminated;                        /* an event ended the run (fmi2Terminated) */
 } mbs_fmu;
 
-typedef struct { double t, x[MBS_NX + 1], p[MBS_NP + 1]; } mbs_fmu_state;
+/* A saved state: time, states, run-time values (modes, branches) and the event bookkeeping (the indicators at the
+ * last step, the chattering ring, whether the run ended), so that a restored instance goes on as the saved one. */
+typedef struct {
+    double t, x[MBS_NX + 1], p[MBS_NP + 1], g_prev[MBS_FMU_NEV + 1], event_t[MBS_FMU_ZENO_EVENTS];
+    long nevents;
+    int terminated;
+} mbs_fmu_state;
 
 static void fmu_log(mbs_fmu *m, fmi2Status status, const char *category, const char *format, ...)
 {
@@ -486,6 +492,10 @@ FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
     s->t = m->t;
     memcpy(s->x, m->x, sizeof s->x);
     memcpy(s->p, m->p, sizeof s->p);
+    memcpy(s->g_prev, m->g_prev, sizeof s->g_prev);
+    memcpy(s->event_t, m->event_t, sizeof s->event_t);
+    s->nevents = m->nevents;
+    s->terminated = m->terminated;
     *state = s;
     return fmi2OK;
 }
@@ -497,6 +507,10 @@ FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     m->t = s->t;
     memcpy(m->x, s->x, sizeof s->x);
     memcpy(m->p, s->p, sizeof s->p);
+    memcpy(m->g_prev, s->g_prev, sizeof s->g_prev);
+    memcpy(m->event_t, s->event_t, sizeof s->event_t);
+    m->nevents = s->nevents;
+    m->terminated = s->terminated;
     fmu_changed(m);
     return fmi2OK;
 }

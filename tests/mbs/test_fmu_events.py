@@ -197,3 +197,36 @@ def test_a_friction_element_is_refused_with_its_reason(tmp_path):
         export_fmu(mbs.load("library/examples/stick_slip_coulomb.mbs"), "cycles", tmp_path / "c.fmu")
     assert "library/examples/stick_slip.mbs" in str(info.value)
     assert not (tmp_path / "c.fmu").exists()
+
+
+def test_co_simulation_terminates_by_the_status_functions_and_a_saved_state_goes_on(tmp_path):
+    """FMI 2.0 co-simulation: a terminal event inside fmi2DoStep ends it with fmi2Discard; fmi2Terminated is then
+    true and fmi2LastSuccessfulTime the event's time.  A state saved before it (fmi2GetFMUstate) restores an
+    instance that steps on."""
+    from fmpy import extract
+    from fmpy.fmi1 import FMICallException
+    from fmpy.fmi2 import FMU2Slave, fmi2Discard, fmi2LastSuccessfulTime, fmi2Terminated
+    text = open(BALL, encoding="utf-8").read().replace(
+        "    output height = fall.s", "    event stop when t > 1.2 s { terminate }\n    output height = fall.s")
+    fmu = export_fmu(mbs.loads(text), "drop", tmp_path / "stop.fmu")
+    md = read_model_description(str(fmu))
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(fmu), str(tmp_path / "x")),
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName="ball")
+    slave.instantiate()
+    slave.setupExperiment(startTime=0.0)
+    slave.enterInitializationMode()
+    slave.exitInitializationMode()
+    slave.doStep(currentCommunicationPoint=0.0, communicationStepSize=1.0)
+    saved = slave.getFMUstate()
+    with pytest.raises(FMICallException) as info:
+        slave.doStep(currentCommunicationPoint=1.0, communicationStepSize=0.5)
+    assert info.value.status == fmi2Discard
+    assert slave.getBooleanStatus(fmi2Terminated)
+    assert slave.getRealStatus(fmi2LastSuccessfulTime) == pytest.approx(1.2, abs=1e-12)
+    slave.setFMUstate(saved)
+    assert not slave.getBooleanStatus(fmi2Terminated)
+    slave.doStep(currentCommunicationPoint=1.0, communicationStepSize=0.1)
+    assert slave.getRealStatus(fmi2LastSuccessfulTime) == pytest.approx(1.1)
+    slave.freeFMUstate(saved)
+    slave.terminate()
+    slave.freeInstance()
