@@ -191,7 +191,8 @@ def event_table(compiled) -> dict | None:
     refused = [e.name for e in compiled.events if is_friction_event(compiled, e.name)]
     if refused:
         names = ", ".join(f"'{n}'" for n in refused)
-        raise MbsError([Diagnostic("error", f"mbs fmu: event {names} is the stick/slip switch of a friction element "
+        which = f"events {names} are" if len(refused) > 1 else f"event {names} is"
+        raise MbsError([Diagnostic("error", f"mbs fmu: {which} the stick/slip switch of a friction element "
                                             f"(coulomb(...)), whose held forces the run checks after every event in "
                                             f"Python (runtime/friction.py); an FMU runs without Python and cannot "
                                             f"export it yet (simulate the model with mbs simulate, or write the "
