@@ -269,12 +269,21 @@ static int fmu_against_motion(mbs_fmu *m, const double *g_before)
  * closed loops the state after an event the C sampling loop cannot restart from (a jump, the end of the run) is
  * projected onto the constraints, positions and speeds (mbs_project, as runtime/event_loop.run_with_events), so
  * the new speeds stay consistent with them.  Chattering (ZENO_EVENTS events within ZENO_WINDOW s) ends the run
- * after the event, as in a run.  One function for Model Exchange (event mode) and Co-Simulation (fmi2DoStep).  Returns
+ * after the event, as in a run.  importer (Model Exchange): an indicator exactly at zero counts on the side it
+ * leaves to, as at a restart (fmu_departing): the importer stops at the roots of the values it reads, and a ball
+ * restarted 1e-14 m below the floor, whose departing indicator is above it, reaches zero rising, not falling.
+ * Co-Simulation locates the crossings as ode.c does (reaching zero counts).  One function for Model Exchange (event mode) and Co-Simulation (fmi2DoStep).  Returns
  * the FMU_* mask, or -1 when the model failed. */
-static int fmu_apply_events(mbs_fmu *m, const double *g_before)
+static int fmu_apply_events(mbs_fmu *m, const double *g_before, int importer)
 {
     int k, j, mask = 0, outside = 0;
     if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return -1;
+    for (k = 0; k < MBS_NEV && importer; k++) {
+        if (m->g[k] != 0) continue;
+        if (fmu_ahead(m, 1e-12 * fmax(1.0, fabs(m->t))) != 0) return -1;
+        for (; k < MBS_NEV; k++)
+            if (m->g[k] == 0 && isfinite(m->g_try[k])) m->g[k] = m->g_try[k];
+    }
     for (k = 0; k < MBS_NEV; k++) {
         if (!fmu_crossed(k, g_before[k], m->g[k])) continue;
         mask |= FMU_FIRED;
@@ -321,7 +330,7 @@ static int fmu_apply_events(mbs_fmu *m, const double *g_before)
  * then every switch settles; info says whether the states jumped and whether the run ends. */
 static fmi2Status fmu_event_update(mbs_fmu *m, fmi2EventInfo *info)
 {
-    int mask = fmu_apply_events(m, m->g_prev);
+    int mask = fmu_apply_events(m, m->g_prev, 1);
     if (mask < 0) {
         fmu_log(m, fmi2Error, "logStatusError", "the event actions failed at t = %g s", m->t);
         return fmi2Error;
@@ -699,7 +708,7 @@ static int fmu_sample(mbs_fmu *m, double *target, long *index)
             memcpy(m->x, m->ode.y, sizeof(double) * MBS_NX);
             return FMU_SAMPLE_TERMINATED;
         }
-        mask = fmu_apply_events(m, m->ode.g_old);
+        mask = fmu_apply_events(m, m->ode.g_old, 0);
         if (mask < 0) {
             fmu_log(m, fmi2Error, "logStatusError", "the event actions failed at t = %.12g s", m->t);
             return MBS_ODE_MODEL_FAILED;
