@@ -272,16 +272,16 @@ static int fmu_against_motion(mbs_fmu *m, const double *g_before)
  * after the event, as in a run.  importer (Model Exchange): an indicator exactly at zero counts on the side it
  * leaves to, as at a restart (fmu_departing): the importer stops at the roots of the values it reads, and a ball
  * restarted 1e-14 m below the floor, whose departing indicator is above it, reaches zero rising, not falling.
- * Co-Simulation locates the crossings as ode.c does (reaching zero counts).  One function for Model Exchange (event mode) and Co-Simulation (fmi2DoStep).  Returns
- * the FMU_* mask, or -1 when the model failed. */
+ * Co-Simulation locates the crossings as ode.c does (reaching zero counts).  One function for Model Exchange
+ * (event mode) and Co-Simulation (fmi2DoStep).  Returns the FMU_* mask, or -1 when the model failed. */
 static int fmu_apply_events(mbs_fmu *m, const double *g_before, int importer)
 {
     int k, j, mask = 0, outside = 0;
     if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return -1;
-    for (k = 0; k < MBS_NEV && importer; k++) {
-        if (m->g[k] != 0) continue;
+    for (k = 0; importer && k < MBS_NEV && m->g[k] != 0; k++) {}
+    if (importer && k < MBS_NEV) {  /* an indicator at zero: the side it leaves to */
         if (fmu_ahead(m, 1e-12 * fmax(1.0, fabs(m->t))) != 0) return -1;
-        for (; k < MBS_NEV; k++)
+        for (k = 0; k < MBS_NEV; k++)
             if (m->g[k] == 0 && isfinite(m->g_try[k])) m->g[k] = m->g_try[k];
     }
     for (k = 0; k < MBS_NEV; k++) {

@@ -53,9 +53,11 @@ def ball(tmp_path_factory):
 
 
 def run(fmu, kind, stop_time, dt=0.01, rtol=1e-10, output=("height", "count", "der(fall.s)"), messages=None):
-    logger = None if messages is None else (lambda env, name, status, category, message: messages.append(message.decode()))
+    """FMPy's run of the FMU; ``messages`` collects the FMU's log."""
+    def logger(env, name, status, category, message):
+        messages.append(message.decode())
     return simulate_fmu(str(fmu), fmi_type=kind, stop_time=stop_time, output_interval=dt,
-                        relative_tolerance=rtol, output=list(output), logger=logger)
+                        relative_tolerance=rtol, output=list(output), logger=None if messages is None else logger)
 
 
 def me_impacts(out) -> np.ndarray:
