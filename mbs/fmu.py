@@ -13,11 +13,13 @@ sources/ holds everything the binary was built from (mbs_fmu.c includes the rest
 platform can rebuild it. User hooks go in as C only (`mbs fmu --hook NAME=file.c`): each file is compiled into
 the binary and shipped in sources/ under its name; a Python hook is refused, since an FMU runs without Python.
 
-Events: the model's switches (comparisons and kinks, on by default) and events that `set` modes or parameters are
-event indicators (numberOfEventIndicators): Model Exchange importers locate their crossings and the FMU applies
-them in event mode; Co-Simulation locates them inside fmi2DoStep (runtime/c/mbs_fmu.c).  The branch flags are
-not listed as parameters.  A model with an event the FMU cannot apply (`reinit`, `terminate`, friction's stick/slip
-check) is refused with a message (event_table).
+Events: the model's switches (comparisons and kinks, on by default) and its events are event indicators
+(numberOfEventIndicators).  Model Exchange importers locate their crossings and the FMU applies them in event mode
+(`set`, `reinit`: valuesOfContinuousStatesChanged, `terminate`: terminateSimulation); Co-Simulation locates them
+inside fmi2DoStep (a `terminate` ends the step with fmi2Discard and the fmi2Terminated status), both in
+runtime/c/mbs_fmu.c, as `mbs simulate` applies them.  The branch flags are not listed as parameters.  A switched
+friction element (its held forces are checked in Python after every event) is refused with a message
+(event_table).
 """
 
 from __future__ import annotations
@@ -167,30 +169,49 @@ def _defaults_header(guid: str, x0, p0, rtol: float, atol: float, events=None) -
     if events is not None:  # the event table (event_table): what mbs_fmu.c applies at each indicator's crossing
         lines += [f"#define MBS_FMU_FROZEN {events['frozen']}"]
         lines += [integers(f"MBS_FMU_{key.upper()}", events[key])
-                  for key in ("directions", "flag", "inclusive", "first", "index", "slot")]
+                  for key in ("directions", "flag", "inclusive", "handled", "terminal", "first", "index", "slot",
+                              "target")]
+        names = ", ".join('"' + re.sub(r'[^\w.]', '_', n) + '"' for n in events["names"])
+        lines += [f"static const char *const MBS_FMU_EVENT_NAMES[] = {{{names}}};"]
     return "\n".join(lines + [""])
 
 
 def event_table(compiled) -> dict | None:
-    """The events as mbs_fmu.c applies them: switch branches (flag: p index), `set` of modes and parameters
-    (index <- slot of mbs_event_actions, grouped per event by first); None without events.  An event the FMU
-    cannot apply (a jump of the state, the end of the run, a friction element's stick/slip check, which the
-    Python run loop makes) is an error, never a silently different answer."""
+    """The events as mbs_fmu.c applies them (None without events): per indicator its direction, a switch's
+    branch flag (p index or -1), whether the C sampling loop may restart from it itself (handled: it assigns
+    run-time values only, runtime/event_loop.c_restart_tables) and whether it ends the run; per event its
+    assignments target[j] (0: p, 1: x) [index[j]] <- slot[j] of mbs_event_actions, grouped by first.  A switched
+    friction element (compiler/friction.py) is refused: after its events the run checks the held forces in Python
+    (runtime/friction.py), which an FMU, running without Python, cannot do; an error, never a silently different
+    answer."""
     from mbs.runtime.event_loop import c_restart_tables
+    from mbs.runtime.friction import is_friction_event
     if not compiled.events:
         return None
+    refused = [e.name for e in compiled.events if is_friction_event(compiled, e.name)]
+    if refused:
+        names = ", ".join(f"'{n}'" for n in refused)
+        which = f"events {names} are" if len(refused) > 1 else f"event {names} is"
+        raise MbsError([Diagnostic("error", f"mbs fmu: {which} the stick/slip switch of a friction element "
+                                            f"(coulomb(...)), whose held forces the run checks after every event in "
+                                            f"Python (runtime/friction.py); an FMU runs without Python and cannot "
+                                            f"export it yet (simulate the model with mbs simulate, or write the "
+                                            f"stick and slip as events of a mode, as library/examples/stick_slip.mbs "
+                                            f"does)", None)])
     tables = c_restart_tables(compiled)
-    refused = [e.name for e, ok in zip(compiled.events, tables[0] if tables is not None else ()) if not ok]
-    if tables is None or refused:
-        names = ", ".join(f"'{n}'" for n in (refused or [e.name for e in compiled.events]))
-        raise MbsError([Diagnostic("error", f"mbs fmu: the FMU applies switches and `set` actions of events only; "
-                                            f"event {names} jumps the state, ends the run or checks friction, "
-                                            f"which the FMU does not do yet (simulate the model with mbs "
-                                            f"simulate, or write the model without it)", None)])
-    _, flag, first, index, slot = tables
+    first, index, slot, target = [0], [], [], []
+    for spec in compiled.events:
+        for array, i, value_slot in spec.assignments:
+            index.append(i)
+            slot.append(value_slot)
+            target.append(int(array == "x"))
+        first.append(len(index))
     return dict(frozen=compiled.p_names.index("switch.frozen") if "switch.frozen" in compiled.p_names else -1,
-                directions=[e.direction for e in compiled.events], flag=flag,
-                inclusive=[int(e.inclusive) for e in compiled.events], first=first, index=index, slot=slot)
+                directions=[e.direction for e in compiled.events], flag=[e.switch for e in compiled.events],
+                inclusive=[int(e.inclusive) for e in compiled.events],
+                handled=list(tables[0]) if tables is not None else [0] * len(compiled.events),
+                terminal=[int(e.terminal) for e in compiled.events], first=first, index=index, slot=slot,
+                target=target, names=[e.name for e in compiled.events])
 
 
 def internal_parameters(compiled) -> set[int]:

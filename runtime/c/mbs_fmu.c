@@ -13,10 +13,12 @@
  * Events (MBS_FMU_FROZEN defined: the model has indicators, mbs_events): the comparisons and kinks of the model
  * are switches whose branch flags (slots of p, not listed in modelDescription.xml) hold while the importer
  * integrates, as in `mbs simulate`.  Model Exchange reports the indicators (fmi2GetEventIndicators); in event
- * mode every switch takes the side its indicator is on (or, at zero, leaves to) and the `set` actions of the
- * events that crossed are applied.  Co-Simulation locates the crossings on DOPRI5's dense output and restarts
- * there (ode.c, mbs_ode_restart), as the C sampling loop of a run does.  mbs/fmu.py refuses models with events
- * the FMU cannot apply (a jump of the state, the end of the run).
+ * mode the actions of the events that crossed are applied (fmu_apply_events: `set`, `reinit`, `terminate`) and
+ * every switch takes the side its indicator is on (or, at zero, leaves to).  Co-Simulation locates the crossings
+ * on DOPRI5's dense output: an event that assigns run-time values only is restarted from in the sampling loop
+ * (ode.c, mbs_ode_restart), as the C sampling loop of a run does; a `reinit` or `terminate` comes back to
+ * fmu_sample, which applies it with the same fmu_apply_events.  mbs/fmu.py refuses a switched friction element
+ * (the run checks its held forces in Python after every event).
  */
 #include <float.h>
 #include <math.h>
@@ -59,6 +61,8 @@
 /* Chattering in co-simulation: this many events within ZENO_WINDOW s end the step with an error. */
 #define MBS_FMU_ZENO_EVENTS 10
 #define MBS_FMU_ZENO_WINDOW 1e-9
+/* The look ahead that gives an indicator's rate [s, relative to max(1, |t|)] (runtime/events.RATE_STEP). */
+#define MBS_FMU_RATE_STEP 1e-8
 
 typedef struct {
     fmi2Type type;
@@ -75,9 +79,18 @@ typedef struct {
     /* events: indicators at the last completed step or event (Model Exchange), a trial state, action values */
     double g_prev[MBS_FMU_NEV + 1], g[MBS_FMU_NEV + 1], g_try[MBS_FMU_NEV + 1], x_try[MBS_NX + 1];
     double values[MBS_FMU_NACT + 1];
+    double event_t[MBS_FMU_ZENO_EVENTS];  /* the times of the last events (a ring, fmu_zeno) */
+    long nevents;                          /* events applied since the start */
+    int terminated;                        /* an event ended the run (fmi2Terminated) */
 } mbs_fmu;
 
-typedef struct { double t, x[MBS_NX + 1], p[MBS_NP + 1]; } mbs_fmu_state;
+/* A saved state: time, states, run-time values (modes, branches) and the event bookkeeping (the indicators at the
+ * last step, the chattering ring, whether the run ended), so that a restored instance goes on as the saved one. */
+typedef struct {
+    double t, x[MBS_NX + 1], p[MBS_NP + 1], g_prev[MBS_FMU_NEV + 1], event_t[MBS_FMU_ZENO_EVENTS];
+    long nevents;
+    int terminated;
+} mbs_fmu_state;
 
 static void fmu_log(mbs_fmu *m, fmi2Status status, const char *category, const char *format, ...)
 {
@@ -130,17 +143,23 @@ static fmi2Status fmu_outputs(mbs_fmu *m)
 #ifdef MBS_FMU_FROZEN
 static int fmu_sign(double g) { return (g > 0) - (g < 0); }
 
+/* The indicators an Euler step of dt after (t, x), into g_try (the branches held). */
+static int fmu_ahead(mbs_fmu *m, double dt)
+{
+    int i;
+    m->xdot_valid = 0;
+    if (fmu_derivatives(m) != fmi2OK) return -1;
+    for (i = 0; i < MBS_NX; i++) m->x_try[i] = m->x[i] + dt * m->xdot[i];
+    return mbs_events(m->t + dt, m->x_try, m->p, m->g_try, m->work) == MBS_OK ? 0 : -1;
+}
+
 /* The indicators at (t, x) with the branches held, an indicator at zero replaced by its value an Euler step of
  * 1e-12 s later: the side it leaves to (ode.c, mbs_ode_depart; runtime/event_loop.departing). */
 static int fmu_departing(mbs_fmu *m, double *g)
 {
-    double dt = 1e-12 * fmax(1.0, fabs(m->t));
-    int i, k;
-    if (mbs_events(m->t, m->x, m->p, g, m->work) != MBS_OK) return -1;
-    m->xdot_valid = 0;
-    if (fmu_derivatives(m) != fmi2OK) return -1;
-    for (i = 0; i < MBS_NX; i++) m->x_try[i] = m->x[i] + dt * m->xdot[i];
-    if (mbs_events(m->t + dt, m->x_try, m->p, m->g_try, m->work) != MBS_OK) return -1;
+    int k;
+    if (mbs_events(m->t, m->x, m->p, g, m->work) != MBS_OK || fmu_ahead(m, 1e-12 * fmax(1.0, fabs(m->t))) != 0)
+        return -1;
     for (k = 0; k < MBS_NEV; k++)
         if (fmu_sign(m->g_try[k]) != fmu_sign(g[k]) && isfinite(m->g_try[k])) g[k] = m->g_try[k];
     return 0;
@@ -152,6 +171,7 @@ static int fmu_departing(mbs_fmu *m, double *g)
 static fmi2Status fmu_settle_switches(mbs_fmu *m)
 {
     int k, pass, changed;
+#if MBS_FMU_FROZEN >= 0
     if (m->p[MBS_FMU_FROZEN] == 0.0) {
         if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return fmi2Error;
         for (k = 0; k < MBS_NEV; k++)
@@ -159,6 +179,7 @@ static fmi2Status fmu_settle_switches(mbs_fmu *m)
                 m->p[MBS_FMU_FLAG[k]] = (m->g[k] > 0 || (MBS_FMU_INCLUSIVE[k] && m->g[k] == 0)) ? 1.0 : 0.0;
         m->p[MBS_FMU_FROZEN] = 1.0;
     }
+#endif
     for (pass = 0; pass < 2; pass++) {
         if (fmu_departing(m, m->g_prev) != 0) {
             fmu_log(m, fmi2Error, "logStatusError", "the event indicators failed at t = %g s", m->t);
@@ -184,18 +205,141 @@ static int fmu_crossed(int k, double g_old, double g_new)
     return (d >= 0 && g_old < 0 && g_new >= 0) || (d <= 0 && g_old > 0 && g_new <= 0);
 }
 
-/* Event mode of Model Exchange: the `set` actions of the events that crossed since the last completed step
- * (values computed before any is applied, Modelica's pre), then every switch settles. */
-static fmi2Status fmu_event_update(mbs_fmu *m)
+/* The times of the last events are a ring in m (one entry per event that fired, as runtime/event_loop counts
+ * them); chattering (runtime/events.is_zeno): the last ZENO_EVENTS of them lie within ZENO_WINDOW s. */
+static void fmu_note_event(mbs_fmu *m, double t)
 {
-    int k, j;
-    if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return fmi2Error;
-#ifdef MBS_NACT
-    if (mbs_event_actions(m->t, m->x, m->p, m->values, m->work) != MBS_OK) return fmi2Error;
-#endif
+    m->event_t[m->nevents % MBS_FMU_ZENO_EVENTS] = t;
+    m->nevents++;
+}
+
+static int fmu_zeno(const mbs_fmu *m)
+{
+    double last, oldest;
+    if (m->nevents < MBS_FMU_ZENO_EVENTS) return 0;
+    last = m->event_t[(m->nevents - 1) % MBS_FMU_ZENO_EVENTS];
+    oldest = m->event_t[m->nevents % MBS_FMU_ZENO_EVENTS];
+    return last - oldest <= MBS_FMU_ZENO_WINDOW * fmax(1.0, fabs(last));
+}
+
+static void fmu_log_zeno(mbs_fmu *m)
+{
+    fmu_log(m, fmi2Warning, "logStatusWarning", "chattering (Zeno behaviour) at t = %.12g s: %d events within "
+            "%.3g s; the run ends here with its results", m->t, MBS_FMU_ZENO_EVENTS,
+            m->event_t[(m->nevents - 1) % MBS_FMU_ZENO_EVENTS] - m->event_t[m->nevents % MBS_FMU_ZENO_EVENTS]);
+}
+
+/* A fired event with a reinit whose indicator, at the located crossing, moves back to the side it came from: a
+ * crossing in the integrator's noise, not of the motion (runtime/events.against_motion: a ball near its
+ * accumulation point, where its flights are shorter than the integrator resolves; the reinit would send it into
+ * the ground).  Returns 1 (the run ends here, nothing applied, said in the log), 0, or -1 when the model failed.
+ * m->g holds the indicators at the crossing. */
+static int fmu_against_motion(mbs_fmu *m, const double *g_before)
+{
+    int k, j, jumps = 0;
     for (k = 0; k < MBS_NEV; k++)
-        if (fmu_crossed(k, m->g_prev[k], m->g[k]))
-            for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) m->p[MBS_FMU_INDEX[j]] = m->values[MBS_FMU_SLOT[j]];
+        if (fmu_crossed(k, g_before[k], m->g[k]))
+            for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) jumps |= MBS_FMU_TARGET[j];
+    if (!jumps) return 0;
+    if (fmu_ahead(m, MBS_FMU_RATE_STEP * fmax(1.0, fabs(m->t))) != 0) return -1;
+    for (k = 0; k < MBS_NEV; k++) {
+        if (!fmu_crossed(k, g_before[k], m->g[k])) continue;
+        for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) {
+            if (MBS_FMU_TARGET[j] && (m->g_try[k] - m->g[k]) * (0.0 - g_before[k]) < 0) {
+                fmu_log(m, fmi2Warning, "logStatusWarning", "chattering (Zeno behaviour) at t = %.12g s: event '%s' "
+                        "(%ld events so far) now crosses against the motion: the motion has come to rest at its "
+                        "threshold below the integrator's resolution; the run ends here with its results", m->t,
+                        MBS_FMU_EVENT_NAMES[k], m->nevents);
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
+/* What fmu_apply_events did (a mask). */
+#define FMU_FIRED 1        /* an event crossed */
+#define FMU_JUMPED 2       /* the state x jumped (a reinit): the importer reads the states again */
+#define FMU_TERMINAL 4     /* an event ends the run */
+#define FMU_ZENO 8         /* chattering: the run ends here (after the event) */
+
+/* The events whose indicators crossed from g_before to the indicators at (t, x), applied as the run applies them
+ * (runtime/events.apply_events): every action value from the state before the event (mbs_event_actions,
+ * Modelica's pre), then `set` into p and `reinit` into x, a switch's branch to the side it crossed to; with
+ * closed loops the state after an event the C sampling loop cannot restart from (a jump, the end of the run) is
+ * projected onto the constraints, positions and speeds (mbs_project, as runtime/event_loop.run_with_events), so
+ * the new speeds stay consistent with them.  Chattering (ZENO_EVENTS events within ZENO_WINDOW s) ends the run
+ * after the event, as in a run.  importer (Model Exchange): an indicator exactly at zero counts on the side it
+ * leaves to, as at a restart (fmu_departing): the importer stops at the roots of the values it reads, and a ball
+ * restarted 1e-14 m below the floor, whose departing indicator is above it, reaches zero rising, not falling.
+ * Co-Simulation locates the crossings as ode.c does (reaching zero counts).  One function for Model Exchange
+ * (event mode) and Co-Simulation (fmi2DoStep).  Returns the FMU_* mask, or -1 when the model failed. */
+static int fmu_apply_events(mbs_fmu *m, const double *g_before, int importer)
+{
+    int k, j, mask = 0, outside = 0;
+    if (mbs_events(m->t, m->x, m->p, m->g, m->work) != MBS_OK) return -1;
+    for (k = 0; importer && k < MBS_NEV && m->g[k] != 0; k++) {}
+    if (importer && k < MBS_NEV) {  /* an indicator at zero: the side it leaves to */
+        if (fmu_ahead(m, 1e-12 * fmax(1.0, fabs(m->t))) != 0) return -1;
+        for (k = 0; k < MBS_NEV; k++)
+            if (m->g[k] == 0 && isfinite(m->g_try[k])) m->g[k] = m->g_try[k];
+    }
+    for (k = 0; k < MBS_NEV; k++) {
+        if (!fmu_crossed(k, g_before[k], m->g[k])) continue;
+        mask |= FMU_FIRED;
+        outside |= !MBS_FMU_HANDLED[k];
+        if (MBS_FMU_TERMINAL[k]) mask |= FMU_TERMINAL;
+    }
+    if (!mask) return 0;
+    if ((k = fmu_against_motion(m, g_before)) != 0) return k < 0 ? -1 : FMU_ZENO;
+#ifdef MBS_NACT
+    if (mbs_event_actions(m->t, m->x, m->p, m->values, m->work) != MBS_OK) return -1;
+#endif
+    for (k = 0; k < MBS_NEV; k++) {
+        if (!fmu_crossed(k, g_before[k], m->g[k])) continue;
+        for (j = MBS_FMU_FIRST[k]; j < MBS_FMU_FIRST[k + 1]; j++) {
+            if (MBS_FMU_TARGET[j]) { m->x[MBS_FMU_INDEX[j]] = m->values[MBS_FMU_SLOT[j]]; mask |= FMU_JUMPED; }
+            else m->p[MBS_FMU_INDEX[j]] = m->values[MBS_FMU_SLOT[j]];
+        }
+        if (MBS_FMU_FLAG[k] >= 0) m->p[MBS_FMU_FLAG[k]] = m->g[k] > g_before[k] ? 1.0 : 0.0;
+        fmu_note_event(m, m->t);
+        fmu_log(m, fmi2OK, "logEvents", "event '%s' at t = %.12g s%s", MBS_FMU_EVENT_NAMES[k], m->t,
+                MBS_FMU_TERMINAL[k] ? ": the run ends here" : "");
+    }
+#ifdef MBS_NC
+    if (outside) {
+        double xc[MBS_NX + 1];
+        if (mbs_project(m->t, m->x, m->p, xc, m->work) != MBS_OK) return -1;
+        for (k = 0; k < MBS_NX; k++) {
+            if (xc[k] != m->x[k]) mask |= FMU_JUMPED;
+            m->x[k] = xc[k];
+        }
+    }
+#else
+    (void)outside;
+#endif
+    if (!(mask & FMU_TERMINAL) && fmu_zeno(m)) {
+        fmu_log_zeno(m);
+        mask |= FMU_ZENO;
+    }
+    fmu_changed(m);
+    return mask;
+}
+
+/* Event mode of Model Exchange: the events that crossed since the last completed step applied (fmu_apply_events),
+ * then every switch settles; info says whether the states jumped and whether the run ends. */
+static fmi2Status fmu_event_update(mbs_fmu *m, fmi2EventInfo *info)
+{
+    int mask = fmu_apply_events(m, m->g_prev, 1);
+    if (mask < 0) {
+        fmu_log(m, fmi2Error, "logStatusError", "the event actions failed at t = %g s", m->t);
+        return fmi2Error;
+    }
+    info->valuesOfContinuousStatesChanged = mask & FMU_JUMPED ? fmi2True : fmi2False;
+    if (mask & (FMU_TERMINAL | FMU_ZENO)) {
+        info->terminateSimulation = fmi2True;
+        m->terminated = 1;
+    }
     return fmu_settle_switches(m);
 }
 #endif
@@ -274,7 +418,9 @@ FMI2_EXPORT fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     fmu_changed(m);
 #endif
 #ifdef MBS_FMU_FROZEN
+#if MBS_FMU_FROZEN >= 0
     m->p[MBS_FMU_FROZEN] = 0.0;
+#endif
     return fmu_settle_switches(m);
 #else
     (void)m;
@@ -292,6 +438,8 @@ FMI2_EXPORT fmi2Status fmi2Reset(fmi2Component c)
     memcpy(m->p, MBS_FMU_P0, sizeof(double) * MBS_NP);
     m->t = 0.0;
     m->rtol = MBS_FMU_RTOL;
+    m->nevents = 0;
+    m->terminated = 0;
     fmu_changed(m);
     return fmi2OK;
 }
@@ -353,6 +501,10 @@ FMI2_EXPORT fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *state)
     s->t = m->t;
     memcpy(s->x, m->x, sizeof s->x);
     memcpy(s->p, m->p, sizeof s->p);
+    memcpy(s->g_prev, m->g_prev, sizeof s->g_prev);
+    memcpy(s->event_t, m->event_t, sizeof s->event_t);
+    s->nevents = m->nevents;
+    s->terminated = m->terminated;
     *state = s;
     return fmi2OK;
 }
@@ -364,6 +516,10 @@ FMI2_EXPORT fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate state)
     m->t = s->t;
     memcpy(m->x, s->x, sizeof s->x);
     memcpy(m->p, s->p, sizeof s->p);
+    memcpy(m->g_prev, s->g_prev, sizeof s->g_prev);
+    memcpy(m->event_t, s->event_t, sizeof s->event_t);
+    m->nevents = s->nevents;
+    m->terminated = s->terminated;
     fmu_changed(m);
     return fmi2OK;
 }
@@ -394,7 +550,7 @@ FMI2_EXPORT fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *inf
 {
     memset(info, 0, sizeof *info);
 #ifdef MBS_FMU_FROZEN
-    return fmu_event_update((mbs_fmu *)c);
+    return fmu_event_update((mbs_fmu *)c, info);
 #else
     (void)c;
     return fmi2OK;
@@ -494,11 +650,10 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
     m->ode.project = mbs_project;
 #endif
 #ifdef MBS_FMU_FROZEN
-    {   /* every event is applied in C (mbs/fmu.py refuses the others): all handled */
-        int handled[MBS_NEV + 1], k;
-        for (k = 0; k < MBS_NEV; k++) handled[k] = 1;
+    {   /* the events that assign run-time values only restart inside the sampling loop (ode.c, as in a run); a
+         * jump of the state or the end of the run comes back to fmu_sample */
         if (mbs_ode_set_events(&m->ode, mbs_events, MBS_NEV, MBS_FMU_DIRECTIONS)
-            || mbs_ode_set_restarts(&m->ode, m->p, MBS_FMU_ACTIONS, MBS_FMU_NACT, handled,
+            || mbs_ode_set_restarts(&m->ode, m->p, MBS_FMU_ACTIONS, MBS_FMU_NACT, MBS_FMU_HANDLED,
                                     MBS_FMU_FLAG, MBS_FMU_FIRST, MBS_FMU_INDEX, MBS_FMU_SLOT, 64,
                                     MBS_FMU_ZENO_WINDOW)) return fmi2Fatal;
         memcpy(m->ode.g_old, m->g_prev, sizeof(double) * MBS_NEV);  /* an indicator at zero: the side it leaves to */
@@ -510,34 +665,68 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
     return fmi2OK;
 }
 
-/* Samples the co-simulation integrator up to *target: an event the sampling loop hands back (its log full, or
- * one closer than the chattering window after the last) is restarted here; MBS_FMU_ZENO_EVENTS of them within
- * the window end the step (chattering).  Returns the last status of mbs_ode_sample. */
+/* What fmu_sample ended with besides an mbs_ode status: an event ended the run (a terminal event, chattering). */
+#define FMU_SAMPLE_TERMINATED 1001
+
+/* Samples the co-simulation integrator up to *target.  At an event the sampling loop hands back, the events
+ * that assign run-time values only are restarted in C as in a run (mbs_ode_restart); the others (a reinit, a
+ * terminal event) are applied here (fmu_apply_events) and DOPRI5 starts afresh from the state after them, with
+ * its own first step, as runtime/event_loop.run_with_events does after a jump.  Every event counts for the
+ * chattering check (fmu_zeno).  Returns the last status of mbs_ode_sample, FMU_SAMPLE_TERMINATED (m->t and m->x
+ * at the end), or MBS_ODE_MODEL_FAILED when an action failed. */
 static int fmu_sample(mbs_fmu *m, double *target, long *index)
 {
-    int status, close = 0;
+    int status;
     for (;;) {
 #ifdef MBS_FMU_FROZEN
+        long i;
+        int mask;
         m->ode.restarts->count = 0;
 #endif
         status = mbs_ode_sample(&m->ode, target, 1, index, m->x);
+#ifdef MBS_FMU_FROZEN
+        for (i = 0; i < m->ode.restarts->count; i++)  /* the events C restarted from, for the chattering check */
+            fmu_note_event(m, m->ode.restarts->log[(size_t)i * m->ode.restarts->width]);
+        if (m->ode.restarts->count && fmu_zeno(m)) {  /* the run ends after the last of them */
+            const double *entry = m->ode.restarts->log + (size_t)(m->ode.restarts->count - 1) * m->ode.restarts->width;
+            m->t = entry[0];
+            memcpy(m->x, entry + 1 + MBS_NX, sizeof(double) * MBS_NX);
+            fmu_log_zeno(m);
+            return FMU_SAMPLE_TERMINATED;
+        }
+#endif
         if (*index >= 1 || status != MBS_ODE_EVENT) return status;
 #ifdef MBS_FMU_FROZEN
-        close = m->ode.t - m->ode.restarts->last_t <= MBS_FMU_ZENO_WINDOW * fmax(1.0, fabs(m->ode.t)) ? close + 1 : 0;
-        if (close >= MBS_FMU_ZENO_EVENTS) {
-            fmu_log(m, fmi2Error, "logStatusError", "chattering (Zeno behaviour) at t = %.12g s: %d events within "
-                    "%g s", m->ode.t, MBS_FMU_ZENO_EVENTS, MBS_FMU_ZENO_WINDOW);
-            return status;
+        m->t = m->ode.t;
+        memcpy(m->x, m->ode.y, sizeof(double) * MBS_NX);
+        m->ode.restarts->last_t = -HUGE_VAL;  /* chattering is watched here (fmu_zeno), not by the window */
+        m->ode.restarts->count = 0;
+        if (mbs_ode_restart(&m->ode)) {
+            fmu_note_event(m, m->ode.t);
+            if (!fmu_zeno(m)) continue;
+            fmu_log_zeno(m);
+            memcpy(m->x, m->ode.y, sizeof(double) * MBS_NX);
+            return FMU_SAMPLE_TERMINATED;
         }
-        m->ode.restarts->last_t = -HUGE_VAL;  /* apply it: the count above watches for chattering */
-        if (!mbs_ode_restart(&m->ode)) return status;
+        mask = fmu_apply_events(m, m->ode.g_old, 0);
+        if (mask < 0) {
+            fmu_log(m, fmi2Error, "logStatusError", "the event actions failed at t = %.12g s", m->t);
+            return MBS_ODE_MODEL_FAILED;
+        }
+        if (mask & (FMU_TERMINAL | FMU_ZENO)) return FMU_SAMPLE_TERMINATED;
+        if (*target - m->t <= MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(*target))) {
+            *index = 1;  /* the event is at the communication point (to round-off): the state after it is the sample */
+            return MBS_ODE_RUNNING;
+        }
+        if (fmu_start_integrator(m) != fmi2OK) return MBS_ODE_MODEL_FAILED;
 #else
-        (void)close;
         return status;
 #endif
     }
 }
 
+/* A terminal event or chattering inside the step ends it early: fmi2Discard, with fmi2Terminated true and
+ * fmi2LastSuccessfulTime the event's time (FMI 2.0, 4.2.2: the master then reads the status and terminates). */
 FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean no_set_prior)
 {
     mbs_fmu *m = c;
@@ -545,6 +734,10 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2B
     long index = 0;
     int status;
     (void)no_set_prior;
+    if (m->terminated) {
+        fmu_log(m, fmi2Error, "logStatusError", "the run ended at t = %.12g s (a terminal event)", m->t);
+        return fmi2Error;
+    }
     if (!m->ode.n || m->ode_stale || fabs(t - m->t) > 1e-12 * (1.0 + fabs(t))) {
         m->t = t;
         if (target > m->t_stop) m->t_stop = target;
@@ -555,6 +748,11 @@ FMI2_EXPORT fmi2Status fmi2DoStep(fmi2Component c, fmi2Real t, fmi2Real h, fmi2B
         if (fmu_start_integrator(m) != fmi2OK) return fmi2Fatal;
     }
     status = fmu_sample(m, &target, &index);
+    if (status == FMU_SAMPLE_TERMINATED) {
+        m->terminated = 1;
+        m->xdot_valid = m->y_valid = 0;
+        return fmi2Discard;
+    }
     if (index < 1) {
         fmu_log(m, fmi2Error, "logStatusError", "integration failed at t = %g s (status %d, model status %d)",
                 m->ode.t, status, m->ode.model_status);
@@ -584,6 +782,9 @@ FMI2_EXPORT fmi2Status fmi2GetRealStatus(fmi2Component c, const fmi2StatusKind s
 FMI2_EXPORT fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Integer *value)
 { (void)c; (void)s; (void)value; return fmi2Discard; }
 FMI2_EXPORT fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
-{ (void)c; (void)s; *value = fmi2False; return s == fmi2Terminated ? fmi2OK : fmi2Discard; }
+{
+    *value = s == fmi2Terminated && ((mbs_fmu *)c)->terminated ? fmi2True : fmi2False;
+    return s == fmi2Terminated ? fmi2OK : fmi2Discard;
+}
 FMI2_EXPORT fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind s, fmi2String *value)
 { (void)c; (void)s; (void)value; return fmi2Discard; }

@@ -107,9 +107,3 @@ def test_switches_are_event_indicators_in_model_exchange_and_located_in_co_simul
             error = np.max(np.abs(out[name][theirs] - res[name][ours])) / (1 + np.max(np.abs(res[name])))
             assert error < 1e-6, (kind, name, error)
         assert out["shoulder.phi"][-1] == pytest.approx(-np.pi / 4, abs=1e-5)
-
-
-def test_events_the_fmu_cannot_apply_are_refused(tmp_path):
-    with pytest.raises(mbs.MbsError, match="event 'impact' jumps the state"):
-        export_fmu(mbs.load("library/examples/bouncing_ball.mbs"), "drop", tmp_path / "ball.fmu")
-    assert not (tmp_path / "ball.fmu").exists()
