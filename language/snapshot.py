@@ -92,31 +92,38 @@ def from_plain(data: dict):
         names = [tuple(f.name for f in dataclasses.fields(cls)) for cls in classes]
         built: list = []
         new = object.__new__
-
-        def value(v):
-            if type(v) is list:
-                if len(v) != 1 or not 0 <= v[0] < len(built):
-                    raise ValueError(f"a reference to object {v} before it is made")
-                return built[v[0]]
-            if type(v) not in _SCALARS:
-                raise ValueError(f"a {type(v).__name__} where a value belongs")
-            return v
-
         for entry in data["objects"]:
             tag = entry[0]
-            if tag == -1:
-                built.append(tuple([value(v) for v in entry[1:]]))
-            elif tag == -2:
+            if tag == -2:
                 built.append(_constant(entry[1]))
-            else:
-                if not 0 <= tag < len(classes) or len(entry) - 1 != len(names[tag]):
-                    raise ValueError(f"object {len(built)}: class {tag} with {len(entry) - 1} fields")
+                continue
+            # a reference is [index] of an object made before (a later or negative one is refused below)
+            values = [built[v[0]] if type(v) is list else v for v in entry[1:]]
+            if tag == -1:
+                built.append(tuple(values))
+            elif 0 <= tag < len(classes) and len(values) == len(names[tag]):
                 obj = new(classes[tag])
-                obj.__dict__.update(zip(names[tag], [value(v) for v in entry[1:]]))
+                obj.__dict__.update(zip(names[tag], values))
                 built.append(obj)
-        return value(data["root"])
+            else:
+                raise ValueError(f"object {len(built)}: class {tag} with {len(values)} fields")
+        _check_values(data)
+        root = data["root"]
+        return built[root[0]] if type(root) is list else root
     except (KeyError, IndexError, TypeError, AttributeError) as exc:
         raise ValueError(f"not a model snapshot ({type(exc).__name__}: {exc})") from None
+
+
+def _check_values(data: dict) -> None:
+    """Every value a JSON scalar or a reference to an object made before it (refused otherwise: a dict or a
+    list of other length would be data of the wrong shape, a negative index another object than written)."""
+    for row, entry in enumerate(data["objects"]):
+        for v in entry[1:]:
+            if type(v) is list:
+                if len(v) != 1 or type(v[0]) is not int or not 0 <= v[0] < row:
+                    raise ValueError(f"object {row}: a reference {v} to an object not made before it")
+            elif type(v) not in _SCALARS:
+                raise ValueError(f"object {row}: a {type(v).__name__} where a value belongs")
 
 
 def _allowed_class(name: str) -> type:
