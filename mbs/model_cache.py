@@ -7,8 +7,8 @@ models with their scenes, its components' names, its warnings), as a snapshot (l
 data, nothing in it runs code when read), under a key of:
 
 * the path as given and the working directory (messages show paths relative to it), and the file's content;
-* the code that reads and validates (every file of mbs.language and this module) and the versions of lark,
-  Baukasten and Python.
+* the code that reads and validates (every file of mbs.language and this module), where it is installed (the
+  shipped library it imports from is found next to it) and the versions of lark, Baukasten and Python.
 
 It is used only while every file the check read (the imports, their imports) still has the content it was read
 with, and no file has appeared where an import looked first and found none (it would be imported instead): any
@@ -38,6 +38,7 @@ from mbs.runtime import cache as _cache
 #: Bump when what is kept, or how it is read back, changes in a way the hashed sources do not show.
 FORMAT = 1
 _log = logging.getLogger("mbs.cache")
+_LANGUAGE = str(Path(snapshot.__file__).resolve().parent)
 
 
 def load(path: str | Path, model: str | None = None, *, cache_dir=None) -> Model:
@@ -52,8 +53,8 @@ def check(path: str | Path, *, cache_dir=None) -> CheckResult:
         content = Path(path).read_bytes()
     except OSError:  # the front end reports it, located
         return _check(path)
-    key = _cache.digest(("format", str(FORMAT)), ("code", model_fingerprint()), ("path", str(path)),
-                        ("cwd", os.getcwd()), ("content", hashlib.sha256(content).hexdigest()))
+    key = _cache.digest(("format", str(FORMAT)), ("code", model_fingerprint()), ("code location", _LANGUAGE),
+                        ("path", str(path)), ("cwd", os.getcwd()), ("content", hashlib.sha256(content).hexdigest()))
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     entry = folder / f"{_cache.CHECKED_PREFIX}{key[:32]}.json"
     result = _read(entry, key)

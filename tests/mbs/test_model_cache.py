@@ -5,6 +5,8 @@ with errors is reported, located, with a cache present; a damaged or foreign ent
 from __future__ import annotations
 
 import logging
+import subprocess
+import sys
 
 import pytest
 
@@ -188,3 +190,16 @@ def test_the_cache_command_lists_and_verifies_the_entry(files, capsys):
     assert main(["cache", "--dir", str(cache), "list"]) == 0
     assert "slider (slider.mbs, validated)" in capsys.readouterr().out
     assert main(["cache", "--dir", str(cache), "verify"]) == 0
+
+
+def test_a_warm_run_loads_neither_the_parser_nor_sympy(files, monkeypatch):
+    """What a second `mbs simulate` of an unchanged model imports: no lark, sympy or scipy (python -X importtime
+    shows what they cost)."""
+    folder, cache = files
+    monkeypatch.setenv("MBS_CACHE_DIR", str(cache))
+    assert main(["-q", "simulate", "slider.mbs", "--scene", "slow"]) == 0
+    probe = ("import sys\nfrom mbs.cli import main\n"
+             "assert main(['-q', 'simulate', 'slider.mbs', '--scene', 'slow']) == 0\n"
+             "print(sorted({m.split('.')[0] for m in sys.modules} & {'lark', 'sympy', 'scipy', 'matplotlib'}))\n")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=folder, capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "[]"
