@@ -14,7 +14,7 @@ from pathlib import Path
 from . import ast
 from . import model as M
 from .checked import CheckResult, pick
-from .diagnostics import Diagnostic, Diagnostics, MbsError, Source, Span
+from .diagnostics import Diagnostics, MbsError, Source, Span
 from .elaborate import Elaborator
 from .inertia_check import check_inertia
 from .loader import Loader
