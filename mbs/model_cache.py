@@ -2,9 +2,10 @@
 neither parses nor validates it (nor loads the parser and the validator).
 
 Reading the Iltis (five files: lark, the parser and the validator loaded, the text parsed and validated) cost
-0.65 s of the 1.5 s of CPU a warm `mbs simulate` took (bench/iltis.py); with this cache it needs none of it. An entry keeps what language.frontend.check gives for a file (its
-models with their scenes, its components' names, its warnings), as a snapshot (language/snapshot.py: plain JSON
-data, nothing in it runs code when read), under a key of:
+0.65 s of the 1.5 s of CPU a warm `mbs simulate` took (bench/iltis.py); with this cache it needs none of it. An
+entry keeps what language.frontend.check gives for a file (its models with their scenes, its components' names,
+its warnings), as a snapshot (language/snapshot.py: plain JSON data, nothing in it runs code when read), under a
+key of:
 
 * the path as given and the working directory (messages show paths relative to it), and the file's content;
 * the code that reads and validates (every file of mbs.language and this module), where it is installed (the
