@@ -8,12 +8,13 @@
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import ast
 from . import model as M
-from .diagnostics import Diagnostic, Diagnostics, MbsError, Source, Span
+from .checked import CheckResult, pick
+from .diagnostics import Diagnostics, MbsError, Source, Span
 from .elaborate import Elaborator
 from .inertia_check import check_inertia
 from .loader import Loader
@@ -25,32 +26,28 @@ from .shared_scenes import borrowed_scenes, source_module
 from .scope import Module
 
 
-@dataclass(frozen=True)
-class CheckResult:
-    models: tuple[M.Model, ...]
-    components: tuple[str, ...]
-    diagnostics: tuple[Diagnostic, ...]
-
-    def model(self, name: str | None = None) -> M.Model:
-        if name is None:
-            return self.models[0]
-        for m in self.models:
-            if m.name == name:
-                return m
-        raise KeyError(name)
-
-
 def check(path: str | Path) -> CheckResult:
     """Validate every model and component of a file; raise MbsError listing all errors if any."""
+    return check_sources(path)[0]
+
+
+@dataclass(frozen=True)
+class Sources:
+    """What a check read: every file (resolved path -> its text as parsed) and every path an import looked at
+    first and found no file (a file created there would change the result)."""
+
+    texts: dict[Path, str] = field(default_factory=dict)
+    missing: tuple[Path, ...] = ()
+
+
+def check_sources(path: str | Path) -> tuple[CheckResult, Sources]:
+    """check, and the sources its result depends on (for the model cache, mbs/model_cache.py)."""
     with without_cycle_collection():
-        return _check_path(path)
-
-
-def _check_path(path: str | Path) -> CheckResult:
-    diags = Diagnostics()
-    loader = Loader(diags)
-    module = loader.load_path(Path(path))
-    return _check_module(module, loader, diags)
+        diags = Diagnostics()
+        loader = Loader(diags)
+        module = loader.load_path(Path(path))
+        result = _check_module(module, loader, diags)
+        return result, Sources({p: s.text for p, s in loader.sources.items()}, tuple(loader.missing))
 
 
 def check_text(text: str, path: str = "<string>", directory: str | Path = ".") -> CheckResult:
@@ -123,24 +120,11 @@ def _span(node) -> Span | None:
 def load(path: str | Path, model: str | None = None) -> M.Model:
     """The named model of a file (or its only one)."""
     result = check(path)
-    return _pick(result, model, str(path))
+    return pick(result, model, str(path))
 
 
 def load_text(text: str, path: str = "<string>", model: str | None = None, directory: str | Path = ".") -> M.Model:
-    return _pick(check_text(text, path, directory), model, path)
+    return pick(check_text(text, path, directory), model, path)
 
 
-def _pick(result: CheckResult, name: str | None, path: str) -> M.Model:
-    if name is not None:
-        try:
-            return result.model(name)
-        except KeyError:
-            names = ", ".join(m.name for m in result.models) or "none"
-            raise MbsError([Diagnostic("error", f"{path}: no model '{name}' (models: {names})", None)]) from None
-    if not result.models:
-        raise MbsError([Diagnostic("error", f"{path}: the file defines no model (only components: "
-                                            f"{', '.join(result.components) or 'none'})", None)])
-    return result.models[0]
-
-
-__all__ = ["check", "check_text", "load", "load_text", "CheckResult", "ast"]
+__all__ = ["check", "check_sources", "check_text", "load", "load_text", "CheckResult", "Sources", "ast"]

@@ -18,11 +18,14 @@ generated helper (compiler/hooks.py).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from . import ast
 from . import expr as X
 from . import units as U
 from .diagnostics import Span
+
+if TYPE_CHECKING:  # the syntax tree only in annotations: running a model (runtime/hooks.py) loads no parser
+    from . import ast
 
 
 # ------------------------------------------------------------------------------------------ syntax

@@ -1,12 +1,14 @@
 """Finding and reading .mbs modules: ``import iltis.suspension`` looks in the importing file's folder, then
-in the shipped library. Every file is parsed once per run; import cycles are located errors."""
+in the shipped library. Every file is parsed once per run; import cycles are located errors. The loader notes
+what the result depends on (every file read, every place an import looked in vain), which is what the model
+cache (mbs/model_cache.py) checks before it reuses a result."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from . import ast
-from .diagnostics import Diagnostics, MbsError
+from .diagnostics import Diagnostics, MbsError, Source
 from .parser import parse_source, read_source
 from .repeat import expand
 from .scope import Module
@@ -21,6 +23,8 @@ class Loader:
         self.library_root = library_root
         self.modules: dict[Path, Module] = {}
         self._loading: list[Path] = []
+        self.sources: dict[Path, Source] = {}   # every file read (resolved path): its text as parsed
+        self.missing: list[Path] = []           # places an import looked first, in vain (a new file there wins)
 
     def load_path(self, path: Path, dotted: str | None = None, shown: str | None = None) -> Module | None:
         key = path.resolve()
@@ -28,6 +32,7 @@ class Loader:
             return self.modules[key]
         try:
             source = read_source(path, shown or _shown_path(path))
+            self.sources[key] = source
             file = expand(parse_source(source, self.diags), self.diags)
         except MbsError as err:
             self.diags.extend(err.diagnostics)
@@ -50,6 +55,7 @@ class Loader:
         for c in candidates:
             if c.is_file():
                 return c
+            self.missing.append(c)
         return None
 
     def _declare(self, module: Module) -> None:

@@ -9,6 +9,8 @@ inputs. Every object keeps the span of the text it came from, for errors found i
 
 from __future__ import annotations
 
+import dataclasses
+import hashlib
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -260,6 +262,15 @@ class Model:
     @cached_property
     def coordinates(self) -> tuple[Coordinate, ...]:
         return tuple(c for i in self.interactions if i.joint for c in i.joint.coordinates)
+
+    @cached_property
+    def content_digest(self) -> str | None:
+        """The hex SHA-256 of the model's text representation with its scenes left out: everything the equations
+        are derived from (the derivation cache keys on it). None when that text is not stable (it holds an object's
+        address, which differs in every process). Writing the text of a vehicle takes a tenth of a second: the
+        model cache (mbs/model_cache.py) keeps the digest with the model, so a warm start does not."""
+        text = repr(dataclasses.replace(self, scenes=()))
+        return None if " at 0x" in text else hashlib.sha256(text.encode()).hexdigest()
 
     def scene(self, name: str) -> Scene:
         for s in self.scenes:

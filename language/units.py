@@ -11,7 +11,6 @@ and ``1/s`` are the same dimension, and so are torque ``N*m`` and rotational sti
 
 from __future__ import annotations
 
-import difflib
 import functools
 import math
 import re
@@ -161,6 +160,7 @@ def _unknown(name: str, offset: int) -> UnitError:
     elif name.casefold() in folded:
         message += f"; did you mean '{folded[name.casefold()]}'?"
     else:
+        import difflib  # only for a message: a run that parses no unit text does not load it
         close = difflib.get_close_matches(name, UNITS, n=1)
         if close:
             message += f"; did you mean '{close[0]}'?"

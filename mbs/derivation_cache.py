@@ -5,8 +5,9 @@ after it (the compiled library in the build cache, equilibrium, integration) tak
 what the run needs besides it (state, parameter and output names, the start's layout, the event table) are kept
 under a key of everything that can change them:
 
-* the validated model with its scenes left out: every imported file's content is in it (the spans' positions too,
-  so an edit anywhere gives a new key), and the path the model was read from (the C's header comment names it);
+* the validated model with its scenes left out (Model.content_digest, the SHA-256 of its text representation):
+  every imported file's content is in it (the spans' positions too, so an edit anywhere gives a new key), and the
+  path the model was read from (the C's header comment names it);
 * of the scene only what the derivation reads: its inputs and outputs. Scenes that differ in parameters, initial
   values or settings share one entry (and one compiled library);
 * the options that change the code (Jacobian, parameter Jacobian, dynamics functions, frames);
@@ -33,10 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-import hashlib
-import importlib.metadata
 import logging
-import sys
 from pathlib import Path
 
 from mbs.base.cachedir import default_cache_dir
@@ -54,27 +52,12 @@ _PACKAGE = Path(__file__).resolve().parent.parent
 @functools.lru_cache(maxsize=1)
 def derivation_fingerprint() -> str:
     """SHA-256 of the code that derives: the language and compiler packages, this module, the pipeline, and the
-    versions of sympy (its simplifications shape the generated text) and Python."""
+    versions of sympy (its simplifications shape the generated text), Baukasten and Python."""
     import mbs.compiler
     import mbs.language
-    h = hashlib.sha256()
-    files = [Path(__file__), Path(pipeline.__file__)]
-    for package in (mbs.language, mbs.compiler):
-        folder = Path(package.__file__).parent
-        files += sorted(p for p in folder.rglob("*") if p.suffix in (".py", ".lark") and p.is_file())
-    for path in files:
-        data = path.read_bytes()
-        h.update(f"{path.name}:{len(data)}:".encode())
-        h.update(data)
-    h.update(f"sympy {_version('sympy')}, python {sys.version}".encode())
-    return h.hexdigest()
-
-
-def _version(distribution: str) -> str:
-    try:
-        return importlib.metadata.version(distribution)
-    except importlib.metadata.PackageNotFoundError:
-        return "?"
+    files = [Path(__file__), Path(pipeline.__file__), *_cache.package_files(mbs.language),
+             *_cache.package_files(mbs.compiler)]
+    return _cache.code_fingerprint(files, ("sympy",))
 
 
 def derivation_key(model: M.Model, scene: M.Scene | None, options: dict) -> str | None:
@@ -87,11 +70,11 @@ def derivation_key(model: M.Model, scene: M.Scene | None, options: dict) -> str 
 def equations_key(model: M.Model, scene: M.Scene | None, options: dict) -> str | None:
     """The hex SHA-256 of everything the equations' part of the derivation reads: all but the scene's outputs
     (None: the model has no stable text to key on)."""
-    content = repr(dataclasses.replace(model, scenes=()))
+    content = model.content_digest
     inputs = repr(scene.inputs) if scene is not None else "no scene"
-    if " at 0x" in content or " at 0x" in inputs:  # an object's address: the text differs in every process
+    if content is None or " at 0x" in inputs:  # an object's address: the text differs in every process
         return None
-    return _digest(("format", str(FORMAT)), ("code", derivation_fingerprint()), ("path", model.span.source.path),
+    return _cache.digest(("format", str(FORMAT)), ("code", derivation_fingerprint()), ("path", model.span.source.path),
                    ("model", content), ("inputs", inputs), ("options", repr(sorted(options.items()))))
 
 
@@ -101,15 +84,7 @@ def outputs_key(equations: str, scene: M.Scene | None) -> str | None:
     wanted = repr([(o.name, o.value, o.unit) for o in scene.outputs]) if scene is not None else "no scene"
     if " at 0x" in wanted:
         return None
-    return _digest(("equations", equations), ("outputs", wanted))
-
-
-def _digest(*parts: tuple[str, str]) -> str:
-    h = hashlib.sha256()
-    for label, text in parts:
-        h.update(f"{label}:{len(text)}:".encode())
-        h.update(text.encode())
-    return h.hexdigest()
+    return _cache.digest(("equations", equations), ("outputs", wanted))
 
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,

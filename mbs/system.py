@@ -19,8 +19,6 @@ import numpy as np
 from mbs.language import model as M
 from mbs.language.catalog import SCENE_DEFAULTS
 from mbs.language.diagnostics import Diagnostic, MbsError
-from mbs.language.frontend import load as load_model_file
-from mbs.language.frontend import load_text
 from mbs.runtime import build as _build
 from mbs.runtime import hooks as _hooks
 from mbs.runtime.assembly import assemble
@@ -30,7 +28,7 @@ from mbs.runtime.results import Results
 from mbs.runtime.simulate import simulate as _simulate
 from mbs.runtime.workspace import Workspace
 
-from . import derivation_cache, pipeline
+from . import derivation_cache, model_cache, pipeline
 from .quantities import parameter_overrides
 from .gimbal import warn_gimbal
 
@@ -281,11 +279,13 @@ def _settings(scene, t_end, sample, integrator, rtol, atol) -> dict:
 
 
 def load(path: str | Path, model: str | None = None, *, cache_dir: str | None = None, backend: str = "auto") -> System:
-    """Read and validate a model file; raises MbsError listing every problem."""
-    return System(load_model_file(path, model), cache_dir=cache_dir, backend=backend)
+    """Read and validate a model file (taken from the model cache when it and its imports are unchanged,
+    mbs/model_cache.py); raises MbsError listing every problem."""
+    return System(model_cache.load(path, model, cache_dir=cache_dir), cache_dir=cache_dir, backend=backend)
 
 
 def loads(text: str, model: str | None = None, *, path: str = "<string>", cache_dir: str | None = None,
           backend: str = "auto") -> System:
     """The same from text in memory."""
+    from mbs.language.frontend import load_text
     return System(load_text(text, path, model), cache_dir=cache_dir, backend=backend)

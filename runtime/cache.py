@@ -7,7 +7,9 @@ editor) would otherwise crash the process when loaded (a bus error, not an excep
 record, or with one that does not match, is rebuilt with a note, never loaded.
 
 The objects of split builds (``mbs_object_<key>.o``, runtime/build.py) have records of the same kind and are
-checked the same way before they are linked.
+checked the same way before they are linked. Derived equations (``mbs_derived_<key>.json``,
+mbs/derivation_cache.py) and validated models (``mbs_checked_<key>.json``, mbs/model_cache.py) are JSON files
+that carry their record in their first line; both caches key their entries with `digest` and `code_fingerprint`.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import hashlib
 import json
 import os
 import re
+import sys
 import sysconfig
 import time
 from dataclasses import dataclass
@@ -26,6 +29,7 @@ from mbs.base.atomic import write_text_atomic
 EXT_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 PREFIX = "mbs_model_"
 DERIVED_PREFIX = "mbs_derived_"
+CHECKED_PREFIX = "mbs_checked_"
 OBJECT_PREFIX = "mbs_object_"
 
 
@@ -33,17 +37,19 @@ OBJECT_PREFIX = "mbs_object_"
 class Entry:
     """One cached model: its module, record and the unit's C source (any may be missing)."""
 
-    name: str               #: the module name, mbs_model_<key prefix> (mbs_derived_<key prefix>: a derivation)
+    name: str               #: the module name, mbs_model_<key prefix> (mbs_derived_, mbs_checked_: JSON entries)
     module: Path            #: the compiled module (a derivation: its one file)
     record: dict | None     #: the JSON record (None: missing or unreadable)
     files: tuple[Path, ...]  #: every file of the entry (module, record, C unit)
 
     @property
     def kind(self) -> str:
-        """'build' (a compiled model), 'object' (a compiled unit of one) or 'derivation' (derived equations and
-        generated code)."""
+        """'build' (a compiled model), 'object' (a compiled unit of one), 'derivation' (derived equations and
+        generated code) or 'model' (a file's validated models)."""
         if self.name.startswith(OBJECT_PREFIX):
             return "object"
+        if self.name.startswith(CHECKED_PREFIX):
+            return "model"
         return "derivation" if self.name.startswith(DERIVED_PREFIX) else "build"
 
     @property
@@ -139,7 +145,7 @@ def entries(cache: Path) -> list[Entry]:
     groups: dict[str, list[Path]] = {}
     derived = []
     for path in cache.iterdir():
-        if path.name.startswith(DERIVED_PREFIX) and path.name.endswith(".json") and path.is_file():
+        if path.name.startswith((DERIVED_PREFIX, CHECKED_PREFIX)) and path.name.endswith(".json") and path.is_file():
             derived.append(Entry(path.name[:-5], path, read_derived_record(path), (path,)))
             continue
         if not path.name.startswith((PREFIX, OBJECT_PREFIX)) or not path.is_file():
@@ -153,9 +159,57 @@ def entries(cache: Path) -> list[Entry]:
 
 def entry_problem(entry: Entry) -> str | None:
     """Why an entry of either kind must not be loaded (None: it is what was written)."""
-    if entry.kind == "derivation":
+    if entry.kind in ("derivation", "model"):
         return read_derived(entry.module)[1]
     return problem(entry.module) if entry.module.exists() else "the compiled module is missing"
+
+
+# ------------------------------------------------------------------------------------------ keys
+def digest(*parts: tuple[str, str]) -> str:
+    """The hex SHA-256 of labelled texts (each with its length, so that no two lists of parts run together)."""
+    h = hashlib.sha256()
+    for label, text in parts:
+        h.update(f"{label}:{len(text)}:".encode())
+        h.update(text.encode())
+    return h.hexdigest()
+
+
+def code_fingerprint(files, distributions: tuple[str, ...] = ()) -> str:
+    """The hex SHA-256 of the code that makes an entry: these files (name, size, content), the installed
+    versions of these distributions, Baukasten's version and Python's."""
+    from mbs import __version__
+    h = hashlib.sha256()
+    for path in files:
+        data = Path(path).read_bytes()
+        h.update(f"{Path(path).name}:{len(data)}:".encode())
+        h.update(data)
+    versions = ", ".join(f"{name} {installed_version(name)}" for name in distributions)
+    h.update(f"{versions}; baukasten {__version__}; python {sys.version}".encode())
+    return h.hexdigest()
+
+
+def package_files(package) -> list[Path]:
+    """Every .py and .lark file of an imported package, sorted (what code_fingerprint hashes of it)."""
+    folder = Path(package.__file__).parent
+    return sorted(p for p in folder.rglob("*") if p.suffix in (".py", ".lark") and p.is_file())
+
+
+def installed_version(distribution: str) -> str:
+    """The installed version of a distribution ("?" if none), from its metadata folder next to the package
+    (``NAME-VERSION.dist-info``: a glob, cheaper than loading importlib.metadata on every start); else from
+    importlib.metadata."""
+    import importlib.util
+    spec = importlib.util.find_spec(distribution)
+    if spec is not None and spec.origin:
+        site = Path(spec.origin).parent.parent
+        found = sorted(site.glob(f"{distribution}-*.dist-info"))
+        if len(found) == 1:
+            return found[0].name[len(distribution) + 1:-len(".dist-info")]
+    import importlib.metadata
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
 
 
 # ------------------------------------------------------------------------------------------ derivations

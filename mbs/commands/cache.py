@@ -7,8 +7,8 @@ import time
 
 
 class Cache:
-    help = ("the build cache of compiled models and derived equations: list entries, clean them (all or older than "
-            "N days), verify them")
+    help = ("the build cache of compiled models, derived equations and validated model files: list entries, clean "
+            "them (all or older than N days), verify them")
 
     @staticmethod
     def arguments(p):
@@ -52,7 +52,8 @@ def _list(folder, args) -> int:
     entries = cache.entries(folder)
     now = time.time()
     for e in entries:
-        kind = {"derivation": "  (derived equations)", "object": "  (compiled unit)"}.get(e.kind, "")
+        kind = {"derivation": "  (derived equations)", "object": "  (compiled unit)",
+                "model": "  (validated model)"}.get(e.kind, "")
         print(f"{e.name}  {_size(e.size):>9}  {_age(now - e.built):>8} old  {e.model}{kind}")
     total = sum(e.size for e in entries)
     print(f"{len(entries)} entr{'y' if len(entries) == 1 else 'ies'}, {_size(total)} in {folder}")

@@ -111,3 +111,18 @@ def test_mbs_cache_lists_verifies_and_cleans(built, tmp_path, monkeypatch, capsy
     assert result.path.exists()
     assert main(["cache", "clean"]) == 0
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("distribution", ["sympy", "lark", "numpy"])
+def test_installed_versions_are_the_metadata_s(distribution):
+    """The cheap look-up of a version (the dist-info folder's name, for the caches' keys) agrees with
+    importlib.metadata; a distribution that is not installed has the version '?'."""
+    import importlib.metadata
+    assert cache.installed_version(distribution) == importlib.metadata.version(distribution)
+    assert cache.installed_version("no_such_distribution_here") == "?"
+
+
+def test_keys_keep_their_parts_apart():
+    """digest labels each part with its length: moving text from one part to the next gives another key."""
+    assert cache.digest(("a", "xy"), ("b", "z")) != cache.digest(("a", "x"), ("b", "yz"))
+    assert cache.digest(("a", "x")) == cache.digest(("a", "x"))
