@@ -186,6 +186,12 @@ def test_the_list_holds_every_integrator():
 @pytest.mark.parametrize("integrator", INTEGRATORS)
 def test_forty_four_bars_every_integrator(forty, integrator):
     """Every integrator finishes the 20 s at rtol 1e-6 and 1e-8, the crank closer to the reference at 1e-8.
-    MEASURED"""
+    Measured (largest crank error [rad] at 1e-6 / 1e-8): dopri5 and auto 6.1e-3 / 3.8e-5, rodasp 2.3e-5 / 4.6e-6,
+    rodas5p 9.3e-3 / 3.0e-4, RK45 5.5e-3 / 4.7e-5, DOP853 3.8e-4 / 1.7e-4, Radau 2.8e-5 / 6.5e-8, BDF 6.3e-3 /
+    2.2e-5, LSODA 2.2e-3 / 6.3e-5, cvode_adams 3.0e-3 / 2.3e-5, cvode_bdf 9.8e-3 / 4.9e-4, ida 5.9e-2 / 9.0e-5.
+    Before: rodasp reached t = 2.69 s in 190 s (its Jacobian, by forward differences per state, cost 172 ms and
+    its order), rodas5p stalled at a flat crossing (t = 13.04 s, step 4.5e-9 s: differences of the projecting
+    rhs there), Radau and BDF took minutes per simulated second, ida ended 0.19 rad off (the DAE form's last
+    state before its failure at a crossing)."""
     errors = [forty_error(forty, integrator, rtol) for rtol in (1e-6, 1e-8)]
     assert errors[1] < 1e-3 and errors[1] < errors[0]
