@@ -26,7 +26,7 @@
  * than a table of partials by one difference per state.  Columns the projection undoes (the dependent
  * velocities, and the coordinates whose rate only a dependent velocity drives: N e_j in the range of Q E_D) are
  * zero and not computed, so a mechanism of few degrees of freedom costs a few residuals whatever its size: the
- * chain of 40 four-bars (162 states, one degree of freedom) 3 columns, 12 residuals, where the table took 163
+ * chain of 40 four-bars (162 states, one degree of freedom) 3 columns, 6 residuals (and a few g, gdot), where the table took 163
  * (172 ms per Jacobian; python bench/loop_jacobian.py).
  *
  * Status: 0 ok, 1 singular factors or a singular position (the loop solver's limit rows are not
