@@ -30,7 +30,8 @@
  * (172 ms per Jacobian; python bench/loop_jacobian.py).
  *
  * Status: 0 ok, 1 singular factors or a singular position (the loop solver's limit rows are not
- * differentiated here: the integrators then use finite differences), 2 non-finite, 3 not assembled.
+ * differentiated here: the integrators then keep the Jacobian of an earlier step, rosenbrock.c), 2 non-finite,
+ * 3 not assembled.
  */
 #include <float.h>
 #include <math.h>
