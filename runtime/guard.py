@@ -8,9 +8,11 @@ A run ends early, keeping every sample computed so far, when
   of the interval while steps went on. The message names the time, the step size, what the integrator was
   doing (steps, rejections, factorisations) and the likely cause.
 
-The C integrators run in budgets of SLICE_STEPS steps (``Solver.budget``) so that control returns to Python
-between them to look at signals, the clock and the progress; a budget costs one return from C, nothing on
-the hot path. The scipy methods are checked between output chunks.
+The C integrators run in budgets of steps (``Solver.budget``) so that control returns to Python between them
+to look at signals, the clock and the progress; a budget costs one return from C, nothing on the hot path. A
+budget holds about SLICE_WALL seconds of steps at the rate measured so far (FIRST_SLICE steps first, at most
+SLICE_STEPS): a model whose step costs a tenth of a second (a Jacobian of a large closed mechanism) is checked
+every second or so, not every 2000 steps. The scipy methods are checked between output chunks.
 """
 
 from __future__ import annotations
@@ -20,8 +22,12 @@ import threading
 import time
 from typing import Callable
 
-#: Steps a C integrator takes before control comes back to check the guards.
+#: Most steps a C integrator takes before control comes back to check the guards ...
 SLICE_STEPS = 2000
+#: ... the first budget of steps (before the cost of a step is known) ...
+FIRST_SLICE = 50
+#: ... and the wall time [s] a budget aims at.
+SLICE_WALL = 0.5
 #: A run whose simulated time advanced less than this fraction of its interval ...
 STALL_FRACTION = 1e-6
 #: ... over this many seconds of wall time is stalled.
@@ -130,11 +136,12 @@ class RunGuard:
         def sample(t_eval, out, start=0):
             import numpy as np
             t_eval = np.ascontiguousarray(t_eval, dtype=float)
-            index = start
+            index, budget = start, FIRST_SLICE
             while True:
-                steps = c.stats["nsteps"]
-                c.budget(max(0, min(SLICE_STEPS, limit - steps)))
+                steps, began = c.stats["nsteps"], time.monotonic()
+                c.budget(max(0, min(budget, limit - steps)))
                 status, index = c.sample(t_eval, out, int(index))
+                budget = _next_budget(c.stats["nsteps"] - steps, time.monotonic() - began)
                 if status != too_many or c.stats["nsteps"] >= limit:
                     break  # done, failed, or the user's own step limit: the solver reports it
                 self._check_wall_time()
@@ -152,6 +159,13 @@ class RunGuard:
 def _too_many_status() -> int:
     from .integrators import native
     return native._C_TOO_MANY
+
+
+def _next_budget(steps: int, wall: float) -> int:
+    """Steps for about SLICE_WALL seconds at the rate of the last budget (steps in wall seconds)."""
+    if steps <= 0 or wall <= 0.0:
+        return SLICE_STEPS
+    return max(1, min(SLICE_STEPS, int(SLICE_WALL * steps / wall)))
 
 
 def stall_message(solver, probe, advanced: float, wall: float, steps: int, rejected: int, stats: dict) -> str:

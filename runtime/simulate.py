@@ -150,22 +150,30 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
 #: absolute]: as rodasp's for closed loops (runtime/c/rodasp.c): the projection's Newton tolerance is noise
 #: to a finite difference, and 1e-5 keeps its error near 1e-9.
 JACOBIAN_DIFFERENCE_STEP = 1e-5
+#: The status of mbs_jacobian at and near a singular position of the loops (c/mbs_runtime.h MBS_SINGULAR_MASS).
+SINGULAR_STATUS = 1
 
 
 def state_jacobian(data: Workspace):
     """jac(t, x) -> d xdot/d x from the generated mbs_jacobian (compiler/jacobian.py), or None without one.
     Where it fails (a closed loop at or near a singular position, whose limit rows it does not differentiate:
-    runtime/c/loop_jacobian.c), central differences of the right-hand side answer instead (the projecting one
-    for closed loops, so that the result is the same derivative, of f after the projection)."""
+    runtime/c/loop_jacobian.c) the last one it gave answers, as rosenbrock.c does: the implicit methods use it
+    only for their Newton iterations, which converge with a Jacobian of a step before, whereas differences of
+    the projecting right-hand side there may project perturbed states onto the other branch of the motion
+    through the singular position (and cost 2 nx right-hand sides).  Central differences answer only when
+    there is no earlier one (a run that starts there)."""
     if "jacobian" not in data.model.functions:
         return None
     full, rhs = data.function("jacobian"), data.function("rhs")
+    last = []
 
     def jac(t, x):
         try:
-            return full(t, x)[:, :-1]
-        except EvaluationError:
-            return central_differences(rhs, t, x)
+            last[:] = [full(t, x)[:, :-1].copy()]
+        except EvaluationError as exc:
+            if not last or exc.status != SINGULAR_STATUS:
+                return central_differences(rhs, t, x)
+        return last[0]
     return jac
 
 

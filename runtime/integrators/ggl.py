@@ -25,6 +25,10 @@ import numpy as np
 RANK_TOL = 1e-9
 #: Absolute tolerance on the multipliers: out of the error test (index-2 variables converge with lower order).
 ALGEBRAIC_ATOL = 1e30
+#: The kept rows are near a singular position when the smallest pivot of their QR falls below this fraction of
+#: the largest: ten times the loop solver's band (runtime/c/loops.c, MBS_LOOP_BAND_TOL), where the multipliers
+#: still stay moderate and the states accurate.
+SINGULAR_PIVOT = 1e-2
 
 
 class GGL:
@@ -53,6 +57,15 @@ class GGL:
         self.y0 = np.concatenate([x0, lam, np.zeros(rank)])
         self.yp0 = np.concatenate([xdot, np.zeros(2 * rank)])
         self._x = np.empty(self.nx)
+
+    def near_singular(self, t: float, y: np.ndarray) -> bool:
+        """Whether the kept rows are close to losing rank at the state y (a singular position ahead, where this
+        form's multipliers grow without bound and its Newton iteration fails)."""
+        import scipy.linalg
+        G = self._G(t, y[:self.nx]).reshape(-1, self.nv)[self.rows]
+        r = scipy.linalg.qr(G.T, mode="r", pivoting=True)[0]
+        diagonal = np.abs(np.diag(r))
+        return bool(diagonal.min() < SINGULAR_PIVOT * diagonal.max())
 
     @property
     def algebraic(self) -> list[int]:
