@@ -41,6 +41,10 @@ BUDGET_S = 10.0
 MAX_OPS = 400
 #: Largest explicit coordinate (count_ops) that sympy's simplify is asked to shorten.
 SIMPLIFY_MAX_OPS = 150
+#: ... and the smallest (below it simplify seldom finds anything and still takes a second).
+SIMPLIFY_MIN_OPS = 20
+#: Larger trees or more rows are not tried (their rows written out would be large).
+MAX_COORDINATES, MAX_ROWS = 12, 12
 #: Candidate partitions tried at most.
 MAX_CANDIDATES = 40
 #: |acos argument| allowed over the independent angles at compile time (1 is the singular position).
@@ -78,6 +82,7 @@ class _Step:
     value: sp.Expr          # in the independent coordinates and the unknowns solved before
     angle: bool
     guard: sp.Expr | None
+    radius: sp.Expr | None = None   # sqrt(a^2 + b^2) of a trigonometric step: 0 is singular too
 
 
 def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s: float = BUDGET_S) -> ClosedForm:
@@ -90,6 +95,8 @@ def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s:
         raise Refused("extra states or quaternions")
     if tuple(equations.qdot) != v:
         raise Refused("qdot is not v")
+    if len(q) > MAX_COORDINATES or constraints.nc > MAX_ROWS:
+        raise Refused(f"more than {MAX_COORDINATES} coordinates or {MAX_ROWS} rows")
     g = [sp.sympify(e) for e in constraints.tape.expand(list(constraints.position))]
     allowed = set(q) | set(parameter_values)
     for e in g:
@@ -109,14 +116,16 @@ def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s:
     if ranks != {len(rows)}:
         raise Refused("the rows that do not vanish are redundant or the rank varies")
     used = [k for k in range(len(q)) if any(q[k] in g[i].free_symbols for i in rows)]
+    reasons = []
     for dependent in _candidates(G_num, q0, used, len(rows)):
         if time.monotonic() > deadline:
-            raise Refused("out of time")
+            reasons.append("out of time")
+            break
         try:
             return _attempt(g, rows, q, v, dependent, values, q0, rng, deadline)
-        except Refused:
-            continue
-    raise Refused("no partition closes in closed form")
+        except Refused as exc:
+            reasons.append(f"dependent {', '.join(q[k].name for k in dependent)}: {exc}")
+    raise Refused("no partition closes in closed form (" + "; ".join(reasons) + ")")
 
 
 def _vanishes(e, q, values, rng) -> bool:
@@ -177,14 +186,15 @@ def _attempt(g, rows, q, v, dependent, values, q0, rng, deadline) -> ClosedForm:
     constant = [abs(float(s.guard)) for s in steps if s.guard is not None and s.guard.is_number]
     if any(not c < 1 - GUARD_MARGIN for c in constant):
         raise Refused("the branch sits at a singular position")
-    _check_guards(guards, q, independent, values, q0)
+    radii = tuple(s.radius.xreplace(explicit) for s in steps if s.radius is not None)
+    _check_guards(guards, radii, q, independent, values, q0)
     order = [q[k] for k in dependent]
     positions = tuple(_simpler(explicit[u], deadline) for u in order)
     _check_residuals(g, q, independent, dependent, positions, values, q0, rng)
     J = sp.Matrix(positions).jacobian(qi).applyfunc(lambda e: _simpler(e, deadline))
     vi = sp.Matrix([v[k] for k in independent])
     velocity = J * vi
-    bias = (velocity.jacobian(qi) * vi).applyfunc(lambda e: _simpler(e, deadline))
+    bias = velocity.jacobian(qi) * vi  # (of the simplified J: short enough, and simplify is the slow part)
     angle = {s.unknown: s.angle for s in steps}
     return ClosedForm(independent, tuple(dependent), tuple(angle[u] for u in order), positions,
                       tuple(tuple(J.row(i)) for i in range(J.rows)), tuple(bias), guards, tuple(rows))
@@ -231,14 +241,14 @@ def _solve_trig(row, u) -> _Step | None:
     a, b, c = poly.coeff_monomial(S), poly.coeff_monomial(C), poly.coeff_monomial(1)
     radius = sp.sqrt(sp.trigsimp(sp.expand(a ** 2 + b ** 2)))
     guard = sp.trigsimp(-c / radius)
-    return _Step(u, sp.atan2(a, b) + sp.acos(guard), True, guard)
+    return _Step(u, sp.atan2(a, b) + sp.acos(guard), True, guard, radius)
 
 
 def _simpler(expr, deadline):
     """expr simplified when that is cheap enough and makes it smaller (the derivatives, and so the C, follow its
     size); the residual check runs on the result."""
     ops = sp.count_ops(expr)
-    if ops > SIMPLIFY_MAX_OPS or time.monotonic() > deadline:
+    if not SIMPLIFY_MIN_OPS <= ops <= SIMPLIFY_MAX_OPS or time.monotonic() > deadline:
         return expr
     simpler = sp.simplify(expr)
     return simpler if sp.count_ops(simpler) < ops else expr
@@ -258,7 +268,7 @@ def _choose_branch(step: _Step, u, known, values, initial: float) -> _Step:
     best = int(np.argmin(distance))
     if not (distance[best] < 0.2 and distance[1 - best] > 2 * distance[best] + 1e-3):
         raise Refused(f"the initial state does not tell the branch of {u}")
-    return _Step(u, branches[best], True, step.guard)
+    return _Step(u, branches[best], True, step.guard, step.radius)
 
 
 def _wrap(x: float) -> float:
@@ -275,25 +285,33 @@ def _is_angle(s, exprs) -> bool:
     return True
 
 
-def _check_guards(guards, q, independent, values, q0) -> None:
-    """Every acos argument stays below 1 - GUARD_MARGIN over the full circle of each independent angle it reads
-    (the other independent coordinates at their initial values); guards that read a coordinate that is not an
-    angle cannot be bounded this way: refused."""
-    if not guards:
+def _check_guards(guards, radii, q, independent, values, q0) -> None:
+    """Every acos argument stays below 1 - GUARD_MARGIN, and every radius sqrt(a^2 + b^2) above GUARD_MARGIN
+    times its largest value, over the full circle of each independent angle they read (the other independent
+    coordinates at their initial values); one that reads a coordinate that is not an angle cannot be bounded
+    this way: refused."""
+    exprs = tuple(guards) + tuple(radii)
+    if not exprs:
         return
-    reads = sorted(set().union(*(gd.free_symbols for gd in guards)) & {q[k] for k in independent}, key=str)
-    if not all(_is_angle(s, guards) for s in reads):
+    reads = sorted(set().union(*(gd.free_symbols for gd in exprs)) & {q[k] for k in independent}, key=str)
+    if not all(_is_angle(s, exprs) for s in reads):
         raise Refused("a guard reads a coordinate that is not an angle")
     rng = np.random.default_rng(3)
     n = ANGLE_SAMPLES if len(reads) <= 1 else ANGLE_SAMPLES * len(reads)
     grid = {s: (np.linspace(-math.pi, math.pi, n) if len(reads) == 1 else rng.uniform(-math.pi, math.pi, n))
             for s in reads}
     fixed = {q[k]: q0[k] for k in independent if q[k] not in grid}
+    def sampled(e):
+        f = sp.lambdify(reads, e.xreplace(values).xreplace(fixed), "numpy")
+        return np.abs(np.broadcast_to(np.asarray(f(*[grid[s] for s in reads]), dtype=float), (n,)))
+
     for gd in guards:
-        f = sp.lambdify(reads, gd.xreplace(values).xreplace(fixed), "numpy")
-        worst = np.max(np.abs(np.broadcast_to(f(*[grid[s] for s in reads]), (n,))))
-        if not worst < 1 - GUARD_MARGIN:
+        if not np.max(sampled(gd)) < 1 - GUARD_MARGIN:
             raise Refused("the branch can reach a singular position")
+    for radius in radii:
+        size = sampled(radius)
+        if not np.min(size) > GUARD_MARGIN * np.max(size):
+            raise Refused("the branch can reach a singular position (a vanishing radius)")
 
 
 def _check_residuals(g, q, independent, dependent, positions, values, q0, rng) -> None:
