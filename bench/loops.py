@@ -1,6 +1,6 @@
 """The cost of closing kinematic loops, and how far the integrated state drifts off them over a long run.
 
-    python bench/loops.py [--models slider_crank quarter_car vehicle] [--rounds 9] [--t-end-scale 1]
+    python bench/loops.py [--models slider_crank quarter_car vehicle four_bar] [--rounds 9] [--t-end-scale 1]
 
 For each closed-loop model of the library:
 
@@ -57,6 +57,8 @@ MODELS = {
     "slider_crank": ("examples/slider_crank.mbs", None, 20.0, 0.01, dict(rtol=1e-8, atol=1e-10)),
     "quarter_car": ("iltis/quarter_car.mbs", "bump_5", 10.0, 0.005, {}),
     "vehicle": ("iltis/vehicle.mbs", "bump_5", 5.0, 0.005, {}),
+    # a crank-rocker four-bar under gravity (the test model of compiler/closed_form_loops.py)
+    "four_bar": (ROOT / "tests" / "compiler" / "models" / "four_bar.mbs", None, 10.0, 0.01, dict(rtol=1e-8, atol=1e-10)),
 }
 
 

@@ -48,25 +48,30 @@ def closed_form_routine(equations: Equations, form: ClosedForm) -> tuple[Equatio
     Raises CodegenError when the tree's functions divide with a guard (the articulated-body algorithm does; the
     mass matrix and the forces do not)."""
     tree = equations.tree
-    outputs = list(form.positions) + [e for row in form.jacobian for e in row] + list(form.bias) + list(form.guards)
-    replacements, reduced = sp.cse(outputs, symbols=sp.numbered_symbols("cf"))
+    q, v = tree.q_symbols, tree.v_symbols
     tape = equations.tape.fork()
     tape.section("loops closed in closed form (compiler/closed_form_loops.py)")
-    temps: dict = {}
     roots: dict = {}
-
-    def on_tape(expr):
-        return _with_roots(expr.xreplace(temps), tape, roots)
-
+    state: dict = {}  # the dependent coordinates and speeds -> their temporaries
+    positions = []
+    for d, value in zip(form.dependent, form.positions):
+        state[q[d]] = tape.temp(_with_roots(value.xreplace(state), tape, roots), "cf_q")
+        positions.append(state[q[d]])
+    ni = len(form.independent)
+    J = [e.xreplace(state) for row in form.jacobian for e in row]
+    replacements, reduced = sp.cse(J, symbols=sp.numbered_symbols("cf"))
+    temps: dict = {}
     for symbol, expr in replacements:
-        temps[symbol] = tape.temp(on_tape(expr), "cf")
-    values = [on_tape(e) for e in reduced]
-    nd, ni = len(form.dependent), len(form.independent)
-    positions, J = values[:nd], values[nd:nd + nd * ni]
-    q, v = tree.q_symbols, tree.v_symbols
-    state = {q[d]: positions[i] for i, d in enumerate(form.dependent)}
-    state.update({v[d]: tape.temp(sum(J[i * ni + k] * v[c] for k, c in enumerate(form.independent)), "cf_v")
-                  for i, d in enumerate(form.dependent)})
+        temps[symbol] = tape.temp(_with_roots(expr.xreplace(temps), tape, roots), "cf")
+    J = [tape.temp(_with_roots(e.xreplace(temps), tape, roots), "cf_J") for e in reduced]
+    for i, d in enumerate(form.dependent):
+        state[v[d]] = tape.temp(sum(J[i * ni + k] * v[c] for k, c in enumerate(form.independent)), "cf_v")
+    rest = [e.xreplace(state) for e in list(form.bias) + list(form.guards)]
+    replacements, reduced = sp.cse(rest, symbols=sp.numbered_symbols("cfb"))
+    temps = {}
+    for symbol, expr in replacements:
+        temps[symbol] = tape.temp(_with_roots(expr.xreplace(temps), tape, roots), "cf")
+    values = positions + J + [_with_roots(e.xreplace(temps), tape, roots) for e in reduced]
     tree_outputs = [m for row in equations.mass_matrix for m in row] + list(equations.forces)
     tape.section("the tree's mass matrix and forces at the state mapped onto the closed form")
     for entry in equations.tape.entries_for(tree_outputs):

@@ -17,8 +17,9 @@ conservatively, and the numeric loop solver (runtime/c/loops.c) stays the path f
   default parameters), and its guards may not depend on independent coordinates other than angles;
 * at random states on the branch every constraint row (those left out as vanishing too) holds to round-off.
 
-From the explicit map q_D = phi(q_I) follow J = d phi / d q_I and the bias Jdot v_I (both symbolic), and with
-them the reduced dynamics (J^T M J) a = J^T (f - M Jdot v_I) in minimal coordinates (compiler/ccode_closed_form.py
+The steps are kept in order (each reads the independent coordinates and the unknowns solved before it), and
+J = d q_D / d q_I = -G_D^-1 G_I and the bias Jdot v_I = -G_D^-1 (d(G v)/dq) v follow from the implicit function
+theorem at the state they give (G_D^-1 by its adjugate, symbolically), and with them the reduced dynamics (J^T M J) a = J^T (f - M Jdot v_I) in minimal coordinates (compiler/ccode_closed_form.py
 prints them). At run time a state that leaves the branch (an acos argument within MBS_CF_BAND of 1, a state
 nearer the other branch, a parameter that makes the map undefined) falls back to the numeric solver.
 
@@ -39,10 +40,6 @@ import sympy as sp
 BUDGET_S = 10.0
 #: Largest expression (sympy count_ops) of a row the attempt works on.
 MAX_OPS = 400
-#: Largest explicit coordinate (count_ops) that sympy's simplify is asked to shorten.
-SIMPLIFY_MAX_OPS = 150
-#: ... and the smallest (below it simplify seldom finds anything and still takes a second).
-SIMPLIFY_MIN_OPS = 20
 #: Larger trees or more rows are not tried (their rows written out would be large).
 MAX_COORDINATES, MAX_ROWS = 12, 12
 #: Candidate partitions tried at most.
@@ -62,9 +59,11 @@ class Refused(Exception):
 
 @dataclass(frozen=True)
 class ClosedForm:
-    """q_D = positions(q_I) on one branch, with J = d q_D / d q_I (nd x ni, rows of `jacobian`), the bias
-    Jdot v_I (nd) and the guards (each |guard| < 1 off the singular positions), as sympy expressions of the
-    independent coordinates, their speeds and the parameters. Indices are into q (and v: qdot = v here)."""
+    """q_D on one branch, with J = d q_D / d q_I (nd x ni, rows of `jacobian`), the bias Jdot v_I (nd) and the
+    guards (each |guard| < 1 off the singular positions), as sympy expressions of the parameters and the state:
+    positions[i] reads the independent coordinates and the dependent ones before it (`dependent` is in the order
+    of solution); J, the bias and the guards read all coordinates and speeds (the dependent speed is J v_I).
+    Indices are into q (and v: qdot = v here)."""
 
     independent: tuple[int, ...]
     dependent: tuple[int, ...]
@@ -177,27 +176,77 @@ def _attempt(g, rows, q, v, dependent, values, q0, rng, deadline) -> ClosedForm:
                 pending.remove(row)
                 break
         else:
-            raise Refused("the rows do not solve one unknown at a time")
-    explicit: dict = {}
-    for s in steps:
-        explicit[s.unknown] = s.value.xreplace(explicit)
-    guards = tuple(gd for gd in (s.guard.xreplace(explicit) for s in steps if s.guard is not None)
-                   if not gd.is_number)  # (a constant argument is checked below like the others, not at run time)
-    constant = [abs(float(s.guard)) for s in steps if s.guard is not None and s.guard.is_number]
-    if any(not c < 1 - GUARD_MARGIN for c in constant):
+            pair = _pair(pending, [u for u in unknowns if u not in {s.unknown for s in steps}], known, values, q,
+                         q0)
+            if pair is None:
+                raise Refused("the rows do not solve one unknown at a time, nor two by a triangle")
+            rows_used, pair_steps = pair
+            for step in pair_steps:
+                known[step.unknown] = _evaluate(step.value, known, values)
+                steps.append(step)
+            for row in rows_used:
+                pending.remove(row)
+    order = [s.unknown for s in steps]
+    for k, s in enumerate(steps):  # an angle found by atan2 is defined modulo 2 pi: later steps may read it
+        angles = [u for u in order[:k] if _angle_of(steps, u)]  # through sin and cos only
+        if angles and not all(_is_angle(u, [s.value]) for u in angles):
+            raise Refused(f"{s.unknown} reads a dependent angle other than through sin and cos")
+    if any(s.guard is not None and s.guard.is_number and not abs(float(s.guard)) < 1 - GUARD_MARGIN
+           for s in steps):
         raise Refused("the branch sits at a singular position")
-    radii = tuple(s.radius.xreplace(explicit) for s in steps if s.radius is not None)
-    _check_guards(guards, radii, q, independent, values, q0)
-    order = [q[k] for k in dependent]
-    positions = tuple(_simpler(explicit[u], deadline) for u in order)
-    _check_residuals(g, q, independent, dependent, positions, values, q0, rng)
-    J = sp.Matrix(positions).jacobian(qi).applyfunc(lambda e: _simpler(e, deadline))
-    vi = sp.Matrix([v[k] for k in independent])
-    velocity = J * vi
-    bias = velocity.jacobian(qi) * vi  # (of the simplified J: short enough, and simplify is the slow part)
-    angle = {s.unknown: s.angle for s in steps}
-    return ClosedForm(independent, tuple(dependent), tuple(angle[u] for u in order), positions,
-                      tuple(tuple(J.row(i)) for i in range(J.rows)), tuple(bias), guards, tuple(rows))
+    dep = tuple(q.index(u) for u in order)  # in the order of the steps
+    G = sp.Matrix([g[i] for i in rows]).jacobian(q)
+    G_D, G_I = G[:, list(dep)], G[:, list(independent)]
+    det = sp.expand(G_D.det(method="berkowitz"))
+    if det == 0:
+        raise Refused("the dependent block of G is singular")
+    evaluate = _sequence(steps, qi, values, det)
+    _check_guards(evaluate, steps, q, independent, q0)
+    _check_residuals(evaluate, g, q, independent, dep, values, q0, rng)
+    # J = -G_D^-1 G_I and Jdot v_I = -G_D^-1 (d(G v)/dq v) with v_D = J v_I: by the implicit function theorem,
+    # at the state the steps give (no derivative of the nested explicit expressions)
+    inverse = G_D.adjugate() / det
+    J = -inverse * G_I
+    vs = sp.Matrix(v)
+    rates = (G * vs).jacobian(q) * vs  # qdot = v
+    bias = -inverse * rates
+    return ClosedForm(independent, dep, tuple(_angle_of(steps, u) for u in order), tuple(s.value for s in steps),
+                      tuple(tuple(J.row(i)) for i in range(J.rows)), tuple(bias),
+                      tuple(s.guard for s in steps if s.guard is not None and not s.guard.is_number), tuple(rows))
+
+
+def _angle_of(steps, u) -> bool:
+    return any(s.unknown == u and s.angle for s in steps)
+
+
+def _sequence(steps, qi, values, det):
+    """A NumPy function of the independent coordinates (arrays) that evaluates the steps in order: a dict of every
+    unknown's value, and the lists of the guards, the radii (with |det G_D|) at those values."""
+    args = list(qi) + [s.unknown for s in steps]
+    compiled = [(s.unknown, sp.lambdify(args, s.value.xreplace(values), "numpy"),
+                 None if s.guard is None else sp.lambdify(args, s.guard.xreplace(values), "numpy"),
+                 None if s.radius is None else sp.lambdify(args, s.radius.xreplace(values), "numpy"))
+                for s in steps]
+    size = sp.lambdify(args, sp.Abs(det.xreplace(values)), "numpy")
+
+    def evaluate(independent_values):
+        with np.errstate(all="ignore"):  # (a singular sample gives NaN, which the checks refuse)
+            return _evaluated(independent_values)
+
+    def _evaluated(independent_values):
+        n = np.size(independent_values[0])
+        known = [np.broadcast_to(np.asarray(x, dtype=float), (n,)) for x in independent_values]
+        known += [np.zeros(n) for _ in steps]
+        guards, radii = [], []
+        for k, (u, value, guard, radius) in enumerate(compiled):
+            if guard is not None:
+                guards.append(np.broadcast_to(np.asarray(guard(*known), dtype=float), (n,)))
+            if radius is not None:
+                radii.append(np.broadcast_to(np.abs(np.asarray(radius(*known), dtype=float)), (n,)))
+            known[len(qi) + k] = np.broadcast_to(np.asarray(value(*known), dtype=float), (n,))
+        radii.append(np.broadcast_to(np.asarray(size(*known), dtype=float), (n,)))
+        return dict(zip(args, known)), guards, radii
+    return evaluate
 
 
 def _solve_linear(row, u, qi) -> _Step | None:
@@ -211,10 +260,8 @@ def _solve_linear(row, u, qi) -> _Step | None:
     return _Step(u, -b / a, False, None)
 
 
-def _solve_trig(row, u) -> _Step | None:
-    """u from a row a sin u + b cos u + c (u only inside sin/cos of +-u + rest): one of
-    u = atan2(a, b) +- acos(-c / sqrt(a^2 + b^2)); the sign is chosen later (_choose_branch), here +."""
-    S, C = sp.Dummy("S"), sp.Dummy("C")
+def _sin_cos(row, u, S, C):
+    """row with sin(u) and cos(u) written as S and C (u only inside sin/cos of +-u + rest), or None."""
     replaced = {}
     for f in row.atoms(sp.sin, sp.cos):
         if u not in f.free_symbols:
@@ -230,28 +277,83 @@ def _solve_trig(row, u) -> _Step | None:
         else:
             replaced[f] = c * sp.cos(rest) - s * sp.sin(rest)
     expr = sp.expand(row.xreplace(replaced))
-    if u in expr.free_symbols:
-        return None
+    return None if u in expr.free_symbols else expr
+
+
+def _linear_in(expr, S, C):
+    """(a, b, c) with expr = a S + b C + c, or None."""
     try:
         poly = sp.Poly(expr, S, C)
     except sp.PolynomialError:
         return None
     if any(sum(m) > 1 for m in poly.monoms()):
         return None
-    a, b, c = poly.coeff_monomial(S), poly.coeff_monomial(C), poly.coeff_monomial(1)
+    return poly.coeff_monomial(S), poly.coeff_monomial(C), poly.coeff_monomial(1)
+
+
+def _solve_trig(row, u) -> _Step | None:
+    """u from a row a sin u + b cos u + c (u only inside sin/cos of +-u + rest): one of
+    u = atan2(a, b) +- acos(-c / sqrt(a^2 + b^2)); the sign is chosen later (_choose_branch), here +."""
+    S, C = sp.Dummy("S"), sp.Dummy("C")
+    expr = _sin_cos(row, u, S, C)
+    abc = None if expr is None else _linear_in(expr, S, C)
+    return None if abc is None else _trig_step(u, *abc)
+
+
+def _trig_step(u, a, b, c) -> _Step:
     radius = sp.sqrt(sp.trigsimp(sp.expand(a ** 2 + b ** 2)))
     guard = sp.trigsimp(-c / radius)
     return _Step(u, sp.atan2(a, b) + sp.acos(guard), True, guard, radius)
 
 
-def _simpler(expr, deadline):
-    """expr simplified when that is cheap enough and makes it smaller (the derivatives, and so the C, follow its
-    size); the residual check runs on the result."""
-    ops = sp.count_ops(expr)
-    if not SIMPLIFY_MIN_OPS <= ops <= SIMPLIFY_MAX_OPS or time.monotonic() > deadline:
-        return expr
-    simpler = sp.simplify(expr)
-    return simpler if sp.count_ops(simpler) < ops else expr
+def _solve_pair(r1, r2, u, w) -> tuple[_Step, _Step] | None:
+    """(w, u) from two rows linear in sin u and cos u whose solution for them, put into sin^2 u + cos^2 u = 1,
+    leaves a sin w + b cos w + c = 0 (a four-bar: the coupler's angle u eliminated by the triangle of its
+    length, the rocker's w solved as above, then u = atan2(sin u, cos u))."""
+    S, C, Sw, Cw = sp.Dummy("S"), sp.Dummy("C"), sp.Dummy("Sw"), sp.Dummy("Cw")
+    rows = [_sin_cos(r, u, S, C) for r in (r1, r2)]
+    if None in rows:
+        return None
+    coefficients = [_linear_in(r, S, C) for r in rows]
+    if None in coefficients:
+        return None
+    (a1, b1, c1), (a2, b2, c2) = coefficients
+    if any(w in e.free_symbols for e in (a1, b1, a2, b2)):
+        return None
+    det = sp.expand(a1 * b2 - a2 * b1)
+    if det == 0:
+        return None
+    sin_u, cos_u = (b1 * c2 - b2 * c1) / det, (a2 * c1 - a1 * c2) / det
+    eliminated = _sin_cos(sp.expand((b1 * c2 - b2 * c1) ** 2 + (a2 * c1 - a1 * c2) ** 2 - det ** 2), w, Sw, Cw)
+    if eliminated is None:
+        return None
+    eliminated = sp.expand(eliminated.xreplace({Cw: sp.sqrt(1 - Sw ** 2)}))  # cos^2 = 1 - sin^2 ...
+    try:
+        poly = sp.Poly(eliminated, Sw, sp.sqrt(1 - Sw ** 2))
+    except sp.PolynomialError:
+        return None
+    terms = dict(zip(poly.monoms(), poly.coeffs()))
+    if any(sum(m) > 1 and sp.simplify(c) != 0 for m, c in terms.items()):  # ... leaves it linear, or refused
+        return None
+    a, b, c = (sp.factor(sp.trigsimp(terms.get(m, sp.S.Zero))) for m in ((1, 0), (0, 1), (0, 0)))
+    step_w = _trig_step(w, a, b, c)
+    step_u = _Step(u, sp.atan2(sin_u, cos_u), True, None, sp.Abs(det))
+    return step_w, step_u
+
+
+def _pair(pending, left, known, values, q, q0):
+    """(the two rows, the two steps) of the first pair of rows in two unknowns that _solve_pair solves."""
+    for r1, r2 in itertools.combinations(pending, 2):
+        unknowns = (r1.free_symbols | r2.free_symbols) & set(left)
+        if len(unknowns) != 2:
+            continue
+        for u, w in itertools.permutations(sorted(unknowns, key=str)):
+            steps = _solve_pair(r1, r2, u, w)
+            if steps is None:
+                continue
+            step_w = _choose_branch(steps[0], w, known, values, q0[q.index(w)])
+            return (r1, r2), (step_w, steps[1])
+    return None
 
 
 def _evaluate(expr, known, values) -> float:
@@ -260,7 +362,7 @@ def _evaluate(expr, known, values) -> float:
 
 def _choose_branch(step: _Step, u, known, values, initial: float) -> _Step:
     """The sign of the acos whose value lies nearest the initial value of u (modulo 2 pi), when clearly so."""
-    if not step.angle:
+    if step.guard is None:
         return step
     base = step.value - sp.acos(step.guard)
     branches = [base + sp.acos(step.guard), base - sp.acos(step.guard)]
@@ -285,50 +387,47 @@ def _is_angle(s, exprs) -> bool:
     return True
 
 
-def _check_guards(guards, radii, q, independent, values, q0) -> None:
-    """Every acos argument stays below 1 - GUARD_MARGIN, and every radius sqrt(a^2 + b^2) above GUARD_MARGIN
-    times its largest value, over the full circle of each independent angle they read (the other independent
-    coordinates at their initial values); one that reads a coordinate that is not an angle cannot be bounded
-    this way: refused."""
-    exprs = tuple(guards) + tuple(radii)
-    if not exprs:
-        return
-    reads = sorted(set().union(*(gd.free_symbols for gd in exprs)) & {q[k] for k in independent}, key=str)
-    if not all(_is_angle(s, exprs) for s in reads):
-        raise Refused("a guard reads a coordinate that is not an angle")
+def _check_guards(evaluate, steps, q, independent, q0) -> None:
+    """Every acos argument stays below 1 - GUARD_MARGIN, and every radius sqrt(a^2 + b^2) (and |det G_D|) above
+    GUARD_MARGIN times its largest value, over the full circle of each independent angle (the others at their
+    initial values); with an independent coordinate that is not an angle this cannot be bounded: refused (unless
+    the steps have no guards and the radii are constants)."""
+    qi = [q[k] for k in independent]
+    values = [s.value for s in steps] + [s.guard for s in steps if s.guard is not None] + [
+        s.radius for s in steps if s.radius is not None]
+    reads = [k for k, s in enumerate(qi) if any(s in e.free_symbols for e in values)]
+    if not all(_is_angle(qi[k], values) for k in reads):
+        raise Refused("the solution reads an independent coordinate that is not an angle")
     rng = np.random.default_rng(3)
-    n = ANGLE_SAMPLES if len(reads) <= 1 else ANGLE_SAMPLES * len(reads)
-    grid = {s: (np.linspace(-math.pi, math.pi, n) if len(reads) == 1 else rng.uniform(-math.pi, math.pi, n))
-            for s in reads}
-    fixed = {q[k]: q0[k] for k in independent if q[k] not in grid}
-    def sampled(e):
-        f = sp.lambdify(reads, e.xreplace(values).xreplace(fixed), "numpy")
-        return np.abs(np.broadcast_to(np.asarray(f(*[grid[s] for s in reads]), dtype=float), (n,)))
-
+    n = ANGLE_SAMPLES * max(1, len(reads))
+    grid = [np.full(n, q0[k]) for k in independent]
+    for k in reads:
+        grid[k] = (np.linspace(-math.pi, math.pi, n) if len(reads) == 1 else rng.uniform(-math.pi, math.pi, n))
+    _, guards, radii = evaluate(grid)
     for gd in guards:
-        if not np.max(sampled(gd)) < 1 - GUARD_MARGIN:
+        if not np.max(np.abs(gd)) < 1 - GUARD_MARGIN:
             raise Refused("the branch can reach a singular position")
     for radius in radii:
-        size = sampled(radius)
-        if not np.min(size) > GUARD_MARGIN * np.max(size):
-            raise Refused("the branch can reach a singular position (a vanishing radius)")
+        if not np.min(radius) > GUARD_MARGIN * np.max(radius):
+            raise Refused("the branch can reach a singular position (a vanishing radius or pivot)")
 
 
-def _check_residuals(g, q, independent, dependent, positions, values, q0, rng) -> None:
-    """All rows vanish to round-off at random states of the branch (near the initial state)."""
-    qi = [q[k] for k in independent]
-    pos = sp.lambdify(qi, [p.xreplace(values) for p in positions], "numpy")
+def _check_residuals(evaluate, g, q, independent, dependent, values, q0, rng) -> None:
+    """All rows vanish to round-off at random states of the branch (the independent coordinates near their
+    initial values)."""
     rows = sp.lambdify(q, [e.xreplace(values) for e in g], "numpy")
     terms = sp.lambdify(q, [sum(abs(t) for t in sp.Add.make_args(sp.expand(e.xreplace(values)))) for e in g],
                         "numpy")
-    for _ in range(CHECK_STATES):
-        x = q0.copy()
-        x[list(independent)] += rng.uniform(-1.0, 1.0, len(independent))
-        x[list(dependent)] = np.asarray(pos(*x[list(independent)]), dtype=float)
-        r = np.abs(np.asarray(rows(*x), dtype=float))
-        scale = 1.0 + np.abs(np.asarray(terms(*x), dtype=float))
-        if not np.all(np.isfinite(r)) or np.any(r > RESIDUAL_TOL * scale):
-            raise Refused("the closed form does not satisfy the rows")
+    x = np.tile(q0[:, None], (1, CHECK_STATES))
+    for k in independent:
+        x[k] += rng.uniform(-1.0, 1.0, CHECK_STATES)
+    known, _, _ = evaluate([x[k] for k in independent])
+    for k in dependent:
+        x[k] = known[q[k]]
+    r = np.abs(np.array([np.broadcast_to(np.asarray(e, dtype=float), (CHECK_STATES,)) for e in rows(*x)]))
+    scale = 1.0 + np.abs(np.array([np.broadcast_to(np.asarray(e, dtype=float), (CHECK_STATES,)) for e in terms(*x)]))
+    if not np.all(np.isfinite(r)) or np.any(r > RESIDUAL_TOL * scale):
+        raise Refused("the closed form does not satisfy the rows")
 
 
 __all__ = ["ClosedForm", "Refused", "closed_form"]

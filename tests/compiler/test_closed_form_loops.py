@@ -172,9 +172,72 @@ def test_the_branch_is_the_initial_states():
     assert default.independent == flipped.independent and default.dependent == flipped.dependent
 
     def at(form, rod):
+        """(crank, slide) of the closed form's steps at the rod angle (each step reads the ones before)."""
         symbols = {s.name: s for e in form.positions for s in e.free_symbols}
-        return [float(e.xreplace({symbols["r"]: R, symbols["L"]: L, symbols[ROD]: rod})) for e in form.positions]
+        known = {symbols["r"]: R, symbols["L"]: L, symbols[ROD]: rod}
+        names = [CRANK, SLIDE, ROD]  # the model's q order
+        for k, e in zip(form.dependent, form.positions):
+            known[sp.Symbol(names[k])] = float(e.xreplace(known))
+        return [known[sp.Symbol(n)] for n in (CRANK, SLIDE)]
     for rod in (-2.0, 0.6, 3.0):
         (crank, slide), (crank2, slide2) = at(default, rod), at(flipped, rod)
         assert math.remainder(crank2 - crank - math.pi, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)
         assert slide2 == pytest.approx(-slide, rel=1e-13)
+
+
+# ---- a four-bar: two unknowns closed by the triangle of the coupler ------------------------------------------------
+
+FOUR_BAR = Path(__file__).resolve().parent / "models" / "four_bar.mbs"
+A, B, C, D, MASS_PER_M, GRAVITY = 0.2, 0.7, 0.5, 0.6, 1.0, 9.81
+BEARING, KNEE, ROCKER = "bearing.phi", "knee.phi", "rocker_bearing.phi"
+
+
+@pytest.fixture(scope="module")
+def four_bar():
+    system = mbs.load(FOUR_BAR)
+    return system, Workspace(system.compile(None)), Workspace(system.compile(None, closed_form=False))
+
+
+def four_bar_energy(data, x):
+    """T = v^T M v / 2 (the tree's mass matrix) and V from the centres of mass written by hand."""
+    names = data.model.x_names
+    theta, knee, psi = (x[names.index(n)] for n in (BEARING, KNEE, ROCKER))
+    v = x[data.model.nq:]
+    kinetic = 0.5 * v @ data.mass_matrix(0.0, x) @ v
+    heights = [(A * MASS_PER_M, A / 2 * math.sin(theta)),
+               (B * MASS_PER_M, A * math.sin(theta) + B / 2 * math.sin(theta + knee)),
+               (C * MASS_PER_M, C / 2 * math.sin(psi))]
+    return kinetic + GRAVITY * sum(m * z for m, z in heights)
+
+
+def test_a_crank_rocker_four_bar_closes_in_closed_form_and_follows_freudensteins_triangle(four_bar):
+    system, data, numeric = four_bar
+    assert "int mbs_closed_form(" in system.generate(None).c_source
+    start = system.simulate(None, t_end=0.0, sample=1.0)
+    x0 = np.array([start[n][0] for n in data.model.x_names])
+    res = run(data, x0, t_end=2.0, sample=0.01)
+    names = data.model.x_names
+    theta, knee, psi = (res[n] for n in (BEARING, KNEE, ROCKER))
+    assert np.ptp(theta) > 2 * math.pi  # the crank turns over
+    # the coupler joins the crank's tip and the rocker's: |E - C| = b (Freudenstein), and along its own angle
+    tip = np.array([D + C * np.cos(psi) - A * np.cos(theta), C * np.sin(psi) - A * np.sin(theta)])
+    assert np.max(np.abs(np.hypot(*tip) - B)) < 1e-12
+    assert np.max(np.abs(tip - B * np.array([np.cos(theta + knee), np.sin(theta + knee)]))) < 1e-12
+    e = np.array([four_bar_energy(data, np.array([res[n][k] for n in names])) for k in range(len(res.t))])
+    assert np.max(np.abs(e - e[0])) < 1e-9 * np.max(np.abs(e))
+    other = run(numeric, x0, t_end=2.0, sample=0.01)
+    for name in names:
+        assert np.max(np.abs(res[name] - other[name])) < 1e-7, name
+    for x in np.column_stack([res[n] for n in names])[::20]:
+        assert np.allclose(data.function("closed_form_rhs")(0.0, x), numeric.function("rhs")(0.0, x),
+                           rtol=1e-10, atol=1e-10)
+        assert np.allclose(data.function("multipliers")(0.0, x), numeric.function("multipliers")(0.0, x),
+                           rtol=1e-9, atol=1e-9)
+
+
+def test_a_parallelogram_through_its_flat_positions_is_refused():
+    """One cell of the chain of four-bars (tests/runtime/fourbar_chain.py): a parallelogram, whose bars all lie
+    on the ground line at its singular positions."""
+    from tests.runtime.fourbar_chain import fourbar_chain
+    with pytest.raises(Refused, match="singular|triangle"):
+        attempt(fourbar_chain(1))
