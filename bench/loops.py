@@ -197,7 +197,8 @@ def _batch(f, states, repeat):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle"], choices=sorted(MODELS))
+    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle", "four_bar"],
+                    choices=sorted(MODELS))
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--t-end-scale", type=float, default=1.0, help="scale the long runs' simulated time")
     args = ap.parse_args()

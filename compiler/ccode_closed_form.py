@@ -54,8 +54,14 @@ def closed_form_routine(equations: Equations, form: ClosedForm) -> tuple[Equatio
     roots: dict = {}
     state: dict = {}  # the dependent coordinates and speeds -> their temporaries
     positions = []
-    for d, value in zip(form.dependent, form.positions):
+    trig = form.sin_cos or (None,) * len(form.dependent)
+    for d, value, sin_cos in zip(form.dependent, form.positions, trig):
+        # sin and cos of a dependent angle by algebra (the atan2 gives its value, for the state only)
+        if sin_cos is not None:
+            sine, cosine = (tape.temp(_with_roots(e.xreplace(state), tape, roots), "cf_trig") for e in sin_cos)
         state[q[d]] = tape.temp(_with_roots(value.xreplace(state), tape, roots), "cf_q")
+        if sin_cos is not None:
+            state[sp.sin(q[d])], state[sp.cos(q[d])] = sine, cosine
         positions.append(state[q[d]])
     ni = len(form.independent)
     J = [e.xreplace(state) for row in form.jacobian for e in row]
@@ -217,31 +223,28 @@ int mbs_closed_form_rhs(double t, const double *x, const double *p, double *xdot
                 A[k * MBS_CF_NI + l] += jik * MT[d * MBS_CF_NI + l];
         }
     }
-    /* A = L L^T in place (lower triangle), then L L^T a = b into b */
+    /* A = L D L^T in place (L below the diagonal, unit diagonal; D on it), then L D L^T a = b into b */
     for (k = 0; k < MBS_CF_NI; k++) {
         double d = A[k * MBS_CF_NI + k];
         for (l = 0; l < k; l++)
-            d -= A[k * MBS_CF_NI + l] * A[k * MBS_CF_NI + l];
+            d -= A[k * MBS_CF_NI + l] * A[k * MBS_CF_NI + l] * A[l * MBS_CF_NI + l];
         if (!(d > 0.0))
             return d <= 0.0 ? 1 : 2;
-        d = sqrt(d);
         A[k * MBS_CF_NI + k] = d;
         for (i = k + 1; i < MBS_CF_NI; i++) {
             double e = A[i * MBS_CF_NI + k];
             for (l = 0; l < k; l++)
-                e -= A[i * MBS_CF_NI + l] * A[k * MBS_CF_NI + l];
+                e -= A[i * MBS_CF_NI + l] * A[k * MBS_CF_NI + l] * A[l * MBS_CF_NI + l];
             A[i * MBS_CF_NI + k] = e / d;
         }
     }
-    for (k = 0; k < MBS_CF_NI; k++) {
+    for (k = 0; k < MBS_CF_NI; k++)
         for (l = 0; l < k; l++)
             b[k] -= A[k * MBS_CF_NI + l] * b[l];
-        b[k] /= A[k * MBS_CF_NI + k];
-    }
     for (k = MBS_CF_NI - 1; k >= 0; k--) {
+        b[k] /= A[k * MBS_CF_NI + k];
         for (l = k + 1; l < MBS_CF_NI; l++)
             b[k] -= A[l * MBS_CF_NI + k] * b[l];
-        b[k] /= A[k * MBS_CF_NI + k];
     }
     /* qdot = v (closed_form_loops checks it), vdot = [a; J a + Jdot v_I] */
     memcpy(xdot, xc + MBS_NQ, MBS_NQ * sizeof(double));

@@ -73,6 +73,7 @@ class ClosedForm:
     bias: tuple
     guards: tuple
     rows: tuple[int, ...]             # the constraint rows solved (the others vanish identically)
+    sin_cos: tuple = ()               # per dependent coordinate: (sin, cos) of an angle as algebra, or None
 
 
 @dataclass(frozen=True)
@@ -82,6 +83,8 @@ class _Step:
     angle: bool
     guard: sp.Expr | None
     radius: sp.Expr | None = None   # sqrt(a^2 + b^2) of a trigonometric step: 0 is singular too
+    sin_cos: tuple | None = None    # (sin u, cos u) of an angle without trigonometric calls
+    ab: tuple | None = None         # (a, b) of a trigonometric step (sin u, cos u follow with the branch)
 
 
 def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s: float = BUDGET_S) -> ClosedForm:
@@ -211,8 +214,10 @@ def _attempt(g, rows, q, v, dependent, values, q0, rng, deadline) -> ClosedForm:
     rates = (G * vs).jacobian(q) * vs  # qdot = v
     bias = -inverse * rates
     return ClosedForm(independent, dep, tuple(_angle_of(steps, u) for u in order), tuple(s.value for s in steps),
-                      tuple(tuple(J.row(i)) for i in range(J.rows)), tuple(bias),
-                      tuple(s.guard for s in steps if s.guard is not None and not s.guard.is_number), tuple(rows))
+                      tuple(tuple(sp.expand_trig(e) for e in J.row(i)) for i in range(J.rows)),
+                      tuple(sp.expand_trig(e) for e in bias),
+                      tuple(s.guard for s in steps if s.guard is not None and not s.guard.is_number), tuple(rows),
+                      tuple(s.sin_cos for s in steps))
 
 
 def _angle_of(steps, u) -> bool:
@@ -303,7 +308,7 @@ def _solve_trig(row, u) -> _Step | None:
 def _trig_step(u, a, b, c) -> _Step:
     radius = sp.sqrt(sp.trigsimp(sp.expand(a ** 2 + b ** 2)))
     guard = sp.trigsimp(-c / radius)
-    return _Step(u, sp.atan2(a, b) + sp.acos(guard), True, guard, radius)
+    return _Step(u, sp.atan2(a, b) + sp.acos(guard), True, guard, radius, None, (a, b))
 
 
 def _solve_pair(r1, r2, u, w) -> tuple[_Step, _Step] | None:
@@ -337,7 +342,7 @@ def _solve_pair(r1, r2, u, w) -> tuple[_Step, _Step] | None:
         return None
     a, b, c = (sp.factor(sp.trigsimp(terms.get(m, sp.S.Zero))) for m in ((1, 0), (0, 1), (0, 0)))
     step_w = _trig_step(w, a, b, c)
-    step_u = _Step(u, sp.atan2(sin_u, cos_u), True, None, sp.Abs(det))
+    step_u = _Step(u, sp.atan2(sin_u, cos_u), True, None, sp.Abs(det), (sin_u, cos_u))
     return step_w, step_u
 
 
@@ -370,7 +375,13 @@ def _choose_branch(step: _Step, u, known, values, initial: float) -> _Step:
     best = int(np.argmin(distance))
     if not (distance[best] < 0.2 and distance[1 - best] > 2 * distance[best] + 1e-3):
         raise Refused(f"the initial state does not tell the branch of {u}")
-    return _Step(u, branches[best], True, step.guard, step.radius)
+    # u = delta + sigma acos(gamma), delta = atan2(a, b): sin and cos by the sum formulas, no trigonometric call
+    a, b = step.ab
+    sigma = 1 if best == 0 else -1
+    gamma, other = step.guard, sigma * sp.sqrt(1 - step.guard ** 2)
+    sin_u = (a * gamma + b * other) / step.radius
+    cos_u = (b * gamma - a * other) / step.radius
+    return _Step(u, branches[best], True, step.guard, step.radius, (sin_u, cos_u), step.ab)
 
 
 def _wrap(x: float) -> float:
