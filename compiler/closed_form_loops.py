@@ -9,7 +9,8 @@ conservatively, and the numeric loop solver (runtime/c/loops.c) stays the path f
 * only loops whose rows read the free coordinates and the parameters (no time, no quaternions, qdot = v, no
   extra states or friction rows), whose non-vanishing rows number the rank of G, and that solve as a triangle:
   each step one row with one unknown, linear in it (with a coefficient free of the coordinates) or of the form
-  above in an angle that enters only as sin/cos of (+-u + rest);
+  above in an angle that enters only as sin/cos of (+-u + rest); or two rows with two angles u, w, linear in
+  sin u and cos u, whose solution for them put into sin^2 u + cos^2 u = 1 is of that form in w (a four-bar);
 * the branch (the sign of each acos) is the one nearest the model's initial state (defaults, no scene: the
   generated text does not depend on the scene), and must be clearly nearer than the other;
 * the branch must stay away from its singular positions (|acos argument| reaching 1, a slider-crank with r = l,
@@ -19,9 +20,11 @@ conservatively, and the numeric loop solver (runtime/c/loops.c) stays the path f
 
 The steps are kept in order (each reads the independent coordinates and the unknowns solved before it), and
 J = d q_D / d q_I = -G_D^-1 G_I and the bias Jdot v_I = -G_D^-1 (d(G v)/dq) v follow from the implicit function
-theorem at the state they give (G_D^-1 by its adjugate, symbolically), and with them the reduced dynamics (J^T M J) a = J^T (f - M Jdot v_I) in minimal coordinates (compiler/ccode_closed_form.py
-prints them). At run time a state that leaves the branch (an acos argument within MBS_CF_BAND of 1, a state
-nearer the other branch, a parameter that makes the map undefined) falls back to the numeric solver.
+theorem at the state they give (G_D^-1 by its adjugate, symbolically), and with them the reduced dynamics
+(J^T M J) a = J^T (f - M Jdot v_I) in minimal coordinates (compiler/ccode_closed_form.py prints them). At run
+time a state that leaves the branch (an acos argument within MBS_CF_BAND of 1, a dependent angle off the branch's
+value: another assembly, a parameter that makes the map undefined) goes to the numeric solver. docs/numerics.md,
+"Loops closed in closed form", has the figures.
 
 Units: the model's (m, rad, s).
 """
