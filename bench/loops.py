@@ -58,7 +58,8 @@ MODELS = {
     "quarter_car": ("iltis/quarter_car.mbs", "bump_5", 10.0, 0.005, {}),
     "vehicle": ("iltis/vehicle.mbs", "bump_5", 5.0, 0.005, {}),
     # a crank-rocker four-bar under gravity (the test model of compiler/closed_form_loops.py)
-    "four_bar": (ROOT / "tests" / "compiler" / "models" / "four_bar.mbs", None, 10.0, 0.01, dict(rtol=1e-8, atol=1e-10)),
+    "four_bar": (ROOT / "tests" / "compiler" / "models" / "four_bar.mbs", None, 10.0, 0.01,
+                 dict(rtol=1e-8, atol=1e-10)),
 }
 
 
@@ -246,7 +247,8 @@ def main() -> None:
         cost_rows.append((name + " numeric", *baseline))
 
     print(f"\nrhs per call, medians of {args.rounds} interleaved rounds at ~50 states of the run (us)")
-    print(f"{'model':28s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s} {'ratio':>6s}"
+    print(f"{'model':28s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s}"
+          f" {'ratio':>6s}"
           f" {'direct C':>9s} {'ratio':>6s}")
     for name, pc, po, rp, cc, co, rc, cd, rd in cost_rows:
         print(f"{name:28s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}"
