@@ -156,7 +156,27 @@ def _candidates(G_num, q0, used, r):
         s = np.linalg.svd(G[:, combo], compute_uv=False)
         scored.append((-(s[-1] / s[0]) if s[0] > 0 else 0.0, combo))
     scored.sort()
-    return [c for _, c in scored[:MAX_CANDIDATES]]
+    first = _complete_pivoting(G, r)
+    return [first] + [c for _, c in scored[:MAX_CANDIDATES] if c != first]
+
+
+def _complete_pivoting(G, r) -> tuple:
+    """The pivot columns of Gaussian elimination with complete pivoting (runtime/c/loops.c's choice, whose exact
+    Jacobian, runtime/c/loop_jacobian.c, the Rosenbrock methods use: the same partition keeps it the closed
+    form's), in increasing order."""
+    A = G.copy()
+    rows, cols, chosen = list(range(A.shape[0])), list(range(A.shape[1])), []
+    for _ in range(r):
+        sub = np.abs(A[np.ix_(rows, cols)])
+        i, j = np.unravel_index(np.argmax(sub), sub.shape)
+        pi, pj = rows[i], cols[j]
+        for k in rows:
+            if k != pi:
+                A[k] -= A[k, pj] / A[pi, pj] * A[pi]
+        rows.remove(pi)
+        cols.remove(pj)
+        chosen.append(pj)
+    return tuple(sorted(chosen))
 
 
 def _attempt(g, rows, q, v, dependent, values, q0, rng, deadline) -> ClosedForm:
