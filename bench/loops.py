@@ -1,6 +1,6 @@
 """The cost of closing kinematic loops, and how far the integrated state drifts off them over a long run.
 
-    python bench/loops.py [--models slider_crank quarter_car vehicle] [--rounds 9] [--t-end-scale 1]
+    python bench/loops.py [--models slider_crank quarter_car vehicle four_bar] [--rounds 9] [--t-end-scale 1]
 
 For each closed-loop model of the library:
 
@@ -16,6 +16,11 @@ For each closed-loop model of the library:
   rhs without the projection ("direct", `loop_rhs`, the loop algebra alone). Shared machines are noisy: each figure is the median
   over --rounds rounds in which the two models' batches are interleaved, and the ratio is the median of the
   per-round ratios (the stable figure).
+  Two builds of the closed-loop model are timed in the same rounds: the default one, whose loops close in closed
+  form where compiler/closed_form_loops.py proves it ("closed form": the dependent coordinates explicit functions
+  of the independent ones, the reduced dynamics in minimal coordinates, the numeric solver where it declines),
+  and the numeric loop solver alone (`closed_form=False`, "numeric"), the baseline. A model whose loops do not
+  close in closed form prints "-" for it (both builds are then the same).
 * drift: one long run per model (slider-crank 20 s at 10 rad/s; quarter car 10 s over the 5 m/s bump, its
   scene's tolerances), integrated with DOPRI5 in C. The right-hand side is evaluated at the projected state,
   so the integrated ("raw") state is not pulled back and its distance from the constraints may grow with
@@ -52,6 +57,9 @@ MODELS = {
     "slider_crank": ("examples/slider_crank.mbs", None, 20.0, 0.01, dict(rtol=1e-8, atol=1e-10)),
     "quarter_car": ("iltis/quarter_car.mbs", "bump_5", 10.0, 0.005, {}),
     "vehicle": ("iltis/vehicle.mbs", "bump_5", 5.0, 0.005, {}),
+    # a crank-rocker four-bar under gravity (the test model of compiler/closed_form_loops.py)
+    "four_bar": (ROOT / "tests" / "compiler" / "models" / "four_bar.mbs", None, 10.0, 0.01,
+                 dict(rtol=1e-8, atol=1e-10)),
 }
 
 
@@ -143,7 +151,29 @@ def residuals(data, times, states, name="constraints"):
 
 def rhs_costs(closed, open_, states, rounds: int):
     """Medians over rounds of seconds per rhs call (Python loop over the states, inside C, and inside C without
-    the projection), and the median per-round ratios closed / open."""
+    the projection), and the median per-round ratios closed / open; `closed` is a list of workspaces (the builds
+    to compare, timed in the same rounds), the result one tuple per build."""
+    return [_costs(c, open_, states, rounds) for c in _interleaved(closed, open_, states, rounds)]
+
+
+def _interleaved(closed, open_, states, rounds):
+    """The per-round timings of every build of `closed` and of the open tree, the builds taking turns."""
+    samples = [[] for _ in closed]
+    for _ in range(rounds):
+        for k, c in enumerate(closed):
+            samples[k].append(_round(c, open_, states))
+    return samples
+
+
+def _costs(samples, open_, states, rounds):
+    med = statistics.median
+    py_c, py_o, c_c, c_o, c_d = zip(*samples)
+    return (med(py_c), med(py_o), med(a / b for a, b in zip(py_c, py_o)),
+            med(c_c), med(c_o), med(a / b for a, b in zip(c_c, c_o)), med(c_d), med(a / b for a, b in zip(c_d, c_o)))
+
+
+def _round(closed, open_, states):
+    """One round: (py closed, py open, C closed, C open, C direct) seconds per call."""
     fc, fo = closed.function("rhs"), open_.function("rhs")
     order = [open_.model.x_names.index(n) for n in closed.model.x_names]
     inverse = np.argsort(order)
@@ -151,18 +181,11 @@ def rhs_costs(closed, open_, states, rounds: int):
     calls = len(states)
     repeat = max(1, int(0.02 / max(1e-7, _batch(fc, states, 1) / calls)))  # batches of about 20 ms
     direct = closed.function("loop_rhs")
-    py_c, py_o, c_c, c_o, c_d = [], [], [], [], []
     probe = states[len(states) // 2]
     n_c = max(1000, repeat * calls // 4)
-    for _ in range(rounds):
-        py_c.append(_batch(fc, states, repeat) / (repeat * calls))
-        py_o.append(_batch(fo, states_open, repeat) / (repeat * calls))
-        c_c.append(closed.time_rhs(probe, n=n_c))
-        c_o.append(open_.time_rhs(probe[inverse], n=n_c))
-        c_d.append(closed.model.backend.time_call(direct, probe, n_c, 0.0))
-    med = statistics.median
-    return (med(py_c), med(py_o), med(a / b for a, b in zip(py_c, py_o)),
-            med(c_c), med(c_o), med(a / b for a, b in zip(c_c, c_o)), med(c_d), med(a / b for a, b in zip(c_d, c_o)))
+    return (_batch(fc, states, repeat) / (repeat * calls), _batch(fo, states_open, repeat) / (repeat * calls),
+            closed.time_rhs(probe, n=n_c), open_.time_rhs(probe[inverse], n=n_c),
+            closed.model.backend.time_call(direct, probe, n_c, 0.0))
 
 
 def _batch(f, states, repeat):
@@ -175,7 +198,8 @@ def _batch(f, states, repeat):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle"], choices=sorted(MODELS))
+    ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle", "four_bar"],
+                    choices=sorted(MODELS))
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--t-end-scale", type=float, default=1.0, help="scale the long runs' simulated time")
     args = ap.parse_args()
@@ -215,16 +239,23 @@ def main() -> None:
         open_data.p = [dict(zip(compiled.p_names, data.p)).get(n, v)
                        for n, v in zip(open_compiled.p_names, open_compiled.p_default)]
         states = projected[:: max(1, len(times) // 50)]
-        cost_rows.append((name, *rhs_costs(data, open_data, states, args.rounds)))
+        numeric = Workspace(system.compile(scene, closed_form=False))
+        numeric.p = data.p
+        closed_form, baseline = rhs_costs([data, numeric], open_data, states, args.rounds)
+        has_form = "mbs_closed_form(" in gen.c_source
+        cost_rows.append((name + (" closed form" if has_form else " (no closed form)"), *closed_form))
+        cost_rows.append((name + " numeric", *baseline))
 
     print(f"\nrhs per call, medians of {args.rounds} interleaved rounds at ~50 states of the run (us)")
-    print(f"{'model':13s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s} {'ratio':>6s}"
+    print(f"{'model':28s} {'closed py':>10s} {'open py':>8s} {'ratio':>6s} {'closed C':>9s} {'open C':>7s}"
+          f" {'ratio':>6s}"
           f" {'direct C':>9s} {'ratio':>6s}")
     for name, pc, po, rp, cc, co, rc, cd, rd in cost_rows:
-        print(f"{name:13s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}"
+        print(f"{name:28s} {pc * 1e6:10.2f} {po * 1e6:8.2f} {rp:6.1f} {cc * 1e6:9.2f} {co * 1e6:7.2f} {rc:6.1f}"
               f" {cd * 1e6:9.2f} {rd:6.1f}")
     print("(ratio = closed / open tree, the loop overhead; issue 12's target: under 3; closed C projects the state at "
-          "every call, direct C does not project)")
+          "every call, direct C does not project; 'closed form': the default build, loops closed in closed form where "
+          "proven; 'numeric': the numeric loop solver alone, the baseline, same rounds)")
 
     print("\nconstraint residuals of the long runs (DOPRI5 in C): max |g| [m] of the stored (projected) samples and"
           " of the raw integrated state")

@@ -35,6 +35,7 @@ import sympy as sp
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
 from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
                           loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
+from .ccode_closed_form import closed_form_definitions, closed_form_functions, closed_form_routine
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -126,7 +127,8 @@ class CEmitter:
     def __init__(self, equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                  constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-                 dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False):
+                 dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False,
+                 closed_form=None):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
         self.jacobian = self.parameter_jacobian = None
         self.loop_jacobian = None
@@ -149,6 +151,12 @@ class CEmitter:
         self.constraint_matrix = None
         if self.constraints is not None and not (separate_outputs and outputs):  # (not needed by the outputs part)
             self.eqs, self.constraint_matrix = constraint_matrix_routine(self.eqs, self.constraints)
+        # loops closed in closed form (compiler/closed_form_loops.py): tried first at run time, the loop solver
+        # where they decline (not needed by the outputs part either)
+        self.closed_form = self.closed_form_routine = None
+        if self.constraints is not None and closed_form is not None and not (separate_outputs and outputs):
+            self.closed_form = closed_form
+            self.eqs, self.closed_form_routine = closed_form_routine(self.eqs, closed_form)
         self.parameters = tuple(parameters)
         self.outputs = tuple((str(name), sp.sympify(e)) for name, e in outputs)
         self.events = tuple((str(name), sp.sympify(e)) for name, e in events)
@@ -178,6 +186,8 @@ class CEmitter:
             functions.append(name_table("mbs_frame_name", "frame i", list(self.frame_names)))
         if self.constraints is not None:
             functions.append(loop_functions(self.constraints))
+        if self.closed_form is not None:
+            functions.append(closed_form_functions())
         return "\n".join([self._header(), *self._helpers(printer.used, printer.hook_calls), *functions])
 
     def _routines(self) -> list:
@@ -188,7 +198,7 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs)) if r]
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine) if r]
                 + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
@@ -230,6 +240,8 @@ class CEmitter:
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
                       loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+            if self.closed_form is not None:
+                lines.append(closed_form_definitions(self.closed_form, nv, self.constraints.nc))
             if self.friction:
                 lines.append(self.friction[2])
             if self.loop_jacobian:
@@ -402,7 +414,8 @@ def _array(name: str, values) -> str:
 def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
-               dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False) -> str:
+               dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False,
+               closed_form=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -421,7 +434,8 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
-                    dynamics=dynamics, friction=friction, separate_outputs=separate_outputs).source()
+                    dynamics=dynamics, friction=friction, separate_outputs=separate_outputs,
+                    closed_form=closed_form).source()
 
 
 def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], equations_source: str,

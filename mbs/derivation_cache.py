@@ -89,7 +89,7 @@ def outputs_key(equations: str, scene: M.Scene | None) -> str | None:
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,
              parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
-             equations_ready=None) -> pipeline.Generated:
+             equations_ready=None, closed_form: bool = True) -> pipeline.Generated:
     """pipeline.generate, taken from the derivation cache when the same content was derived before; when only
     the equations were (another scene's outputs), the outputs are derived on top of them
     (pipeline.generate_outputs) and the equations' part of the code is taken from the cache. `equations_ready`:
@@ -97,7 +97,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
     if jacobian is None:  # the scene's integrator decides; resolved here so the key holds what the code holds
         jacobian = pipeline.needs_jacobian(scene)
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
-                   frames=tuple(frames))
+                   frames=tuple(frames), closed_form=closed_form)
     eq_key = equations_key(model, scene, options)
     out_key = outputs_key(eq_key, scene) if eq_key is not None else None
     if out_key is None:

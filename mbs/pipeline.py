@@ -143,12 +143,15 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
              parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
-             equations_ready: Callable[[str], None] | None = None) -> Generated:
+             equations_ready: Callable[[str], None] | None = None, closed_form: bool = True) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
     functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
     them the positions, velocities and Jacobians of these frames ("part.frame").
 
     parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p, for sensitivities; trees only).
+
+    closed_form: try to close the loops in closed form (compiler/closed_form_loops.py; False: the numeric loop
+    solver alone, the baseline bench/loops.py measures it against).
 
     jacobian: emit mbs_jacobian (None: when the scene's integrator uses it). A model whose right-hand side has
     no printable derivative (a lookup table) gets none: its stiff integrators use finite differences.
@@ -160,7 +163,8 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     called with the equations' part as soon as it is written (runtime/build.py prebuild starts compiling it
     while the outputs are derived)."""
     from mbs.compiler.ccode import NotSeparable
-    options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames)
+    options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames,
+                   closed_form=closed_form)
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else ""))
     try:
         return _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
@@ -171,11 +175,14 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
 
 def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: str, *,
                      jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
-                     frames: tuple[str, ...] = ()) -> tuple[str, str, tuple[str, ...], Symbolic]:
+                     frames: tuple[str, ...] = (), closed_form: bool = True
+                     ) -> tuple[str, str, tuple[str, ...], Symbolic]:
     """(outputs part, NumPy source, output names, symbolic stages) of a scene whose equations part (generate's
     c_source up to outputs_at, with the same options) is `equations_source`: the equations are derived again
     (their tape, which the outputs share, must be the same) but not written; the text is the one generate gives.
-    Raises compiler.ccode.NotSeparable when the outputs cannot stand apart."""
+    Raises compiler.ccode.NotSeparable when the outputs cannot stand apart. (closed_form: as for generate; the
+    outputs do not depend on it: they read the loop solver's rates.)"""
+    del closed_form
     from mbs.compiler.ccode import generate_c_outputs
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
@@ -280,8 +287,26 @@ def _code_options(model, scene, lowered, equations, constraints, parameters, jac
     return options, event_table
 
 
+def closed_form_of(model: M.Model, lowered, constraints, equations, friction):
+    """The loops closed in closed form (compiler/closed_form_loops.py) on the branch of the model's own initial
+    state at its default parameters (not a scene's: scenes share one generated text), or None: no loops, friction
+    in them, or the closed form refused (then the numeric loop solver alone, as before)."""
+    from mbs.compiler.closed_form_loops import Refused, closed_form
+    if constraints is None or friction is not None or lowered.friction_rows:
+        return None
+    values = parameter_values(model)
+    x0 = initial_state_of(model, None, lowered.tree, values)
+    by_name = {s.name: s for s in constraints.parameters()}
+    try:
+        return closed_form(constraints, equations, {s: values[n] for n, s in by_name.items() if n in values},
+                           x0[:lowered.tree.nq])
+    except Refused as exc:
+        _log.info("%s: loops not closed in closed form (%s)", model.name, exc)
+        return None
+
+
 def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobian, dynamics, frames,
-              equations_ready=None) -> Generated:
+              equations_ready=None, closed_form: bool = True) -> Generated:
     """generate, with the outputs written apart (`separate`) or with the rest of the file."""
     from mbs.compiler.ccode import generate_c, generate_c_outputs
     from mbs.compiler.lower import lower_outputs
@@ -290,11 +315,14 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
                                                                     outputs=not separate)
     options, event_table = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
                                          parameter_jacobian, dynamics, frames)
+    form = closed_form_of(model, lowered, constraints, equations, friction) if closed_form else None
+    if form is not None:
+        clock("closed the loops in closed form")
     outputs_at = None
     if separate:
         first_table = len(lowered.tables.tables)
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
-                              separate_outputs=True,
+                              separate_outputs=True, closed_form=form,
                               **options)
         clock("generated the equations' C")
         if equations_ready is not None:
@@ -311,7 +339,7 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         options.update(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
     else:
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
-                              **options)
+                              closed_form=form, **options)
     # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
     numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     clock("generated C and NumPy code")

@@ -53,32 +53,34 @@ class System:
                                                 f"(scenes: {names})", None)]) from None
 
     def generate(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
-                 dynamics: bool = False, frames: tuple[str, ...] = (), equations_ready=None) -> pipeline.Generated:
+                 dynamics: bool = False, frames: tuple[str, ...] = (), equations_ready=None,
+                 closed_form: bool = True) -> pipeline.Generated:
         """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
         parameter_jacobian: with mbs_param_jacobian (for sensitivities); dynamics: also the dynamics functions,
         and the kinematics of the named frames (mbs.dynamics); equations_ready: called with the C of the equations
-        as soon as it is written (pipeline.generate)."""
-        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames))
+        as soon as it is written (pipeline.generate); closed_form: False for the numeric loop solver alone."""
+        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames), closed_form)
         if key not in self._compiled:
             self._compiled[key] = derivation_cache.generate(
                 self.model, self.scene(scene), cache_dir=self.cache_dir, jacobian=jacobian,
                 parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames),
-                equations_ready=equations_ready)
+                equations_ready=equations_ready, closed_form=closed_form)
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
-                dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None) -> CompiledModel:
+                dynamics: bool = False, frames: tuple[str, ...] = (), hooks=None,
+                closed_form: bool = True) -> CompiledModel:
         """The compiled model of a scene (its outputs) or of the model's own outputs; options as for generate.
         hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
         binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
-               binding.key if binding is not None else None)
+               binding.key if binding is not None else None, closed_form)
         if key not in self._compiled:
             c_back_end = self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler())
             # the C compiler starts on the equations while the outputs are derived (runtime/build.py prebuild)
             prebuild = functools.partial(_build.prebuild, cache_dir=self.cache_dir) if c_back_end else None
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
-                                frames=frames, equations_ready=prebuild)
+                                frames=frames, equations_ready=prebuild, closed_form=closed_form)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))
             info = dict(name=self.model.name, q_names=gen.q_names, v_names=gen.v_names, z_names=gen.z_names,
                         p_names=gen.p_names,

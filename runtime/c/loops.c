@@ -985,12 +985,26 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
 
 /* ---- the functions of the model table (exported: a standalone library offers them too) ------------- */
 
+#ifdef MBS_CLOSED_FORM
+/* Loops closed in closed form (compiler/closed_form_loops.py, the model's mbs_closed_form_*): tried first by the
+ * right-hand sides and the projection; the numeric path below only where they decline (status != 0: off their
+ * branch, near a singular position, a value not finite).  Their scratch follows the kept partition. */
+#if MBS_CF_SCRATCH < MBS_TREE_NWORK + MBS_LOOP_KEEP_SIZE
+#error "the closed form's scratch overlaps the kept partition"
+#endif
+#define MBS_CLOSED_FORM_FIRST(call) do { if ((call) == 0) return 0; } while (0)
+#else
+#define MBS_CLOSED_FORM_FIRST(call) ((void)0)
+#endif
+
 /* x' at the projected state: robust for integrators that cannot project (scipy's), and the mbs_rhs of every
  * other consumer (linearisation, outputs, equilibrium). */
 int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
     mbs_loop_work w = mbs_loop_layout(work);
-    int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
+    int r, s;
+    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
+    s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, xdot, &w);
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
         int i;
@@ -1007,6 +1021,7 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
     int r, s;
+    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
     s = mbs_loop_jacobian_at(t, x, p, &w, 0);
@@ -1022,7 +1037,9 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
 {
     mbs_loop_work w = mbs_loop_layout(work);
     mbs_loop_info info;
-    int s = mbs_loop_project_state(t, x, p, &w, 1, &info);
+    int s;
+    MBS_CLOSED_FORM_FIRST(mbs_closed_form_project(t, x, p, out, work));
+    s = mbs_loop_project_state(t, x, p, &w, 1, &info);
     memcpy(out, w.xc, MBS_NX * sizeof(double));
     return s;
 }

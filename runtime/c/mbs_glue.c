@@ -110,6 +110,10 @@ static mbs_entry MBS_TABLE[] = {
     {"loop_report", mbs_loop_report, MBS_LOOP_NREPORT, 0},
     {"loop_rhs", mbs_loop_rhs_direct, MBS_NX, 0},  /* x' without projection: what the C integrators call */
 #endif
+#ifdef MBS_CLOSED_FORM  /* loops closed in closed form alone (status 4 off their branch), for tests and benches */
+    {"closed_form_rhs", mbs_closed_form_rhs, MBS_NX, 0},
+    {"closed_form_project", mbs_closed_form_project, MBS_NX, 0},
+#endif
 };
 #define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))
 

@@ -1,0 +1,268 @@
+"""C code of loops that close in closed form (compiler/closed_form_loops.py): minimal coordinates at run time.
+
+Three functions of the one model signature, printed into the model's file next to the loop solver's:
+
+    int mbs_closed_form(t, x, p, out, work)          generated: [q_D; J (nd x ni); Jdot v_I; guards; M; f]
+    int mbs_closed_form_rhs(t, x, p, xdot, work)     x' at the state mapped onto the branch (NX)
+    int mbs_closed_form_project(t, x, p, out, work)  x mapped onto the branch: q_D(q_I), v_D = J v_I (NX)
+
+The right-hand side is the reduced dynamics in the independent coordinates, (J^T M J) a = J^T (f - M Jdot v_I)
+with J stacked under the identity of the independent coordinates, and vdot = [a; J a + Jdot v_I]: the tree's
+mass matrix and forces at the mapped state, a Cholesky factorisation of the ni x ni reduced mass matrix, and no
+Newton iteration, partitioning or factorisation of G. A dependent angle is defined modulo 2 pi: the map takes
+the representative nearest the state's own value, so a continuous motion stays continuous.
+
+Each returns 0 on success and otherwise a status that makes the loop solver (runtime/c/loops.c, which calls them
+first) take over with its numeric path: 2 a value not finite, 4 the state is not on the branch (an acos argument
+within MBS_CF_BAND of 1: near a singular position; a dependent angle further than MBS_CF_BRANCH_TOL from the
+branch's value: another assembly of the mechanism). Their scratch lies in the loop solver's work beyond its
+kept partition (MBS_CF_SCRATCH), which the numeric path rewrites anyway before it reads it.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+
+import sympy as sp
+
+from .closed_form_loops import ClosedForm
+from .emit_common import CodegenError
+from .equations import Equations
+
+#: The generated function of the map and its derivatives.
+CLOSED_FORM = "mbs_closed_form"
+#: |guard| above 1 - this: near a singular position of the branch, the numeric path takes over.
+BAND = 1e-6
+#: A dependent angle of the state further than this from the branch's value [rad]: not this branch.
+BRANCH_TOL = 0.1
+
+
+def closed_form_routine(equations: Equations, form: ClosedForm) -> tuple[Equations, tuple]:
+    """(equations on a tape fork that also holds the closed form and the tree's mass matrix and forces at the
+    mapped state, the routine `mbs_closed_form` in the emitter's format). One function computes them all, so the
+    trigonometry of the independent coordinates is shared and the tree functions are not called besides; the
+    tree's temporaries read the closed form's q_D and v_D = J v_I instead of the state's (an angle's turns do not
+    matter there: the tree reads joint angles through their sine and cosine).
+
+    Raises CodegenError when the tree's functions divide with a guard (the articulated-body algorithm does; the
+    mass matrix and the forces do not)."""
+    tree = equations.tree
+    q, v = tree.q_symbols, tree.v_symbols
+    tape = equations.tape.fork()
+    tape.section("loops closed in closed form (compiler/closed_form_loops.py)")
+    roots: dict = {}
+    state: dict = {}  # the dependent coordinates and speeds -> their temporaries
+    positions = []
+    trig = form.sin_cos or (None,) * len(form.dependent)
+    for d, value, sin_cos in zip(form.dependent, form.positions, trig):
+        # sin and cos of a dependent angle by algebra (the atan2 gives its value, for the state only)
+        if sin_cos is not None:
+            sine, cosine = (tape.temp(_with_roots(e.xreplace(state), tape, roots), "cf_trig") for e in sin_cos)
+        state[q[d]] = tape.temp(_with_roots(value.xreplace(state), tape, roots), "cf_q")
+        if sin_cos is not None:
+            state[sp.sin(q[d])], state[sp.cos(q[d])] = sine, cosine
+        positions.append(state[q[d]])
+    ni = len(form.independent)
+    J = [e.xreplace(state) for row in form.jacobian for e in row]
+    replacements, reduced = sp.cse(J, symbols=sp.numbered_symbols("cf"))
+    temps: dict = {}
+    for symbol, expr in replacements:
+        temps[symbol] = tape.temp(_with_roots(expr.xreplace(temps), tape, roots), "cf")
+    J = [tape.temp(_with_roots(e.xreplace(temps), tape, roots), "cf_J") for e in reduced]
+    for i, d in enumerate(form.dependent):
+        state[v[d]] = tape.temp(sum(J[i * ni + k] * v[c] for k, c in enumerate(form.independent)), "cf_v")
+    rest = [e.xreplace(state) for e in list(form.bias) + list(form.guards)]
+    replacements, reduced = sp.cse(rest, symbols=sp.numbered_symbols("cfb"))
+    temps = {}
+    for symbol, expr in replacements:
+        temps[symbol] = tape.temp(_with_roots(expr.xreplace(temps), tape, roots), "cf")
+    values = positions + J + [_with_roots(e.xreplace(temps), tape, roots) for e in reduced]
+    tree_outputs = [m for row in equations.mass_matrix for m in row] + list(equations.forces)
+    tape.section("the tree's mass matrix and forces at the state mapped onto the closed form")
+    for entry in equations.tape.entries_for(tree_outputs):
+        if entry.guard is not None:
+            raise CodegenError(f"closed form: the tree functions divide by a guarded pivot ({entry.name})")
+        state[entry.symbol] = tape.temp(entry.expr.xreplace(state), entry.name)
+    values += [sp.sympify(e).xreplace(state) for e in tree_outputs]
+    kinematics = copy.copy(equations.kinematics)
+    kinematics.tape = tape
+    routine = (CLOSED_FORM, "out", "the loops closed in closed form: [q_D; J = d q_D / d q_I (row-major); "
+               "Jdot v_I; guards (|.| < 1 off the singular positions); M; f at the mapped state]",
+               (len(values),), list(enumerate(values)), False)
+    return dataclasses.replace(equations, kinematics=kinematics), routine
+
+
+def _with_roots(expr, tape, roots: dict):
+    """expr with every power b^(k/2) written as sqrt(b)^k, sqrt(b) one temporary per b (differentiation of a
+    square root gives b^(-3/2), b^(-5/2): pow calls, where one sqrt and products do)."""
+    def half(p):
+        base = p.base
+        if base not in roots:
+            roots[base] = tape.temp(sp.sqrt(base), "cf_root")
+        return roots[base] ** int(2 * p.exp)
+    return expr.replace(lambda z: z.is_Pow and z.exp.is_Rational and z.exp.q == 2 and z.exp != sp.Rational(1, 2)
+                        or (z.is_Pow and z.exp == sp.Rational(1, 2) and z.base in roots), half)
+
+
+def _ints(values) -> str:
+    return ", ".join(str(int(v)) for v in values) or "0"
+
+
+def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
+    """Sizes, the partition and the declarations (after the loop solver's definitions)."""
+    ni, nd, ng = len(form.independent), len(form.dependent), len(form.guards)
+    nout = nd + nd * ni + nd + ng + nv * nv + nv  # [q_D; J; bias; guards; M; f]
+    scratch = 4 + nv + nc  # the loop solver's kept partition (runtime/c/loops.c MBS_LOOP_KEEP_SIZE) comes first
+    need = nout + (nv + nv) + nv + nv * ni + ni * ni + ni  # xc, r, MT, A, b
+    return "\n".join([
+        "/* Loops closed in closed form (compiler/closed_form_loops.py): q_D = q_D(q_I) on one branch. */",
+        "#include <string.h>",
+        "#define MBS_CLOSED_FORM 1",
+        f"#define MBS_CF_NI {ni}   /* independent coordinates */",
+        f"#define MBS_CF_ND {nd}   /* dependent coordinates */",
+        f"#define MBS_CF_NG {ng}   /* guards */",
+        f"#define MBS_CF_NOUT {nout}   /* doubles written by mbs_closed_form */",
+        f"#define MBS_CF_BAND {BAND!r}   /* |guard| above 1 - this: the numeric path */",
+        f"#define MBS_CF_BRANCH_TOL {BRANCH_TOL!r}   /* [rad] a dependent angle further off: the numeric path */",
+        f"#define MBS_CF_SCRATCH (MBS_TREE_NWORK + {scratch})   /* its scratch in work, after the kept partition */",
+        f"#define MBS_CF_NWORK {need}   /* doubles of that scratch */",
+        "#if MBS_CF_SCRATCH + MBS_CF_NWORK > MBS_TREE_NWORK + MBS_LOOP_NWORK",
+        "#error \"the closed form's scratch does not fit the loop solver's work\"",
+        "#endif",
+        f"static const int mbs_cf_independent[{max(ni, 1)}] = {{{_ints(form.independent)}}};",
+        f"static const int mbs_cf_dependent[{max(nd, 1)}] = {{{_ints(form.dependent)}}};",
+        "/* 1: the dependent coordinate is an angle (defined modulo 2 pi) */",
+        f"static const int mbs_cf_angle[{max(nd, 1)}] = {{{_ints(form.angle)}}};",
+        f"int {CLOSED_FORM}(double t, const double *x, const double *p, double *out, double *work);",
+        "int mbs_closed_form_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
+        "int mbs_closed_form_project(double t, const double *x, const double *p, double *out, double *work);",
+        ""])
+
+
+#: The hand-written part: the same text for every model (sizes and tables from the definitions above).
+FUNCTIONS = r"""
+/* xc = x mapped onto the branch of the closed form, cf = mbs_closed_form at x; status 4 off the branch. */
+int mbs_closed_form_state(double t, const double *x, const double *p, double *xc, double *work)
+{
+    double *const cf = work + MBS_CF_SCRATCH;
+    const double *const J = cf + MBS_CF_ND;
+    const double two_pi = 6.283185307179586;
+    int i, k, s = mbs_closed_form(t, x, p, cf, work);
+    if (s != 0)
+        return s;
+    for (i = 0; i < MBS_CF_NG; i++)
+        if (!(fabs(cf[MBS_CF_ND * (MBS_CF_NI + 2) + i]) < 1.0 - MBS_CF_BAND))
+            return 4;
+    memcpy(xc, x, MBS_NX * sizeof(double));
+    for (i = 0; i < MBS_CF_ND; i++) {
+        const int d = mbs_cf_dependent[i];
+        double value = cf[i], speed = 0.0;
+        if (mbs_cf_angle[i]) {
+            value += two_pi * floor((x[d] - value) / two_pi + 0.5);
+            if (!(fabs(x[d] - value) <= MBS_CF_BRANCH_TOL))
+                return 4;
+        }
+        for (k = 0; k < MBS_CF_NI; k++)
+            speed += J[i * MBS_CF_NI + k] * x[MBS_NQ + mbs_cf_independent[k]];
+        xc[d] = value;
+        xc[MBS_NQ + d] = speed;
+    }
+    return 0;
+}
+
+/* x mapped onto the branch: the projection of the closed form. */
+int mbs_closed_form_project(double t, const double *x, const double *p, double *out, double *work)
+{
+    double *const xc = work + MBS_CF_SCRATCH + MBS_CF_NOUT;
+    const int s = mbs_closed_form_state(t, x, p, xc, work);
+    if (s == 0)
+        memcpy(out, xc, MBS_NX * sizeof(double));
+    return s;
+}
+
+/* x' at x mapped onto the branch, from (J^T M J) a = J^T (f - M Jdot v_I) in the independent coordinates. */
+int mbs_closed_form_rhs(double t, const double *x, const double *p, double *xdot, double *work)
+{
+    const double *const cf = work + MBS_CF_SCRATCH;
+    const double *const J = cf + MBS_CF_ND, *const bias = J + MBS_CF_ND * MBS_CF_NI;
+    double *const xc = work + MBS_CF_SCRATCH + MBS_CF_NOUT;
+    const double *const M = bias + MBS_CF_ND + MBS_CF_NG, *const f = M + MBS_NV * MBS_NV;
+    double *const r = xc + MBS_NX;
+    double *const MT = r + MBS_NV, *const A = MT + MBS_NV * MBS_CF_NI, *const b = A + MBS_CF_NI * MBS_CF_NI;
+    double *const vdot = xdot + MBS_NQ;
+    int i, j, k, l;
+    const int s = mbs_closed_form_state(t, x, p, xc, work);
+    if (s != 0)
+        return s;
+    /* MT = M T with T = [I; J] (rows of the independent, then of the dependent coordinates); r = f - M c */
+    for (j = 0; j < MBS_NV; j++) {
+        const double *const row = M + j * MBS_NV;
+        double rj = f[j];
+        for (k = 0; k < MBS_CF_NI; k++)
+            MT[j * MBS_CF_NI + k] = row[mbs_cf_independent[k]];
+        for (i = 0; i < MBS_CF_ND; i++) {
+            const double m = row[mbs_cf_dependent[i]];
+            for (k = 0; k < MBS_CF_NI; k++)
+                MT[j * MBS_CF_NI + k] += m * J[i * MBS_CF_NI + k];
+            rj -= m * bias[i];
+        }
+        r[j] = rj;
+    }
+    /* A = T^T M T, b = T^T r */
+    for (k = 0; k < MBS_CF_NI; k++) {
+        const int c = mbs_cf_independent[k];
+        b[k] = r[c];
+        for (l = 0; l < MBS_CF_NI; l++)
+            A[k * MBS_CF_NI + l] = MT[c * MBS_CF_NI + l];
+        for (i = 0; i < MBS_CF_ND; i++) {
+            const int d = mbs_cf_dependent[i];
+            const double jik = J[i * MBS_CF_NI + k];
+            b[k] += jik * r[d];
+            for (l = 0; l < MBS_CF_NI; l++)
+                A[k * MBS_CF_NI + l] += jik * MT[d * MBS_CF_NI + l];
+        }
+    }
+    /* A = L D L^T in place (L below the diagonal, unit diagonal; D on it), then L D L^T a = b into b */
+    for (k = 0; k < MBS_CF_NI; k++) {
+        double d = A[k * MBS_CF_NI + k];
+        for (l = 0; l < k; l++)
+            d -= A[k * MBS_CF_NI + l] * A[k * MBS_CF_NI + l] * A[l * MBS_CF_NI + l];
+        if (!(d > 0.0))
+            return d <= 0.0 ? 1 : 2;
+        A[k * MBS_CF_NI + k] = d;
+        for (i = k + 1; i < MBS_CF_NI; i++) {
+            double e = A[i * MBS_CF_NI + k];
+            for (l = 0; l < k; l++)
+                e -= A[i * MBS_CF_NI + l] * A[k * MBS_CF_NI + l] * A[l * MBS_CF_NI + l];
+            A[i * MBS_CF_NI + k] = e / d;
+        }
+    }
+    for (k = 0; k < MBS_CF_NI; k++)
+        for (l = 0; l < k; l++)
+            b[k] -= A[k * MBS_CF_NI + l] * b[l];
+    for (k = MBS_CF_NI - 1; k >= 0; k--) {
+        b[k] /= A[k * MBS_CF_NI + k];
+        for (l = k + 1; l < MBS_CF_NI; l++)
+            b[k] -= A[l * MBS_CF_NI + k] * b[l];
+    }
+    /* qdot = v (closed_form_loops checks it), vdot = [a; J a + Jdot v_I] */
+    memcpy(xdot, xc + MBS_NQ, MBS_NQ * sizeof(double));
+    for (k = 0; k < MBS_CF_NI; k++)
+        vdot[mbs_cf_independent[k]] = b[k];
+    for (i = 0; i < MBS_CF_ND; i++) {
+        double a = bias[i];
+        for (k = 0; k < MBS_CF_NI; k++)
+            a += J[i * MBS_CF_NI + k] * b[k];
+        vdot[mbs_cf_dependent[i]] = a;
+    }
+    return mbs_all_finite(xdot, MBS_NX) ? 0 : 2;
+}
+"""
+
+
+def closed_form_functions() -> str:
+    return FUNCTIONS.lstrip("\n")
+
+
+__all__ = ["CLOSED_FORM", "closed_form_definitions", "closed_form_functions", "closed_form_routine"]
