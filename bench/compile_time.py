@@ -10,11 +10,12 @@ and noisy, so CPU seconds are printed beside wall seconds):
   equations' units start while the outputs are derived, runtime/build.py prebuild), load. The baseline is the
   same with the former settings: the former C printer (every function of the file printed its temporaries anew,
   and sympy's could_extract_minus_sign, which builds -term for every term of a sum) and the former flags (the
-  outputs' unit at the model units' level). Printed: wall time, and of it the derivation (to the generated C)
+  outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
+  level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS). Printed: wall time, and of it the derivation (to the generated C)
   and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
 * same text: the generated C of both settings is compared (the settings must not change it);
 * run time, interleaved rounds inside C (`backend.time_call`, no Python): the right-hand side the integrators
-  call and the outputs at the start state, and a whole `simulate` of the scene (the vehicle: bump_5; the chains:
+  call, the outputs and the mass matrix at the start state, and a whole `simulate` of the scene (the vehicle: bump_5; the chains:
   1 s), each against the former build;
 * --units: each translation unit compiled alone, one at a time, with the current and the former flags: its
   size and the compiler's CPU seconds.
@@ -50,6 +51,8 @@ from fourbar_chain import fourbar_chain  # noqa: E402
 TARGETS = {"iltis": 5.0, "chain40": 10.0}
 #: The flags of the outputs' unit before this bench's change (the model units' level).
 FORMER_OUTPUTS_FLAGS: tuple[str, ...] = ()
+#: The flags of the cold units before (runtime/translation_units.py COLD_FUNCTIONS: they were model units).
+FORMER_COLD_FLAGS: tuple[str, ...] = ()
 
 
 def model_text(name: str) -> tuple[str, str, str | None, float | None]:
@@ -83,13 +86,14 @@ def _former_print_add(self, expr):
 @contextlib.contextmanager
 def former_settings():
     """The printer and the build flags as they were before: the baseline."""
-    saved = emit_common.ExprPrinter.doprint, emit_common.ExprPrinter._print_Add, build.OUTPUTS_UNIT_FLAGS
-    emit_common.ExprPrinter.doprint, emit_common.ExprPrinter._print_Add = _former_doprint, _former_print_add
-    build.OUTPUTS_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS
+    printer = emit_common.ExprPrinter
+    saved = printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS
+    printer.doprint, printer._print_Add = _former_doprint, _former_print_add
+    build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
         yield
     finally:
-        emit_common.ExprPrinter.doprint, emit_common.ExprPrinter._print_Add, build.OUTPUTS_UNIT_FLAGS = saved
+        printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = saved
 
 
 def _children_cpu() -> float:
@@ -138,9 +142,9 @@ def median(runs: list[dict], key: str) -> float:
 # ---- run time -------------------------------------------------------------------------------------------------------
 
 def call_times(current, former, rounds: int) -> dict:
-    """{function: (current, former) seconds per call inside C}, medians of interleaved rounds."""
+    """{function: (current, former, ratio) seconds per call inside C}, medians of interleaved rounds."""
     out = {}
-    for fn in ("rhs", "outputs"):
+    for fn in ("rhs", "outputs", "mass_matrix"):
         rows = []
         for _ in range(rounds):
             row = []
@@ -149,7 +153,7 @@ def call_times(current, former, rounds: int) -> dict:
                 if fn not in data.model.backend.functions:
                     break
                 f = data.function(fn)
-                row.append(compiled.backend.time_call(f, data.x, 200 if fn == "rhs" else 100, 0.0))
+                row.append(compiled.backend.time_call(f, data.x, 200, 0.0))
             if len(row) == 2:
                 rows.append(row)
         if rows:
@@ -185,6 +189,7 @@ def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
     files = build._build_files(code, "model.c")
     outputs_flags = FORMER_OUTPUTS_FLAGS if former else build.OUTPUTS_UNIT_FLAGS
     model_flags = build.model_unit_flags(cc)
+    saved, build.COLD_UNIT_FLAGS = build.COLD_UNIT_FLAGS, FORMER_COLD_FLAGS if former else build.COLD_UNIT_FLAGS
     includes = (f"-I{build.C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
@@ -198,6 +203,7 @@ def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
             cpu = _children_cpu()
             subprocess.run(command, cwd=tmp, check=True, capture_output=True)
             out[name] = (len(text), _children_cpu() - cpu)
+    build.COLD_UNIT_FLAGS = saved
     return out
 
 
@@ -207,9 +213,11 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
     args = ap.parse_args()
-    print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, outputs unit flags "
-          f"{' '.join(FORMER_OUTPUTS_FLAGS) or '(those of the model units)'}; the current: outputs unit "
-          f"{' '.join(build.OUTPUTS_UNIT_FLAGS) or '(those of the model units)'}")
+    same = "(those of the model units)"
+    print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, the outputs' unit and the "
+          f"cold functions at {' '.join(FORMER_OUTPUTS_FLAGS) or same}; the current: the outputs' unit at "
+          f"{' '.join(build.OUTPUTS_UNIT_FLAGS) or same}, the cold functions' units at "
+          f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
     for name in args.models:
         current, former = compare_compiles(name, args.repeat)
         same = all(r["code"] == current[0]["code"] for r in current + former)

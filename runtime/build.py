@@ -62,8 +62,18 @@ FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: would cost the chain's right-hand side 12 %. The glue unit (integrators, loop solver) keeps FLAGS.
 GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access=100",
                         "--param=dse-max-alias-queries-per-store=32")
-#: Appended to those of the outputs' unit (outputs.c, after the model units' flags): OUTPUTS_LEVEL_PLACEHOLDER
-OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ()
+#: Appended to those of the outputs' unit (outputs.c, after the model units' flags). The outputs are evaluated once
+#: per sample, not per stage of a step; the Iltis's (135 kB of C) took 3.5 s of CPU at the model units' level, about
+#: 1.2 s less at -Og (bench/compile_time.py), and per call no slower within the noise of a shared machine (its
+#: mbs_outputs first solves the loops for the accelerations, in the model units).
+OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
+#: Appended to those of the units of the functions no integrator calls (runtime/translation_units.py
+#: COLD_FUNCTIONS: an open tree's mass matrix and forces), from what bench/compile_time.py --units measures: the
+#: 40-link pendulum's mass matrix (276 kB of C) took 13.8 s of CPU at the model units' level, 9.0 s at -O1 and
+#: 6.9 s at -Og, which keeps the values in registers (a straight-line function at -O0 runs several times slower).
+#: The results are the same to the bit at every level (no level reassociates without -ffast-math, and -std=c99
+#: does not contract a*b+c).
+COLD_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
 PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
 CACHE_ENV = "MBS_CACHE_DIR"
@@ -167,6 +177,7 @@ def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[s
         digest.add(Path(module).name, Path(module).read_bytes())
     digest.add("split", f"{_units.SPLIT_MIN_CHARS} {_units.UNIT_CHARS} {_units.MAX_MODEL_UNITS}")
     digest.add("flags", "\0".join(flags)).add("model units", "\0".join(model_flags))
+    digest.add("cold units", "\0".join(COLD_UNIT_FLAGS))
     return digest.add("outputs unit", "\0".join(outputs_flags)).hexdigest()
 
 
@@ -291,9 +302,11 @@ def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path,
 
 def unit_flags(name: str, model_flags: tuple[str, ...], outputs_flags: tuple[str, ...]) -> tuple[str, ...]:
     """The flags unit `name` of a split build gets beyond FLAGS: none for the glue unit, model_flags for the model's
-    units, and outputs_flags after them for the outputs' unit."""
+    units, and outputs_flags (COLD_UNIT_FLAGS) after them for the outputs' unit (the cold functions' units)."""
     if name == _units.GLUE_UNIT:
         return ()
+    if name.startswith(_units.COLD_PREFIX):
+        return (*model_flags, *COLD_UNIT_FLAGS)
     return (*model_flags, *outputs_flags) if name == _units.OUTPUTS_UNIT else model_flags
 
 
