@@ -25,6 +25,7 @@ import numpy as np
 import mbs
 from mbs.runtime import build
 from mbs.runtime import translation_units as units
+from mbs.runtime.build import COLD_UNIT_FLAGS
 from mbs.runtime.translation_units import SPLIT_MIN_CHARS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -57,9 +58,12 @@ def main() -> None:
                 start, cpu = time.perf_counter(), _children_cpu()
                 default = build.model_unit_flags(tuple(build.compiler_command()))
                 flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(*default, level))
+                # the level for every model unit, the outputs' and the cold ones' too (their own flags come after)
+                flags["outputs_flags"], build.COLD_UNIT_FLAGS = (), ()
                 result = build.build(code, cache_dir=cache, **flags)
                 seconds, cpu = time.perf_counter() - start, _children_cpu() - cpu
                 units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS
+                build.COLD_UNIT_FLAGS = COLD_UNIT_FLAGS
                 module = build.load(result)
                 work = np.zeros(module.NWORK)
                 f = module.Function("rhs", np.asarray(data.p, dtype=float), work)
