@@ -63,9 +63,9 @@ FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access=100",
                         "--param=dse-max-alias-queries-per-store=32")
 #: Appended to those of the outputs' unit (outputs.c, after the model units' flags). The outputs are evaluated once
-#: per sample, not per stage of a step; the Iltis's (135 kB of C) took 3.5 s of CPU at the model units' level, about
-#: 1.2 s less at -Og (bench/compile_time.py), and per call no slower within the noise of a shared machine (its
-#: mbs_outputs first solves the loops for the accelerations, in the model units).
+#: per sample, not per stage of a step; the Iltis's (135 kB of C) took 2.9 to 3.4 s of CPU at the model units' level
+#: and 2.1 s at -Og (GCC 12, compiled alone), and a bump scene's simulate is as fast within the noise of a shared
+#: machine (its mbs_outputs first solves the loops for the accelerations, in the model units).
 OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 #: Appended to those of the units of the functions no integrator calls (runtime/translation_units.py
 #: COLD_FUNCTIONS: an open tree's mass matrix and forces), from what bench/compile_time.py --units measures: the
