@@ -40,8 +40,8 @@ from pathlib import Path
 import numpy as np
 
 import mbs
-from mbs.compiler import ccode, emit_common, pycode
-from mbs.runtime import build, translation_units
+from mbs.compiler import emit_common
+from mbs.runtime import build
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
