@@ -8,7 +8,9 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 * compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load), and of it
   the derivation (to generated C) and the rest of the C build (split into units compiled in parallel,
   runtime/translation_units.py; the equations' units start while the outputs are derived, runtime/build.py
-  prebuild), against the same C built as one unit (how every model was built before the split) as the baseline;
+  prebuild), against the same with the former settings (bench/compile_time.py: the former C printer and the
+  outputs' unit compiled at the model units' level) and against the same C built as one unit (how every model
+  was built before the split) as baselines;
 * the command line, `mbs -q simulate vehicle.mbs --scene S` in a subprocess (medians of --repeat interleaved
   rounds, wall and CPU time): warm (the build, the derivation and the validated model cached: a user's second
   call; target under 1 s) against cold (the build cached, the derivation and the model not: every call before the
@@ -60,6 +62,7 @@ from mbs.runtime.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).parent))
 from chain import chain_text  # noqa: E402
+from compile_time import former_settings, fresh_compile  # noqa: E402
 
 MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
 #: Issue 12's targets: the constrained rhs against the open chain, and each bump scene's real-time factor.
@@ -140,6 +143,12 @@ def main() -> None:
         print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache: derivation "
               f"{derived - start:.1f} s, then C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
               f"{len(gen.c_source) / 1024:.0f} KiB")
+        with tempfile.TemporaryDirectory() as empty, former_settings():
+            before = fresh_compile("iltis", empty)
+        print(f"  baseline: the former settings (compile_time.py: the former C printer, the outputs' unit at the model "
+              f"units' level) {before['total']:.1f} s (derivation {before['derive']:.1f} s, then C build "
+              f"{before['cc']:.1f} s): {before['total'] / compile_time:.2f} x this compile; the same C: "
+              f"{'yes' if before['code'] == gen.c_source else 'NO'}")
         if not args.no_one_unit:
             one = one_unit_build(gen.c_source)
             former = derived - start + one

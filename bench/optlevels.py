@@ -3,7 +3,7 @@
     python bench/optlevels.py [--models iltis chain40] [--levels O0 O1 O2 O3] [--whole]
 
 For each model the generated C (derived once) is compiled with each level into a fresh cache: by default the level
-applies to the model's units of the split build (runtime/units.py; the glue unit with the integrators and the
+applies to the model's units of the split build (runtime/translation_units.py; the glue unit with the integrators and the
 loop solver keeps -O2), with --whole to every unit; last, as the baseline, the former build: one unit at -O2. Printed: the build's wall time and the compiler processes'
 CPU time (the fairer figure on a shared machine), then the right-hand side the integrators call, timed inside C
 at the start state (`Function.time`, median of 5). Ratios are to -O2, the build default, in this run.
@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 
 import mbs
-from mbs.runtime import build, units
-from mbs.runtime.units import SPLIT_MIN_CHARS
+from mbs.runtime import build
+from mbs.runtime import translation_units as units
+from mbs.runtime.build import COLD_UNIT_FLAGS
+from mbs.runtime.translation_units import SPLIT_MIN_CHARS
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "tests" / "runtime"))
@@ -56,9 +58,12 @@ def main() -> None:
                 start, cpu = time.perf_counter(), _children_cpu()
                 default = build.model_unit_flags(tuple(build.compiler_command()))
                 flags = dict(extra_flags=(level,)) if args.whole else dict(model_flags=(*default, level))
+                # the level for every model unit, the outputs' and the cold ones' too (their own flags come after)
+                flags["outputs_flags"], build.COLD_UNIT_FLAGS = (), ()
                 result = build.build(code, cache_dir=cache, **flags)
                 seconds, cpu = time.perf_counter() - start, _children_cpu() - cpu
                 units.SPLIT_MIN_CHARS = SPLIT_MIN_CHARS
+                build.COLD_UNIT_FLAGS = COLD_UNIT_FLAGS
                 module = build.load(result)
                 work = np.zeros(module.NWORK)
                 f = module.Function("rhs", np.asarray(data.p, dtype=float), work)

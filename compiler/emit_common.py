@@ -113,6 +113,15 @@ def _claim(name: str, taken: set) -> str:
 
 # ---- the printer ----------------------------------------------------------------------------------------------
 
+def _minus_sign(term) -> bool:
+    """term.could_extract_minus_sign() for a term of a sum, without its cost: sympy's Mul builds -term to compare
+    it with term (which only an infinite factor makes equal), a tenth of the time of printing a large model."""
+    if term.is_Mul:
+        first = term.args[0]
+        return first.is_Number and bool(first.is_extended_negative)
+    return bool(term.could_extract_minus_sign())
+
+
 class ExprPrinter:
     """Text of a sympy expression, one method per node kind; subclasses give the syntax that differs.
 
@@ -130,9 +139,17 @@ class ExprPrinter:
         self.names, self.n_tables = names, n_tables
         self.used: set[str] = set()
         self.hook_calls: dict[str, int] = {}  # helper of a user hook (compiler/hooks.py) -> its arguments after t
+        # expression -> its text: the functions of a file print many of the same temporaries (the kinematics of
+        # the mass matrix, the forces, the constraints ...), and printing is a good part of the derivation time.
+        # `used` and `hook_calls` only grow, so a text printed before has put its names there already.
+        self._printed: dict = {}
 
     def doprint(self, expr) -> str:
-        return self._print(sp.sympify(expr))[0]
+        text = self._printed.get(expr)
+        if text is None:
+            expr = sp.sympify(expr)
+            text = self._printed[expr] = self._print(expr)[0]
+        return text
 
     def _print(self, expr) -> tuple:
         """(text, precedence)."""
@@ -203,10 +220,10 @@ class ExprPrinter:
     def _print_Add(self, expr):
         terms = list(expr.args)
         # A positive term first reads better: "a - b" rather than "-b + a".
-        terms.sort(key=lambda e: e.could_extract_minus_sign())
+        terms.sort(key=_minus_sign)
         out = self._paren(terms[0], PREC_ADD)
         for term in terms[1:]:
-            if term.could_extract_minus_sign():
+            if _minus_sign(term):
                 out += " - " + self._paren(-term, PREC_MUL)
             else:
                 out += " + " + self._paren(term, PREC_MUL)

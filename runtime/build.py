@@ -62,6 +62,18 @@ FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: would cost the chain's right-hand side 12 %. The glue unit (integrators, loop solver) keeps FLAGS.
 GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access=100",
                         "--param=dse-max-alias-queries-per-store=32")
+#: Appended to those of the outputs' unit (outputs.c, after the model units' flags). The outputs are evaluated once
+#: per sample, not per stage of a step; the Iltis's (135 kB of C) took 2.9 to 3.4 s of CPU at the model units' level
+#: and 2.1 s at -Og (GCC 12, compiled alone), and a bump scene's simulate is as fast within the noise of a shared
+#: machine (its mbs_outputs first solves the loops for the accelerations, in the model units).
+OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
+#: Appended to those of the units of the functions no integrator calls (runtime/translation_units.py
+#: COLD_FUNCTIONS: an open tree's mass matrix and forces), from what bench/compile_time.py --units measures: the
+#: 40-link pendulum's mass matrix (276 kB of C) took 13.8 s of CPU at the model units' level, 9.0 s at -O1 and
+#: 6.9 s at -Og, which keeps the values in registers (a straight-line function at -O0 runs several times slower).
+#: The results are the same to the bit at every level (no level reassociates without -ffast-math, and -std=c99
+#: does not contract a*b+c).
+COLD_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
 PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
 CACHE_ENV = "MBS_CACHE_DIR"
@@ -154,7 +166,8 @@ def _environment(digest: _Digest, cc: tuple[str, ...]) -> _Digest:
     return digest.add("numpy", np.__version__)
 
 
-def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...]) -> str:
+def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...],
+          outputs_flags: tuple[str, ...] = ()) -> str:
     """The module's key: the generated text and everything that turns it into the module (the split into units
     is a function of the text, the splitter's and this module's source)."""
     digest = _environment(_Digest(), cc).add("code", code).add("filename", filename)
@@ -163,7 +176,9 @@ def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[s
     for module in (_units.__file__, __file__):
         digest.add(Path(module).name, Path(module).read_bytes())
     digest.add("split", f"{_units.SPLIT_MIN_CHARS} {_units.UNIT_CHARS} {_units.MAX_MODEL_UNITS}")
-    return digest.add("flags", "\0".join(flags)).add("model units", "\0".join(model_flags)).hexdigest()
+    digest.add("flags", "\0".join(flags)).add("model units", "\0".join(model_flags))
+    digest.add("cold units", "\0".join(COLD_UNIT_FLAGS))
+    return digest.add("outputs unit", "\0".join(outputs_flags)).hexdigest()
 
 
 def _object_key(name: str, files: dict[str, str], command: tuple[str, ...], cc: tuple[str, ...]) -> str:
@@ -217,7 +232,8 @@ def build_jobs() -> int:
 
 
 def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...],
-             module_name: str, tmp: Path, filename: str, cache: Path) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
+             module_name: str, tmp: Path, filename: str, cache: Path,
+             outputs_flags: tuple[str, ...] = ()) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
     """Compile the files in `tmp` into tmp/module.so: (the compiler's messages, the units compiled, the units whose
     objects came from the cache). Raises BuildError."""
     if list(files) == ["unit.c"]:
@@ -228,7 +244,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     compile_flags = _compile_flags(flags)
     (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
     objects, todo, pending = {}, [], []
-    jobs = _unit_jobs(files, flags, model_flags, cc, cache)
+    jobs = _unit_jobs(files, flags, model_flags, cc, cache, outputs_flags)
     for name, command, cached in jobs:
         if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
             pending.append((name, command, cached))
@@ -273,15 +289,25 @@ def _compile_flags(flags: tuple[str, ...]) -> tuple[str, ...]:
     return tuple(f for f in flags if f not in ("-shared", *PLATFORM_FLAGS)) + ("-fvisibility=hidden",)
 
 
-def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path) -> list[tuple[str, tuple, Path]]:
+def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path,
+               outputs_flags: tuple[str, ...] = ()) -> list[tuple[str, tuple, Path]]:
     """(unit, compile command, where its object is kept) of a split build's units, the longest compile first."""
     includes = (f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
     jobs = []
     for name in sorted((n for n in files if n.endswith(".c")), key=lambda n: -_weight(n, files)):
-        command = (*cc, *_compile_flags(flags), *(() if name == _units.GLUE_UNIT else model_flags), *includes,
-                   "-c", name)
+        command = (*cc, *_compile_flags(flags), *unit_flags(name, model_flags, outputs_flags), *includes, "-c", name)
         jobs.append((name, command, _cache.object_path(cache, _object_key(name, files, command, cc))))
     return jobs
+
+
+def unit_flags(name: str, model_flags: tuple[str, ...], outputs_flags: tuple[str, ...]) -> tuple[str, ...]:
+    """The flags unit `name` of a split build gets beyond FLAGS: none for the glue unit, model_flags for the model's
+    units, and outputs_flags (COLD_UNIT_FLAGS) after them for the outputs' unit (the cold functions' units)."""
+    if name == _units.GLUE_UNIT:
+        return ()
+    if name.startswith(_units.COLD_PREFIX):
+        return (*model_flags, *COLD_UNIT_FLAGS)
+    return (*model_flags, *outputs_flags) if name == _units.OUTPUTS_UNIT else model_flags
 
 
 def _written(job, files: dict[str, str], tmp: Path) -> tuple[str, tuple]:
@@ -397,17 +423,20 @@ def build_file(path: str | os.PathLike, **options) -> BuildResult:
 
 
 def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
-          extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> BuildResult:
+          extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None,
+          outputs_flags: tuple[str, ...] | None = None) -> BuildResult:
     """Compile generated C source text into a cached extension module.
 
     ``filename`` is the name compiler messages use for the model.  extra_flags: appended to every compiler
-    call; model_flags: appended to those of the model's units of a split build (default model_unit_flags).
+    call; model_flags: appended to those of the model's units of a split build (default model_unit_flags);
+    outputs_flags: appended after them to those of its outputs' unit (default OUTPUTS_UNIT_FLAGS).
     Raises BuildError with the compiler's messages when compilation fails.
     """
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
     model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
-    key = _hash(code, filename, flags, model_flags, cc)
+    outputs_flags = OUTPUTS_UNIT_FLAGS if outputs_flags is None else tuple(outputs_flags)
+    key = _hash(code, filename, flags, model_flags, cc, outputs_flags)
     module_name = f"mbs_model_{key[:24]}"
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
@@ -427,7 +456,8 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
     files = _build_files(code, filename)
     unit = _joined(files)
     try:
-        output, compiled, reused = _compile(files, flags, model_flags, cc, module_name, tmp, filename, cache)
+        output, compiled, reused = _compile(files, flags, model_flags, cc, module_name, tmp, filename, cache,
+                                            outputs_flags)
         # keep the sources beside the module for inspection (one file); both appear atomically
         (tmp / "unit.c").write_text(unit, encoding="utf-8")
         os.replace(tmp / "unit.c", cache / (module_name + ".c"))

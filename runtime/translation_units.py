@@ -6,6 +6,7 @@ on one core. The generated file (compiler/ccode.py) has a fixed layout, which th
     header comment, #include, #define sizes, static const arrays      -> model.h, shared by every unit
     static helper functions (mbs_all_finite, mbs_lookup, tables ...)  -> copied into the units that call them
     the contract's functions (int mbs_rhs(...) { ... }, name tables)  -> model_1.c .. model_n.c, by size
+    those no integrator calls (COLD_FUNCTIONS, models without loops)  -> cold_1.c .., compiled cheaper
 
 model.h ends with the prototype of every contract function, so the units may call each other, and the glue unit
 (<Python.h>, model.h, c/mbs_glue.c with the integrators) sees them all. The outputs' part at the end of a file
@@ -31,6 +32,16 @@ UNIT_CHARS = 120_000
 MAX_MODEL_UNITS = 8
 GLUE_UNIT = "glue.c"
 OUTPUTS_UNIT = "outputs.c"
+#: The units of the cold functions are named cold_1.c ...; runtime/build.py compiles them at a cheaper level.
+COLD_PREFIX = "cold_"
+#: Functions that no integrator calls in a model without loops (its mbs_rhs is the articulated-body algorithm):
+#: the mass matrix and the forces serve linearisation, the equilibrium and the user, the dynamics functions the
+#: user. They are most of a long open chain's C (the 40-link pendulum's dense mass matrix). With loops the loop
+#: solver calls the mass matrix and the forces at every right-hand side: then they are model units like the rest.
+COLD_FUNCTIONS = frozenset({"mbs_mass_matrix_unchecked", "mbs_mass_matrix", "mbs_forces", "mbs_inverse_dynamics",
+                            "mbs_bias_forces", "mbs_gravity_forces", "mbs_frame_positions", "mbs_frame_velocities",
+                            "mbs_frame_jacobians"})
+_LOOPS = re.compile(r"^#define MBS_NC ", re.M)
 #: The first line of a generated file's outputs part (written by compiler/ccode.py, read here).
 OUTPUTS_MARKER = "/* ==== The outputs (MBS_NY, mbs_outputs, mbs_output_name): a part of their own ==== */"
 
@@ -143,14 +154,19 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
                          f"{prototypes}\n")}
-    for k, group in enumerate(_balanced(layout.functions), start=1):
-        texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
-        body = "\n".join(b.text for b in group)
-        for helper in _helpers_for(body, layout.helpers):
-            texts += [f"#line {helper.line} \"{where}\"", helper.text]
-        for block in group:
-            texts += [f"#line {block.line} \"{where}\"", block.text]
-        files[f"model_{k}.c"] = "\n".join(texts) + "\n"
+    cold = set() if _LOOPS.search(layout.header) else COLD_FUNCTIONS
+    hot = tuple(b for b in layout.functions if b.name not in cold)
+    colder = tuple(b for b in layout.functions if b.name in cold)
+    for prefix, functions in (("model_", hot), (COLD_PREFIX, colder)):
+        for k, group in enumerate(_balanced(functions) if functions else [], start=1):
+            texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */",
+                     '#include "model.h"']
+            body = "\n".join(b.text for b in group)
+            for helper in _helpers_for(body, layout.helpers):
+                texts += [f"#line {helper.line} \"{where}\"", helper.text]
+            for block in group:
+                texts += [f"#line {block.line} \"{where}\"", block.text]
+            files[f"{prefix}{k}.c"] = "\n".join(texts) + "\n"
     if marker:
         texts = [f"/* The outputs of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
         for helper in _helpers_for(outputs, layout.helpers):

@@ -69,6 +69,25 @@ def test_every_function_lands_in_one_unit_with_the_helpers_it_calls(generated, m
             assert defined == called, helper.name
 
 
+def test_the_functions_no_integrator_calls_go_to_cold_units_of_a_tree_only(generated, monkeypatch):
+    """An open tree's mass matrix and forces (its rhs is the articulated-body algorithm) are compiled apart, at
+    build.COLD_UNIT_FLAGS; a model with loops, whose loop solver calls them at every rhs, has no cold unit."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    tree = units.split_sources(generated["quarter_car"], "quarter_car.c")
+    cold = {name: text for name, text in tree.items() if name.startswith(units.COLD_PREFIX)}
+    assert cold and all(re.search(r"^int mbs_(mass_matrix|forces)", text, re.M) for text in cold.values())
+    assert not any(re.search(r"^int mbs_(mass_matrix|forces)\(", text, re.M)
+                   for name, text in tree.items() if name.startswith("model_"))
+    assert any("int mbs_rhs(" in text for name, text in tree.items() if name.startswith("model_"))
+    loops = units.split_sources(generated["slider_crank"], "slider_crank.c")
+    assert not any(name.startswith(units.COLD_PREFIX) for name in loops)
+    model_flags = ("-fmodel",)
+    assert build.unit_flags("cold_1.c", model_flags, ()) == (*model_flags, *build.COLD_UNIT_FLAGS)
+    assert build.unit_flags("model_1.c", model_flags, ("-fout",)) == model_flags
+    assert build.unit_flags(units.OUTPUTS_UNIT, model_flags, ("-fout",)) == (*model_flags, "-fout")
+    assert build.unit_flags(units.GLUE_UNIT, model_flags, ("-fout",)) == ()
+
+
 @pytest.mark.parametrize("path", [SLIDER_CRANK, TABLES], ids=lambda p: p.stem)
 def test_a_split_build_computes_what_one_unit_computes(path, tmp_path, monkeypatch):
     """Both libraries built from the same text, without a compiler warning; rhs, outputs and the loop solver's

@@ -1,0 +1,252 @@
+"""A model's fresh compile (text to loaded library, empty caches) with the current settings against the former ones,
+and what the settings cost the compiled model at run time.
+
+    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units]
+
+Per model, all measured in this run, the two settings' runs interleaved (medians of --repeat; the machine is shared
+and noisy, so CPU seconds are printed beside wall seconds):
+
+* compile: ``mbs.load(text).compile(scene)`` into an empty cache: parse, derive, emit C, the C compiler (the
+  equations' units start while the outputs are derived, runtime/build.py prebuild), load. The baseline is the
+  same with the former settings: the former C printer (every function of the file printed its temporaries anew,
+  and sympy's could_extract_minus_sign, which builds -term for every term of a sum) and the former flags (the
+  outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
+  level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS). Printed: wall time, and of it the derivation (to the generated C)
+  and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
+* same text: the generated C of both settings is compared (the settings must not change it);
+* run time, 15 interleaved rounds inside C (`backend.time_call`, no Python; the fastest round of each): the
+  right-hand side the integrators call, the outputs and the mass matrix at the start state (the model units, and
+  with them the right-hand side of a model without loops, are the same objects with both settings), and a whole `simulate` of the scene (the vehicle: bump_5; the chains:
+  1 s), each against the former build;
+* --units: each translation unit compiled alone, one at a time, with the current and the former flags: its
+  size and the compiler's CPU seconds.
+
+Issue 12's targets: a fresh compile of the Iltis under 5 s, of the 40-link chain under 10 s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import resource
+import statistics
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mbs
+from mbs.compiler import emit_common
+from mbs.runtime import build
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+sys.path.insert(0, str(ROOT / "tests" / "runtime"))
+from chain import chain_text  # noqa: E402
+from fourbar_chain import fourbar_chain  # noqa: E402
+
+TARGETS = {"iltis": 5.0, "chain40": 10.0}
+#: The flags of the outputs' unit before this bench's change (the model units' level).
+FORMER_OUTPUTS_FLAGS: tuple[str, ...] = ()
+#: The flags of the cold units before (runtime/translation_units.py COLD_FUNCTIONS: they were model units).
+FORMER_COLD_FLAGS: tuple[str, ...] = ()
+
+
+def model_text(name: str) -> tuple[str, str, str | None, float | None]:
+    """(model text, its path for messages, the scene to compile, t_end of the simulate run or None: the scene's)."""
+    if name == "iltis":
+        path = ROOT / "library" / "iltis" / "vehicle.mbs"
+        return path.read_text(), str(path), "bump_5", None
+    if name.startswith("fourbar"):
+        return fourbar_chain(int(name.removeprefix("fourbar"))), "<fourbar>", None, 1.0
+    return chain_text(int(name.removeprefix("chain"))), "<chain>", None, 1.0
+
+
+# ---- the former settings ------------------------------------------------------------------------------------------
+
+def _former_doprint(self, expr) -> str:
+    return self._print(emit_common.sp.sympify(expr))[0]
+
+
+def _former_print_add(self, expr):
+    terms = list(expr.args)
+    terms.sort(key=lambda e: e.could_extract_minus_sign())
+    out = self._paren(terms[0], emit_common.PREC_ADD)
+    for term in terms[1:]:
+        if term.could_extract_minus_sign():
+            out += " - " + self._paren(-term, emit_common.PREC_MUL)
+        else:
+            out += " + " + self._paren(term, emit_common.PREC_MUL)
+    return out, emit_common.PREC_ADD
+
+
+@contextlib.contextmanager
+def former_settings():
+    """The printer and the build flags as they were before: the baseline."""
+    printer = emit_common.ExprPrinter
+    saved = printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS
+    printer.doprint, printer._print_Add = _former_doprint, _former_print_add
+    build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
+    try:
+        yield
+    finally:
+        printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = saved
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def fresh_compile(name: str, cache: str) -> dict:
+    """Seconds of a fresh compile of model `name` into the empty folder `cache`, split at the derivation's end."""
+    text, path, scene, _ = model_text(name)
+    marks = {}
+    start, cpu, cc_cpu = time.perf_counter(), time.process_time(), _children_cpu()
+    system = mbs.loads(text, path=path, cache_dir=cache)
+    generate = system.generate
+
+    def timed_generate(*a, **k):
+        result = generate(*a, **k)
+        marks.setdefault("derived", time.perf_counter())
+        marks.setdefault("derived cpu", time.process_time())
+        return result
+
+    system.generate = timed_generate
+    compiled = system.compile(scene)
+    end = time.perf_counter()
+    system.generate = generate
+    return {"total": end - start, "derive": marks["derived"] - start, "cc": end - marks["derived"],
+            "derive cpu": marks["derived cpu"] - cpu, "cc cpu": _children_cpu() - cc_cpu,
+            "system": system, "compiled": compiled, "code": system.generate(scene).c_source}
+
+
+def compare_compiles(name: str, repeat: int) -> tuple[dict, dict]:
+    """{setting: [runs]} of fresh compiles with the current and the former settings, interleaved."""
+    runs: dict[str, list] = {"current": [], "former": []}
+    for _ in range(repeat):
+        for setting in runs:
+            with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
+                with (former_settings() if setting == "former" else contextlib.nullcontext()):
+                    runs[setting].append(fresh_compile(name, cache))
+    return runs["current"], runs["former"]
+
+
+def median(runs: list[dict], key: str) -> float:
+    return statistics.median(r[key] for r in runs)
+
+
+# ---- run time -------------------------------------------------------------------------------------------------------
+
+def call_times(current, former, rounds: int) -> dict:
+    """{function: (current, former, ratio) seconds per call inside C}: the fastest of interleaved rounds (on a
+    loaded machine a round that was preempted is slow, never fast), and the ratio of the two."""
+    out = {}
+    for fn in ("rhs", "outputs", "mass_matrix"):
+        rows = []
+        for _ in range(rounds):
+            row = []
+            for compiled in (current, former):
+                data = compiled_workspace(compiled)
+                if fn not in data.model.backend.functions:
+                    break
+                f = data.function(fn)
+                row.append(compiled.backend.time_call(f, data.x, 200, 0.0))
+            if len(row) == 2:
+                rows.append(row)
+        if rows:
+            a, b = min(r[0] for r in rows), min(r[1] for r in rows)
+            out[fn] = (a, b, a / b)
+    return out
+
+
+def compiled_workspace(compiled):
+    from mbs.runtime.workspace import Workspace
+    return Workspace(compiled)
+
+
+def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int) -> tuple[float, float, float]:
+    """Median seconds of a whole simulate with each build (interleaved): the vehicle's bump_5, a chain's 1 s."""
+    _, _, scene, t_end = model_text(name)
+    walls: list[list[float]] = [[], []]
+    for _ in range(rounds):
+        for k, run in enumerate((current_run, former_run)):
+            system = run["system"]
+            start = time.perf_counter()
+            system.simulate(scene, t_end=t_end) if t_end is not None else system.simulate(scene)
+            walls[k].append(time.perf_counter() - start)
+    ratios = [a / b for a, b in zip(*walls)]
+    return statistics.median(walls[0]), statistics.median(walls[1]), statistics.median(ratios)
+
+
+# ---- each unit alone ---------------------------------------------------------------------------------------------
+
+def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
+    """{unit: (characters, compiler CPU seconds)}, each unit compiled alone with the current or the former flags."""
+    cc = tuple(build.compiler_command())
+    files = build._build_files(code, "model.c")
+    outputs_flags = FORMER_OUTPUTS_FLAGS if former else build.OUTPUTS_UNIT_FLAGS
+    model_flags = build.model_unit_flags(cc)
+    saved, build.COLD_UNIT_FLAGS = build.COLD_UNIT_FLAGS, FORMER_COLD_FLAGS if former else build.COLD_UNIT_FLAGS
+    includes = (f"-I{build.C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in files.items():
+            Path(tmp, name).write_text(text, encoding="utf-8")
+        for name in files:
+            if not name.endswith(".c"):
+                continue
+            command = (*cc, *build._compile_flags(build.FLAGS), *build.unit_flags(name, model_flags, outputs_flags),
+                       *includes, "-c", name, "-o", name[:-2] + ".o")
+            cpu = _children_cpu()
+            subprocess.run(command, cwd=tmp, check=True, capture_output=True)
+            out[name] = (len(text), _children_cpu() - cpu)
+    build.COLD_UNIT_FLAGS = saved
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", nargs="+", default=["iltis", "chain40", "fourbar40"])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
+    args = ap.parse_args()
+    same = "(those of the model units)"
+    print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, the outputs' unit and the "
+          f"cold functions at {' '.join(FORMER_OUTPUTS_FLAGS) or same}; the current: the outputs' unit at "
+          f"{' '.join(build.OUTPUTS_UNIT_FLAGS) or same}, the cold functions' units at "
+          f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
+    for name in args.models:
+        current, former = compare_compiles(name, args.repeat)
+        same = all(r["code"] == current[0]["code"] for r in current + former)
+        print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB "
+              f"({'the same text with both settings' if same else 'THE TEXTS DIFFER'}); medians of {args.repeat}")
+        print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s}")
+        for label, runs in (("current", current), ("former", former)):
+            print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
+                  f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
+        ratio = lambda key: median(former, key) / median(current, key)  # noqa: E731
+        target = TARGETS.get(name)
+        print(f"  former / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "
+              f"{ratio('derive cpu'):.2f} x), C compiler cpu {ratio('cc cpu'):.2f} x"
+              + (f"; target: compile under {target:g} s (now {median(current, 'total'):.1f} s)" if target else ""))
+        times = call_times(current[-1]["compiled"], former[-1]["compiled"], 15)
+        for fn, (a, b, r) in times.items():
+            print(f"  {fn} per call in C: {a * 1e6:.2f} us against the former build's {b * 1e6:.2f} us: {r:.2f} x")
+        a, b, r = simulate_times(current[-1], former[-1], name, args.repeat)
+        print(f"  simulate: {a * 1e3:.0f} ms against the former build's {b * 1e3:.0f} ms: {r:.2f} x")
+        if args.units:
+            now, before = unit_cpu(current[0]["code"], False), unit_cpu(current[0]["code"], True)
+            print(f"  {'unit':12s} {'KiB':>6s} {'cpu':>7s} {'former':>7s}")
+            for unit, (size, cpu) in now.items():
+                print(f"  {unit:12s} {size / 1024:6.0f} {cpu:6.2f}s {before[unit][1]:6.2f}s")
+            print(f"  {'total':12s} {'':6s} {sum(c for _, c in now.values()):6.2f}s "
+                  f"{sum(c for _, c in before.values()):6.2f}s")
+
+
+if __name__ == "__main__":
+    main()
