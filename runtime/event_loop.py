@@ -28,7 +28,7 @@ class Segments:
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
-    counts: list = field(default_factory=list)  # (rows, index of the p copy) per added block
+    counts: list = field(default_factory=list)  # (rows, index of the p copy, twin) per added block
     p: list = field(default_factory=list)
 
     def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
@@ -41,21 +41,26 @@ class Segments:
             self.p.append(p.copy())
         return len(self.p) - 1
 
-    def append(self, times, states: np.ndarray, which: int) -> None:
-        """Rows in the p copy ``which`` (from in_force): ``times`` a sequence, ``states`` one row or rows."""
+    def append(self, times, states: np.ndarray, which: int, twin: bool = False) -> None:
+        """Rows in the p copy ``which`` (from in_force): ``times`` a sequence, ``states`` one row or rows.
+        ``twin``: the row just after an event where nothing jumps (a continuous switch: compiler/events.py),
+        whose projection and outputs are those of the row before it (computed once, copied)."""
         if len(times):
             self.times.append(times)
             self.states.append(states)
-            self.counts.append((len(times), which))
+            self.counts.append((len(times), which, twin))
 
     def arrays(self, nx: int):
-        rows = sum(n for n, _ in self.counts)
+        """(times, states, index of the p copy, twin mask) of every row."""
+        rows = sum(n for n, _, _ in self.counts)
         times, states, which = np.empty(rows), np.empty((rows, nx)), np.empty(rows, dtype=int)
+        twin = np.zeros(rows, dtype=bool)
         i = 0
-        for t, x, (n, k) in zip(self.times, self.states, self.counts):
+        for t, x, (n, k, same) in zip(self.times, self.states, self.counts):
             times[i:i + n], states[i:i + n], which[i:i + n] = t, x, k
+            twin[i] = same  # a twin is always a single row
             i += n
-        return times, states, which
+        return times, states, which, twin
 
 
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks=100):
@@ -139,7 +144,8 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             fired_times += [t_event] * len(new)
             t = t_event
             if i >= times.size or times[i] != t_event:
-                segments.add([t_event], x[None, :], data.p)
+                twin = not jumped and len(new) == len(fired) and continuous(model, fired)
+                segments.append([t_event], x[None, :], segments.in_force(data.p), twin)
             terminal = [model.events[k].name for k in fired if model.events[k].terminal]
             if terminal:
                 message = f"terminated by event '{terminal[0]}' at t = {t_event:.9g} s"
@@ -211,9 +217,15 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
         segments.p.append(p_now.copy())  # the values after the event (an event always changes one)
         which = len(segments.p) - 1
         if j >= times.size or times[j] != t_event:
-            segments.append((t_event,), row[1 + nx:1 + 2 * nx], which)
+            segments.append((t_event,), row[1 + nx:1 + 2 * nx], which, continuous(model, fired))
         start = j
     return start
+
+
+def continuous(model, fired) -> bool:
+    """Whether nothing jumps at an event where the indicators ``fired`` crossed: all are continuous switches (the
+    state stays, and every expression reading their flags takes the same value on both sides)."""
+    return bool(len(fired)) and all(model.events[k].continuous for k in fired)
 
 
 def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:

@@ -30,7 +30,8 @@ DIRECTION_NAMES = {1: "rising", -1: "falling", 0: "either"}
 class EventSpec:
     """One indicator of mbs_events: its name, direction (+1 rising, -1 falling, 0 either), whether it ends the
     run, what its actions assign ((array "x" or "p", index, slot of mbs_event_actions), ...), and for a switch
-    the p index of its branch flag (-1 otherwise) and whether g = 0 counts as the true side."""
+    the p index of its branch flag (-1 otherwise), whether g = 0 counts as the true side, and whether the switch
+    is continuous (nothing jumps where it flips: compiler/events.py)."""
 
     name: str
     direction: int
@@ -38,6 +39,7 @@ class EventSpec:
     assignments: tuple[tuple[str, int, int], ...] = ()
     switch: int = -1
     inclusive: bool = False
+    continuous: bool = False
 
     @classmethod
     def of(cls, value) -> "EventSpec":

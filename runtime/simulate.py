@@ -200,36 +200,42 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     # one call into C for all samples when the guard watches the C integrator between its budgets of steps
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
                                                                 lambda: guard.chunks or PROGRESS_CHUNKS)
-    ts, xs, which = segments.arrays(model.nx)
+    ts, all_xs, all_which, twin = segments.arrays(model.nx)
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
-    if "project" in model.functions and len(ts):
-        projected = _project_segments(data, segments.p, ts, xs, which)
-        if projected < len(ts):
-            ts, xs, which = ts[:projected], xs[:projected], which[:projected]
+    # the rows just after an event where nothing jumps are their predecessors' twins: computed once, copied
+    own = np.flatnonzero(~twin)
+    source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
+    xs, which = all_xs[own], all_which[own]
+    if "project" in model.functions and len(own):
+        projected = _project_segments(data, segments.p, ts[own], xs, which)
+        if projected < len(own):
+            ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
-    columns, names = [ts[:, None], xs], [TIME, *model.x_names]
+    columns, names = [ts[:, None], xs[source]], [TIME, *model.x_names]
     if outputs and model.ny and "outputs" in model.functions:
-        ys = np.empty((len(ts), model.ny))
+        ys = np.empty((len(own), model.ny))
         saved = data.p.copy()
         # the rows of one p copy are consecutive (the copies are numbered in time order)
-        bounds = np.r_[0, np.flatnonzero(np.diff(which)) + 1, len(which)]
+        own_ts = ts[own[own < len(ts)]]
+        bounds = np.r_[0, np.flatnonzero(np.diff(which[:len(own_ts)])) + 1, len(own_ts)]
         try:
             for first, end in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
                 data.p = segments.p[which[first]]
-                part, error = _outputs(data, ts[first:end], xs[first:end], model.ny)
+                part, error = _outputs(data, own_ts[first:end], xs[first:end], model.ny)
                 ys[first:first + len(part)] = part
                 if error is not None:
-                    keep = first + len(part)
-                    ts, xs, ys, columns = ts[:keep], xs[:keep], ys[:keep], [ts[:keep, None], xs[:keep]]
+                    keep = int(own[first + len(part)])
+                    ts, source = ts[:keep], source[:keep]
+                    columns = [ts[:, None], xs[source]]
                     status = FAILED
                     message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
                                f"{status_text(error.status)}")
                     break
         finally:
             data.p = saved
-        columns.append(ys)
+        columns.append(ys[source])
         names += list(model.y_names)
     data.stats = stats
     metadata = {
