@@ -18,7 +18,7 @@ import numpy as np
 from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
 
 from .assembly import project_samples
-from .errors import EvaluationError, UsageError, status_text
+from .errors import EvaluationError, MbsError, UsageError, status_text
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
 from .guard import STALL_TIME, RunGuard
@@ -209,32 +209,23 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
     xs, which = all_xs[own], all_which[own]
     if "project" in model.functions and len(own):
-        projected = _project_segments(data, segments.p, ts[own], xs, which)
+        unprojected, xs = xs, np.empty_like(xs)
+        projected, _ = _evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
         if projected < len(own):
             ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
     columns, names = [ts[:, None], xs[source]], [TIME, *model.x_names]
     if outputs and model.ny and "outputs" in model.functions:
         ys = np.empty((len(own), model.ny))
-        saved = data.p.copy()
-        # the rows of one p copy are consecutive (the copies are numbered in time order)
         own_ts = ts[own[own < len(ts)]]
-        bounds = np.r_[0, np.flatnonzero(np.diff(which[:len(own_ts)])) + 1, len(own_ts)]
-        try:
-            for first, end in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-                data.p = segments.p[which[first]]
-                part, error = _outputs(data, own_ts[first:end], xs[first:end], model.ny)
-                ys[first:first + len(part)] = part
-                if error is not None:
-                    keep = int(own[first + len(part)])
-                    ts, source = ts[:keep], source[:keep]
-                    columns = [ts[:, None], xs[source]]
-                    status = FAILED
-                    message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
-                               f"{status_text(error.status)}")
-                    break
-        finally:
-            data.p = saved
+        done, error = _evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+        if error is not None:
+            keep, failed_at = int(own[done]), float(own_ts[done])
+            ts, source = ts[:keep], source[:keep]
+            columns = [ts[:, None], xs[source]]
+            status = FAILED
+            message = (f"output evaluation failed at t = {failed_at:.6g} s: the model returned "
+                       f"{status_text(error.status)}" if isinstance(error, EvaluationError) else str(error))
         columns.append(ys[source])
         names += list(model.y_names)
     data.stats = stats
@@ -246,27 +237,44 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
 
 
-def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
-    """_project_rows for a run with events, each row with the run-time values p it was computed with (a
-    sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
-    the number of leading rows projected.  The rows of one p copy are consecutive (the copies are numbered in time
-    order): one pass over the runs of rows, each projected in place; only a run that repeats a row (same time,
-    state and p) looks for its repetitions."""
-    saved = data.p.copy()
-    bounds = [0, *(np.flatnonzero(np.diff(which)) + 1).tolist(), len(which)]
-    repeats = (ts[1:] == ts[:-1]) & (which[1:] == which[:-1]) & (xs[1:] == xs[:-1]).all(axis=1)
-    repeating = set((np.searchsorted(bounds, np.flatnonzero(repeats) + 1, side="right") - 1).tolist())
+def _evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray,
+                   out: np.ndarray):
+    """out[i] = f(ts[i], xs[i]) of the model function ``name`` with the run-time values ps[which[i]] in force (a
+    run with events: modes, switch flags and parameters change at events, and a sticking friction element is a
+    constraint row only while it sticks: compiler/friction_loops.py), in one pass: p is set where it changes, and
+    a row that repeats the one before it (same time, state and p) takes its value.  Returns (rows done, None) or, at the first failure, (its row, the EvaluationError)."""
+    f = data.function(name)
+    if hasattr(f, "rows"):  # the C back end: every row in one call (c/mbs_glue.c), the failing one again here
+        done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
+                      np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
+        if done == len(ts):
+            return done, None
+        saved = data.p.copy()
+        data.p[:] = ps[which[done]]
+        try:
+            f(float(ts[done]), xs[done])
+        except MbsError as exc:
+            return done, exc
+        finally:
+            data.p[:] = saved
+        return done, EvaluationError(name, 2, float(ts[done]))
     p = data.p  # the workspace's own array: the model functions read it
+    saved, current = p.copy(), -1
     try:
-        for run, (first, end) in enumerate(zip(bounds[:-1], bounds[1:])):
-            p[:] = ps[which[first]]
-            rows = xs[first:end]  # a view: projected in place
-            done = (_project_rows if run in repeating else project_samples)(data, ts[first:end], rows)
-            if done < end - first:
-                return first + done
+        for i, (t, k) in enumerate(zip(ts.tolist(), which.tolist())):
+            if k != current:
+                p[:] = ps[k]
+                current = k
+            elif i and t == ts[i - 1] and np.array_equal(xs[i], xs[i - 1]):
+                out[i] = out[i - 1]
+                continue
+            try:
+                out[i] = f(t, xs[i])
+            except MbsError as exc:  # a model status (EvaluationError), or a loop that cannot be closed
+                return i, exc
     finally:
         p[:] = saved
-    return len(ts)
+    return len(ts), None
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
@@ -285,19 +293,6 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
         if progress(float(times[filled - 1]), t_end) is False and filled < times.size:
             return "stopped", filled
     return FINISHED, filled
-
-
-def _project_rows(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
-    """project_samples for the rows of a run with events, where the rows at both sides of an event without a jump
-    are the same state: each such repetition takes its row's projection instead of computing it again."""
-    again = np.r_[False, (times[1:] == times[:-1]) & (states[1:] == states[:-1]).all(axis=1)]
-    if not again.any():
-        return project_samples(data, times, states)
-    own = np.flatnonzero(~again)
-    rows = states[own]
-    projected = project_samples(data, times[own], rows)
-    states[:] = rows[np.cumsum(~again) - 1]  # every row from the last row projected on its own
-    return int(own[projected]) if projected < len(own) else len(times)
 
 
 def _outputs(data: Workspace, times: np.ndarray, states: np.ndarray, ny: int):
