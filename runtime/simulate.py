@@ -18,7 +18,7 @@ import numpy as np
 from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
 
 from .assembly import project_samples
-from .errors import EvaluationError, MbsError, UsageError, status_text
+from .errors import EvaluationError, UsageError, status_text
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
 from .guard import STALL_TIME, RunGuard
@@ -26,6 +26,7 @@ from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
+from .rows import evaluate_rows
 from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
@@ -210,7 +211,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     xs, which = all_xs[own], all_which[own]
     if "project" in model.functions and len(own):
         unprojected, xs = xs, np.empty_like(xs)
-        projected, _ = _evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
+        projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
         if projected < len(own):
             ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
@@ -218,7 +219,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     if outputs and model.ny and "outputs" in model.functions:
         ys = np.empty((len(own), model.ny))
         own_ts = ts[own[own < len(ts)]]
-        done, error = _evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+        done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
         if error is not None:
             keep, failed_at = int(own[done]), float(own_ts[done])
             ts, source = ts[:keep], source[:keep]
@@ -235,46 +236,6 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
-
-
-def _evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray,
-                   out: np.ndarray):
-    """out[i] = f(ts[i], xs[i]) of the model function ``name`` with the run-time values ps[which[i]] in force (a
-    run with events: modes, switch flags and parameters change at events, and a sticking friction element is a
-    constraint row only while it sticks: compiler/friction_loops.py), in one pass: p is set where it changes, and
-    a row that repeats the one before it (same time, state and p) takes its value.  Returns (rows done, None) or, at the first failure, (its row, the EvaluationError)."""
-    f = data.function(name)
-    if hasattr(f, "rows"):  # the C back end: every row in one call (c/mbs_glue.c), the failing one again here
-        done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
-                      np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
-        if done == len(ts):
-            return done, None
-        saved = data.p.copy()
-        data.p[:] = ps[which[done]]
-        try:
-            f(float(ts[done]), xs[done])
-        except MbsError as exc:
-            return done, exc
-        finally:
-            data.p[:] = saved
-        return done, EvaluationError(name, 2, float(ts[done]))
-    p = data.p  # the workspace's own array: the model functions read it
-    saved, current = p.copy(), -1
-    try:
-        for i, (t, k) in enumerate(zip(ts.tolist(), which.tolist())):
-            if k != current:
-                p[:] = ps[k]
-                current = k
-            elif i and t == ts[i - 1] and np.array_equal(xs[i], xs[i - 1]):
-                out[i] = out[i - 1]
-                continue
-            try:
-                out[i] = f(t, xs[i])
-            except MbsError as exc:  # a model status (EvaluationError), or a loop that cannot be closed
-                return i, exc
-    finally:
-        p[:] = saved
-    return len(ts), None
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
@@ -297,11 +258,6 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
 
 def _outputs(data: Workspace, times: np.ndarray, states: np.ndarray, ny: int):
     """Model outputs per sample; stops at the first failure and returns it."""
-    f = data.function("outputs")
     ys = np.empty((times.size, ny))
-    for i, (t, x) in enumerate(zip(times, states)):
-        try:
-            ys[i] = f(t, x)
-        except EvaluationError as exc:
-            return ys[:i], exc
-    return ys, None
+    done, error = evaluate_rows(data, "outputs", [data.p], times, states, np.zeros(times.size, dtype=np.intp), ys)
+    return ys[:done], error
