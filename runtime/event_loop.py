@@ -217,16 +217,19 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     twin = np.zeros(m, dtype=bool)
     copies = np.empty((m, p_now.size))
     specs = model.events
+    branch_only = [s.switch >= 0 and not s.assignments for s in specs]  # plain Python from here on: per event
+    smooth = [s.continuous for s in specs]
+    before_values, at_values = g_old.tolist(), g_event.tolist()
     for e, (fired, t) in enumerate(zip(fired_lists, t_event.tolist())):
-        if all(specs[k].switch >= 0 and not specs[k].assignments for k in fired):
+        if all(branch_only[k] for k in fired):
             for k in fired:  # a switch's branch, as apply_events books it (without its copy of the state)
-                flag, rising = specs[k].switch, g_event[e, k] > g_old[e, k]
-                new = 1.0 if rising else 0.0
+                flag, rising = specs[k].switch, at_values[e][k] > before_values[e][k]
+                old, new = float(p_now[flag]), 1.0 if rising else 0.0
                 records.append(EventRecord(t, specs[k].name, DIRECTION_NAMES[1 if rising else -1],
-                                           f"branch {p_now[flag]:g} -> {new:g}" if p_now[flag] != new else ""))
+                                           f"branch {old:g} -> {new:g}" if old != new else ""))
                 p_now[flag] = new
             fired_times += [t] * len(fired)
-            twin[e] = continuous(model, fired)
+            twin[e] = bool(fired) and all(smooth[k] for k in fired)
         else:
             _, new_records = apply_events(model, data, fired, g_old[e], g_event[e], t, log[e, 1:1 + nx],
                                           model.x_names, values=values[e], p=p_now)
