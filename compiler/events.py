@@ -12,13 +12,22 @@ comparison itself) tells the generated code which of the two to use::
 
     cond_k = (frozen != 0 && switch_k != 0) || (frozen == 0 && g_k > 0)
 
+**Continuity.** A switch is *continuous* when every expression that reads its flag takes the same value on both
+branches where its indicator is zero: the kinks of ``min``, ``max``, ``abs`` and a linear table's breakpoints by
+construction, an ``if(c, a, b)`` when a - b vanishes on the surface g = 0 of each comparison in c (checked here at
+compile time, conservatively: see :func:`vanishes_on`).  At such a switch's event nothing jumps (state, outputs,
+constraints), so the runtime evaluates the rows at its two sides once (runtime/event_loop.py).  ``sign``, a
+comparison used outside an ``if`` and every ``if`` whose branches differ on the surface are not continuous.
+
 **Events.** Indicators of the model's events come first in ``mbs_events``, the switches' after them; the values
 the actions assign come out of ``mbs_event_actions``, evaluated before the event (the runtime applies them).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+import math
+import random
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -39,6 +48,7 @@ class Switch:
     indicator: sp.Expr
     inclusive: bool
     origin: str  # what the switch came from, for the event log ("max", "<", ...)
+    continuous: bool = False  # every expression reading the flag is continuous where the indicator is zero
 
 
 @dataclass
@@ -48,12 +58,51 @@ class SwitchRegistry:
     parameters: frozenset[str]
     switches: list[Switch] = field(default_factory=list)
     context: str = ""  # the element being converted ("fl.tyre"), named in the switch's log entries
+    _open: dict = field(default_factory=dict)  # flag -> comparisons converted and not yet shown continuous
+    _jumps: set = field(default_factory=set)  # flags read by an expression that may jump at the switch
+    _indicators: dict = field(default_factory=dict)  # flag -> its indicator g
+
+    def final(self) -> tuple[Switch, ...]:
+        """The switches with their continuity as far as the expressions converted so far tell."""
+        return tuple(replace(s, continuous=s.symbol not in self._jumps and self._open.get(s.symbol, 0) <= 0)
+                     for s in self.switches)
 
     def depends_on_motion(self, *exprs) -> bool:
         return any(s.name not in self.parameters for e in exprs for s in sp.sympify(e).free_symbols)
 
     def relation(self, op: str, a, b, origin: str = ""):
-        """a op b (op one of < <= > >=) as a switched condition, or as it is when it depends on constants only."""
+        """a op b (op one of < <= > >=) as a switched condition, or as it is when it depends on constants only.
+        A comparison written in the model: its switch counts as continuous only once an ``if`` (:meth:`branch`)
+        shows its use continuous."""
+        condition = self._relation(op, a, b, origin)
+        for flag in self._flags(condition):
+            self._open[flag] = self._open.get(flag, 0) + 1
+        return condition
+
+    def branch(self, condition, a, b):
+        """if(condition, a, b) as a Piecewise; each switch of the condition whose surface g = 0 the two branches
+        agree on is shown continuous for this use (crossing it either leaves the condition as it is or changes
+        between a and b), every other one marked as jumping."""
+        for flag in self._flags(condition):
+            if vanishes_on(a, b, self._indicators[flag]):
+                self._open[flag] = self._open.get(flag, 0) - 1
+            else:
+                self._jumps.add(flag)
+        return sp.Piecewise((a, condition), (b, True))
+
+    def _flags(self, condition) -> list:
+        """The switches a condition tests itself (its ``Ne(switch.k, 0)``), not those inside the expressions it
+        compares (a tyre's deflection over a road that has switches of its own)."""
+        found, todo = set(), [condition]
+        while todo:
+            e = todo.pop()
+            if isinstance(e, (sp.And, sp.Or, sp.Not)):
+                todo.extend(e.args)
+            elif isinstance(e, sp.Ne) and e.args[0] in self._indicators and e.args[1] == 0:
+                found.add(e.args[0])
+        return sorted(found, key=str)
+
+    def _relation(self, op: str, a, b, origin: str = ""):
         if not self.depends_on_motion(a, b):
             return _RELATIONS[op](a, b)
         g = b - a if op in ("<", "<=") else a - b
@@ -67,16 +116,17 @@ class SwitchRegistry:
             return None
         if name == "min":
             a, b = args
-            return sp.Piecewise((a, self.relation("<=", a, b, "min")), (b, True))
+            return sp.Piecewise((a, self._relation("<=", a, b, "min")), (b, True))
         if name == "max":
             a, b = args
-            return sp.Piecewise((a, self.relation(">=", a, b, "max")), (b, True))
+            return sp.Piecewise((a, self._relation(">=", a, b, "max")), (b, True))
         (x,) = args
         if name == "abs":
-            return sp.Piecewise((x, self.relation(">=", x, 0, "abs")), (-x, True))
+            return sp.Piecewise((x, self._relation(">=", x, 0, "abs")), (-x, True))
         if name == "sign":
-            return sp.Piecewise((1, self.relation(">", x, 0, "sign")), (-1, self.relation("<", x, 0, "sign")),
-                                (0, True))
+            positive, negative = self._relation(">", x, 0, "sign"), self._relation("<", x, 0, "sign")
+            self._jumps.update(self._flags(positive) + self._flags(negative))  # a step: never continuous
+            return sp.Piecewise((1, positive), (-1, negative), (0, True))
         return None
 
     def table(self, table, x):
@@ -87,11 +137,11 @@ class SwitchRegistry:
         xs, ys = table.xs, table.ys
         if table.method != "linear" or len(xs) > MAX_TABLE_SWITCHES or not self.depends_on_motion(x):
             return None
-        pieces = [(sp.Float(ys[-1]), self.relation(">=", x, sp.Float(xs[-1]), "table"))]
+        pieces = [(sp.Float(ys[-1]), self._relation(">=", x, sp.Float(xs[-1]), "table"))]
         for i in range(len(xs) - 2, -1, -1):
             slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i])
             line = sp.Float(ys[i]) + sp.Float(slope) * (x - sp.Float(xs[i]))
-            pieces.append((line, self.relation(">=", x, sp.Float(xs[i]), "table")))
+            pieces.append((line, self._relation(">=", x, sp.Float(xs[i]), "table")))
         return sp.Piecewise(*pieces, (sp.Float(ys[0]), True))
 
     def _switch(self, g, inclusive: bool, origin: str) -> sp.Symbol:
@@ -100,8 +150,56 @@ class SwitchRegistry:
             if s.inclusive == inclusive and s.indicator == g:
                 return s.symbol
         symbol = sp.Symbol(f"switch.{len(self.switches) + 1}")
+        self._indicators[symbol] = g
         self.switches.append(Switch(symbol, g, inclusive, f"{origin} in {self.context}" if self.context else origin))
         return symbol
+
+
+#: Points on the surface g = 0 at which vanishes_on evaluates the difference of two branches, and the relative
+#: size of a difference that still counts as none: published piecewise laws are continuous only to the digits
+#: printed (the Iltis damper's polynomial meets its straight lines to 2.5e-7 of the force there).
+CONTINUITY_POINTS = 12
+CONTINUITY_RTOL = 1e-6
+#: Expressions larger than this (operations) are not examined: their switch counts as jumping.
+CONTINUITY_MAX_OPS = 400
+
+
+def vanishes_on(a, b, g) -> bool:
+    """Whether a - b is zero wherever ``g`` is, conservatively: False unless it can tell.  g is solved for a symbol
+    it is linear in (t, a coordinate, a parameter); a - b there is then zero as it stands, or at CONTINUITY_POINTS
+    seeded random points of the other symbols (of either sign; the switches' flags and the frozen flag 0, so that
+    inner comparisons are evaluated as written) to CONTINUITY_RTOL of the branches' size.  A point where a branch
+    cannot be evaluated (a root of a negative number, a division by zero) answers False."""
+    a, b, g = sp.sympify(a), sp.sympify(b), sp.sympify(g)
+    if a - b == 0:
+        return True
+    if sp.count_ops(a) + sp.count_ops(b) > CONTINUITY_MAX_OPS:
+        return False
+    for s in sorted(g.free_symbols, key=str):
+        slope = sp.diff(g, s)
+        if slope == 0 or slope.has(s):
+            continue
+        root = s - g / slope
+        a_on, b_on = a.subs(s, root), b.subs(s, root)
+        return a_on - b_on == 0 or _equal_at_points(a_on, b_on)
+    return False
+
+
+def _equal_at_points(a, b) -> bool:
+    symbols = sorted(a.free_symbols | b.free_symbols, key=str)
+    rng = random.Random(len(symbols))  # seeded: the compiled model must not depend on chance
+    for _ in range(CONTINUITY_POINTS):
+        values = {s: sp.Float(0.0 if s.name.startswith("switch.") else rng.choice((-1, 1)) * rng.uniform(0.3, 1.7))
+                  for s in symbols}
+        try:  # xreplace: numbers in, sympy evaluates as it builds (subs and evalf would simplify on the way)
+            va, vb = complex(a.xreplace(values)), complex(b.xreplace(values))
+        except (TypeError, ValueError, ZeroDivisionError):
+            return False
+        if not all(math.isfinite(v.real) and math.isfinite(v.imag) and v.imag == 0 for v in (va, vb)):
+            return False
+        if abs(va - vb) > CONTINUITY_RTOL * max(abs(va), abs(vb)) + 1e-12:
+            return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -147,5 +245,5 @@ def event_code(lowered_events, switches, state_names: tuple[str, ...], nq: int, 
     for s in switches:
         indicators.append((s.symbol.name, s.indicator))
         table.append(dict(name=f"{s.symbol.name} ({s.origin})", direction=0, terminal=False, assignments=(),
-                          switch=p_names.index(s.symbol.name), inclusive=s.inclusive))
+                          switch=p_names.index(s.symbol.name), inclusive=s.inclusive, continuous=s.continuous))
     return tuple(indicators), tuple(values), tuple(table)

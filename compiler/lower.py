@@ -402,7 +402,7 @@ def lower_model(model: M.Model, scene: M.Scene | None = None) -> Lowered:
         lowering.switches.context = "state equations"
     rates = tuple(lowering.state_rate(s.name) for s in model.states)
     rates += tuple(lowering.element_rates[s] for s in lowering.kin.tree.states[len(rates):])
-    switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
+    switches = lowering.switches.final() if lowering.switches is not None else ()
     return Lowered(model, scene, lowering.topology, lowering.kin, (), lowering.tables, lowering.cuts,
                    lowering.acceleration_terms.inputs() + lowering.friction.inputs, events, switches, rates,
                    lowering.friction.rows, lowering.friction.bearing, lowering)
@@ -415,7 +415,7 @@ def lower_outputs(lowered: Lowered) -> Lowered:
     if lowering.switches is not None:
         lowering.switches.context = "outputs"
     outputs = lowering.outputs()
-    switches = tuple(lowering.switches.switches) if lowering.switches is not None else ()
+    switches = lowering.switches.final() if lowering.switches is not None else ()
     return replace(lowered, outputs=outputs, switches=switches,
                    run_time_inputs=lowering.acceleration_terms.inputs() + lowering.friction.inputs)
 

@@ -115,6 +115,8 @@ class ToSympy:
         if op == "not":
             return sp.Not(_as_bool(args[0]))
         if op == "if":
+            if self.switches is not None:  # notes whether the branches agree where a switch of the condition flips
+                return self.switches.branch(_as_bool(args[0]), args[1], args[2])
             return sp.Piecewise((args[1], _as_bool(args[0])), (args[2], True))
         if op == "smoothstep":
             x, x0, x1 = args

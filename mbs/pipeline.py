@@ -214,10 +214,13 @@ def join_parts(equations_source: str, outputs_source: str) -> str:
 
 def _outputs_apart(before, after):
     """`after` (the lowering with its outputs), unless lowering them added a switch (its flag would be a
-    parameter of the equations): then NotSeparable."""
+    parameter of the equations) or found one the equations read continuously jumping in an output (the event
+    table, made with the equations, would say it is continuous): then NotSeparable."""
     from mbs.compiler.ccode import NotSeparable
     if len(after.switches) != len(before.switches):
         raise NotSeparable("an output adds a switch")
+    if [s.continuous for s in after.switches] != [s.continuous for s in before.switches]:
+        raise NotSeparable("an output reads a switch where it jumps")  # the event table says it is continuous
     return after
 
 

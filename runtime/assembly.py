@@ -220,10 +220,8 @@ def project_samples(data: Workspace, times: np.ndarray, states: np.ndarray) -> i
     """Replace every sampled state (row of `states`) by its projection onto the constraints, in place; returns
     the number of rows projected (fewer when a projection fails: the rows after it are left as they were).
     For the simulation driver: the integrator's dense output is only near the constraint manifold."""
-    project = data.function("project")
-    for i, (t, x) in enumerate(zip(times, states)):
-        try:
-            states[i] = project(float(t), x)
-        except MbsError:
-            return i
-    return len(times)
+    from .rows import evaluate_rows
+    projected = np.empty_like(states)
+    done, _ = evaluate_rows(data, "project", [data.p], times, states, np.zeros(len(times), dtype=np.intp), projected)
+    states[:done] = projected[:done]
+    return done

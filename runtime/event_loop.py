@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import EvaluationError
-from .events import (DEPARTURE_STEP, ZENO_WINDOW, EventRecord, against_motion, apply_events, crossing_rows,
-                     crossings, init_switches, is_zeno, resolution_message, zeno_message)
+from .events import (DEPARTURE_STEP, DIRECTION_NAMES, ZENO_WINDOW, EventRecord, against_motion, apply_events,
+                     crossing_rows, crossings, init_switches, is_zeno, resolution_message, zeno_message)
 from .friction import is_friction_event, start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
@@ -28,7 +28,7 @@ class Segments:
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
-    counts: list = field(default_factory=list)  # (rows, index of the p copy) per added block
+    counts: list = field(default_factory=list)  # (rows, index of the p copy, twin) per added block
     p: list = field(default_factory=list)
 
     def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
@@ -41,21 +41,30 @@ class Segments:
             self.p.append(p.copy())
         return len(self.p) - 1
 
-    def append(self, times, states: np.ndarray, which: int) -> None:
-        """Rows in the p copy ``which`` (from in_force): ``times`` a sequence, ``states`` one row or rows."""
+    def append(self, times, states: np.ndarray, which, twin=False) -> None:
+        """Rows in the p copy ``which`` (from in_force; or one per row): ``times`` a sequence, ``states`` one row
+        or rows.  ``twin`` (a flag, or one per row): the row just after an event where nothing jumps (a
+        continuous switch: compiler/events.py), whose projection and outputs are those of the row before it
+        (computed once, copied)."""
         if len(times):
             self.times.append(times)
             self.states.append(states)
-            self.counts.append((len(times), which))
+            self.counts.append((len(times), which, twin))
 
     def arrays(self, nx: int):
-        rows = sum(n for n, _ in self.counts)
+        """(times, states, index of the p copy, twin mask) of every row."""
+        rows = sum(n for n, _, _ in self.counts)
         times, states, which = np.empty(rows), np.empty((rows, nx)), np.empty(rows, dtype=int)
+        twin = np.zeros(rows, dtype=bool)
         i = 0
-        for t, x, (n, k) in zip(self.times, self.states, self.counts):
+        for t, x, (n, k, same) in zip(self.times, self.states, self.counts):
             times[i:i + n], states[i:i + n], which[i:i + n] = t, x, k
+            if isinstance(same, np.ndarray):
+                twin[i:i + n] = same
+            else:
+                twin[i] = same  # a single row
             i += n
-        return times, states, which
+        return times, states, which, twin
 
 
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks=100):
@@ -139,7 +148,8 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             fired_times += [t_event] * len(new)
             t = t_event
             if i >= times.size or times[i] != t_event:
-                segments.add([t_event], x[None, :], data.p)
+                twin = not jumped and len(new) == len(fired) and continuous(model, fired)
+                segments.append([t_event], x[None, :], segments.in_force(data.p), twin)
             terminal = [model.events[k].name for k in fired if model.events[k].terminal]
             if terminal:
                 message = f"terminated by event '{terminal[0]}' at t = {t_event:.9g} s"
@@ -189,31 +199,71 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     """Book the events C handled (rows of its log: t, y before, x after, g before the step, g at the event,
     action values) as the Python loop books its own: the sample rows before each in the run-time values in force
     then (``p_now``, brought up to date in place), the rows at the event before and after, the log records.
-    Returns the first sample row not yet booked."""
-    if len(log) == 0:
+    Returns the first sample row not yet booked.  The rows go in as one block (placed by index arithmetic, no
+    Python per row); only the actions and records are a loop over the events."""
+    m = len(log)
+    if m == 0:
         return start
     nx, nev = model.nx, len(model.events)
     directions = np.array([e.direction for e in model.events], dtype=np.intc)
+    t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-    fired_lists: list[list[int]] = [[] for _ in range(len(log))]  # the indicators that fired, per entry
+    values = log[:, 1 + 2 * nx + 2 * nev:]
+    fired_lists: list[list[int]] = [[] for _ in range(m)]  # the indicators that fired, per entry
     for entry, k in zip(*(a.tolist() for a in np.nonzero(crossing_rows(g_old, g_event, directions)))):
         fired_lists[entry].append(k)
-    split = np.maximum(np.searchsorted(times, log[:, 0], side="left"), start)  # first sample row at or after it
-    which = segments.in_force(p_now)
-    for row, fired, j, g_before, g_at in zip(log, fired_lists, split.tolist(), g_old, g_event):
-        t_event = float(row[0])
-        segments.append(times[start:j], states[start:j], which)
-        segments.append((t_event,), row[1:1 + nx], which)
-        _, new = apply_events(model, data, fired, g_before, g_at, t_event, row[1:1 + nx],
-                              model.x_names, values=row[1 + 2 * nx + 2 * nev:], p=p_now)
-        records += new
-        fired_times += [t_event] * len(new)
-        segments.p.append(p_now.copy())  # the values after the event (an event always changes one)
-        which = len(segments.p) - 1
-        if j >= times.size or times[j] != t_event:
-            segments.append((t_event,), row[1 + nx:1 + 2 * nx], which)
-        start = j
-    return start
+    before = segments.in_force(p_now)
+    first_copy = len(segments.p)  # the values after event e are copy first_copy + e
+    twin = np.zeros(m, dtype=bool)
+    copies = np.empty((m, p_now.size))
+    specs = model.events
+    branch_only = [s.switch >= 0 and not s.assignments for s in specs]  # plain Python from here on: per event
+    smooth = [s.continuous for s in specs]
+    before_values, at_values = g_old.tolist(), g_event.tolist()
+    for e, (fired, t) in enumerate(zip(fired_lists, t_event.tolist())):
+        if all(branch_only[k] for k in fired):
+            for k in fired:  # a switch's branch, as apply_events books it (without its copy of the state)
+                flag, rising = specs[k].switch, at_values[e][k] > before_values[e][k]
+                old, new = float(p_now[flag]), 1.0 if rising else 0.0
+                records.append(EventRecord(t, specs[k].name, DIRECTION_NAMES[1 if rising else -1],
+                                           f"branch {old:g} -> {new:g}" if old != new else ""))
+                p_now[flag] = new
+            fired_times += [t] * len(fired)
+            twin[e] = bool(fired) and all(smooth[k] for k in fired)
+        else:
+            _, new_records = apply_events(model, data, fired, g_old[e], g_event[e], t, log[e, 1:1 + nx],
+                                          model.x_names, values=values[e], p=p_now)
+            records += new_records
+            fired_times += [t] * len(new_records)
+        copies[e] = p_now  # an event always changes one
+    segments.p.extend(copies)
+    # rows: per event its sample rows from the previous event on, the row before it, the row after it unless a
+    # sample falls on its time (that sample, filled by C after the restart, is the row after it)
+    split = np.maximum(np.searchsorted(times, t_event, side="left"), start)  # first sample row at or after it
+    after = (split >= times.size) | (times[np.minimum(split, times.size - 1)] != t_event)
+    afters_before = np.r_[0, np.cumsum(after)]  # after rows of the events before event e
+    copy_of = np.r_[before, first_copy + np.arange(m)]  # the p copy in force after e events
+    at = split - start + np.arange(m) + afters_before[:m]  # the row before event e within the block
+    samples = np.arange(start, split[-1])
+    passed = np.searchsorted(split, samples, side="right")  # events before each sample row
+    place = samples - start + passed + afters_before[passed]
+    rows = len(samples) + m + int(after.sum())
+    block_t, block_x = np.empty(rows), np.empty((rows, nx))
+    block_which, block_twin = np.empty(rows, dtype=int), np.zeros(rows, dtype=bool)
+    block_t[place], block_x[place], block_which[place] = times[start:split[-1]], states[start:split[-1]], \
+        copy_of[passed]
+    block_t[at], block_x[at], block_which[at] = t_event, log[:, 1:1 + nx], copy_of[:m]
+    has = np.flatnonzero(after)
+    block_t[at[has] + 1], block_x[at[has] + 1] = t_event[has], log[has, 1 + nx:1 + 2 * nx]
+    block_which[at[has] + 1], block_twin[at[has] + 1] = first_copy + has, twin[has]
+    segments.append(block_t, block_x, block_which, block_twin)
+    return int(split[-1])
+
+
+def continuous(model, fired) -> bool:
+    """Whether nothing jumps at an event where the indicators ``fired`` crossed: all are continuous switches (the
+    state stays, and every expression reading their flags takes the same value on both sides)."""
+    return bool(len(fired)) and all(model.events[k].continuous for k in fired)
 
 
 def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:

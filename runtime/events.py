@@ -30,7 +30,8 @@ DIRECTION_NAMES = {1: "rising", -1: "falling", 0: "either"}
 class EventSpec:
     """One indicator of mbs_events: its name, direction (+1 rising, -1 falling, 0 either), whether it ends the
     run, what its actions assign ((array "x" or "p", index, slot of mbs_event_actions), ...), and for a switch
-    the p index of its branch flag (-1 otherwise) and whether g = 0 counts as the true side."""
+    the p index of its branch flag (-1 otherwise), whether g = 0 counts as the true side, and whether the switch
+    is continuous (nothing jumps where it flips: compiler/events.py)."""
 
     name: str
     direction: int
@@ -38,6 +39,7 @@ class EventSpec:
     assignments: tuple[tuple[str, int, int], ...] = ()
     switch: int = -1
     inclusive: bool = False
+    continuous: bool = False
 
     @classmethod
     def of(cls, value) -> "EventSpec":
@@ -60,7 +62,9 @@ def crossing_rows(g_old: np.ndarray, g_new: np.ndarray, directions: np.ndarray) 
 def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, fb: float) -> float:
     """The first time in (a, b] at which f has left the sign of fa (to the round-off of t): Illinois
     (a secant that halves the stale end's value) down to BISECT_BELOW, then two probes either side of the
-    secant's root and bisection to adjacent doubles.
+    secant's root and bisection to adjacent doubles.  A trial point where f is exactly 0 is the crossing once f
+    has fa's sign four doubles below it (else the bracket goes on from there: halving an end kept at 0 would only
+    bisect).
 
     fa may be the value an indicator at zero is leaving with (DEPARTURE_STEP after a, see event_loop.departing)
     rather than f(a) itself; so the bracket first moves its left end there when f has fa's sign at that point."""
@@ -77,22 +81,22 @@ def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, 
             # closes to ~8 doubles in two evaluations instead of a dozen halvings)
             straddled = True
             s = b - fb * width / (fb - fa)
-            if a < s < b:
-                e = 4.0 * (math.nextafter(s, math.inf) - s)
-                for probe in (s - e, s + e):
-                    if a < probe < b:
-                        fp = f(probe)
-                        if fp * fa > 0:
-                            a, fa = probe, fp
-                        else:
-                            b, fb = probe, fp
+            s = min(max(s, a), b) if s == s else a  # a root at an end to round-off: the probe inside closes it
+            e = 4.0 * (math.nextafter(s, math.inf) - s)
+            for probe in (s - e, s + e):
+                if a < probe < b:
+                    fp = f(probe)
+                    if fp * fa > 0:
+                        a, fa = probe, fp
+                    else:
+                        b, fb = probe, fp
             continue
         if width <= BISECT_BELOW * max(1.0, abs(b)):
             c = a + 0.5 * width
-        else:
+        else:  # the secant, kept half the goal width inside the bracket (a root at an end is closed, not bisected to)
+            margin = 0.5 * BISECT_BELOW * max(1.0, abs(b))
             c = b - fb * width / (fb - fa)
-            if not (a < c < b):
-                c = a + 0.5 * width
+            c = min(max(c, a + margin), b - margin) if a <= c <= b else a + 0.5 * width
         if not (a < c < b):  # a and b are adjacent doubles
             return b
         fc = f(c)
@@ -103,6 +107,12 @@ def locate_crossing(f: Callable[[float], float], a: float, b: float, fa: float, 
             retained = 1
         else:
             b, fb = c, fc
+            if fc == 0:  # on the crossing to the last bit (a linear indicator): close the bracket just below it
+                below = c - 4.0 * (math.nextafter(c, math.inf) - c)
+                fp = f(below) if a < below else fa
+                if fp * fa > 0:
+                    return c
+                b, fb = below, fp
             if retained == -1:
                 fa *= 0.5
             retained = -1

@@ -26,6 +26,7 @@ from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
+from .rows import evaluate_rows
 from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
@@ -208,36 +209,33 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     # one call into C for all samples when the guard watches the C integrator between its budgets of steps
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
                                                                 lambda: guard.chunks or PROGRESS_CHUNKS)
-    ts, xs, which = segments.arrays(model.nx)
+    ts, all_xs, all_which, twin = segments.arrays(model.nx)
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
-    if "project" in model.functions and len(ts):
-        projected = _project_segments(data, segments.p, ts, xs, which)
-        if projected < len(ts):
-            ts, xs, which = ts[:projected], xs[:projected], which[:projected]
+    # the rows just after an event where nothing jumps are their predecessors' twins: computed once, copied
+    own = np.flatnonzero(~twin)
+    source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
+    xs, which = all_xs[own], all_which[own]
+    if "project" in model.functions and len(own):
+        unprojected, xs = xs, np.empty_like(xs)
+        projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
+        if projected < len(own):
+            ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
-    columns, names = [ts[:, None], xs], [TIME, *model.x_names]
+    columns, names = [ts[:, None], xs[source]], [TIME, *model.x_names]
     if outputs and model.ny and "outputs" in model.functions:
-        ys = np.empty((len(ts), model.ny))
-        saved = data.p.copy()
-        # the rows of one p copy are consecutive (the copies are numbered in time order)
-        bounds = np.r_[0, np.flatnonzero(np.diff(which)) + 1, len(which)]
-        try:
-            for first, end in zip(bounds[:-1].tolist(), bounds[1:].tolist()):
-                data.p = segments.p[which[first]]
-                part, error = _outputs(data, ts[first:end], xs[first:end], model.ny)
-                ys[first:first + len(part)] = part
-                if error is not None:
-                    keep = first + len(part)
-                    ts, xs, ys, columns = ts[:keep], xs[:keep], ys[:keep], [ts[:keep, None], xs[:keep]]
-                    status = FAILED
-                    message = (f"output evaluation failed at t = {error.t:.6g} s: the model returned "
-                               f"{status_text(error.status)}")
-                    break
-        finally:
-            data.p = saved
-        columns.append(ys)
+        ys = np.empty((len(own), model.ny))
+        own_ts = ts[own[own < len(ts)]]
+        done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+        if error is not None:
+            keep, failed_at = int(own[done]), float(own_ts[done])
+            ts, source = ts[:keep], source[:keep]
+            columns = [ts[:, None], xs[source]]
+            status = FAILED
+            message = (f"output evaluation failed at t = {failed_at:.6g} s: the model returned "
+                       f"{status_text(error.status)}" if isinstance(error, EvaluationError) else str(error))
+        columns.append(ys[source])
         names += list(model.y_names)
     data.stats = stats
     metadata = {
@@ -246,29 +244,6 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
     return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
-
-
-def _project_segments(data: Workspace, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray) -> int:
-    """_project_rows for a run with events, each row with the run-time values p it was computed with (a
-    sticking friction element is a constraint row only while it sticks: compiler/friction_loops.py); returns
-    the number of leading rows projected.  The rows of one p copy are consecutive (the copies are numbered in time
-    order): one pass over the runs of rows, each projected in place; only a run that repeats a row (same time,
-    state and p) looks for its repetitions."""
-    saved = data.p.copy()
-    bounds = [0, *(np.flatnonzero(np.diff(which)) + 1).tolist(), len(which)]
-    repeats = (ts[1:] == ts[:-1]) & (which[1:] == which[:-1]) & (xs[1:] == xs[:-1]).all(axis=1)
-    repeating = set((np.searchsorted(bounds, np.flatnonzero(repeats) + 1, side="right") - 1).tolist())
-    p = data.p  # the workspace's own array: the model functions read it
-    try:
-        for run, (first, end) in enumerate(zip(bounds[:-1], bounds[1:])):
-            p[:] = ps[which[first]]
-            rows = xs[first:end]  # a view: projected in place
-            done = (_project_rows if run in repeating else project_samples)(data, ts[first:end], rows)
-            if done < end - first:
-                return first + done
-    finally:
-        p[:] = saved
-    return len(ts)
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,
@@ -289,26 +264,8 @@ def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | Non
     return FINISHED, filled
 
 
-def _project_rows(data: Workspace, times: np.ndarray, states: np.ndarray) -> int:
-    """project_samples for the rows of a run with events, where the rows at both sides of an event without a jump
-    are the same state: each such repetition takes its row's projection instead of computing it again."""
-    again = np.r_[False, (times[1:] == times[:-1]) & (states[1:] == states[:-1]).all(axis=1)]
-    if not again.any():
-        return project_samples(data, times, states)
-    own = np.flatnonzero(~again)
-    rows = states[own]
-    projected = project_samples(data, times[own], rows)
-    states[:] = rows[np.cumsum(~again) - 1]  # every row from the last row projected on its own
-    return int(own[projected]) if projected < len(own) else len(times)
-
-
 def _outputs(data: Workspace, times: np.ndarray, states: np.ndarray, ny: int):
     """Model outputs per sample; stops at the first failure and returns it."""
-    f = data.function("outputs")
     ys = np.empty((times.size, ny))
-    for i, (t, x) in enumerate(zip(times, states)):
-        try:
-            ys[i] = f(t, x)
-        except EvaluationError as exc:
-            return ys[:i], exc
-    return ys, None
+    done, error = evaluate_rows(data, "outputs", [data.p], times, states, np.zeros(times.size, dtype=np.intp), ys)
+    return ys[:done], error

@@ -292,6 +292,71 @@ static PyObject *function_time(FunctionObject *self, PyObject *args)
     return PyFloat_FromDouble(((double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec)) / (double)n);
 }
 
+/* Whether obj is an aligned C-contiguous ndarray of `type` with `ndim` dimensions (writable when asked). */
+static int is_carray(PyObject *obj, int type, int ndim, int writable)
+{
+    PyArrayObject *a = (PyArrayObject *)obj;
+    return PyArray_Check(obj) && PyArray_TYPE(a) == type && PyArray_NDIM(a) == ndim
+           && (writable ? PyArray_ISCARRAY(a) : PyArray_ISCARRAY_RO(a));
+}
+
+/* f.rows(t, x, out, ps, which) -> rows done: out[i] = f(t[i], x[i]) with the run-time values ps[which[i]] copied
+ * into the bound p where which changes (p restored at the end), a row equal to the one before it (time, state,
+ * which) taking its value; stops at the first failing row (the caller calls f there for its error).  out may be x.
+ * The rows of a run with events in one call, no Python between them (runtime/simulate.py). */
+static PyObject *function_rows(FunctionObject *self, PyObject *args)
+{
+    PyObject *t_obj, *x_obj, *out_obj, *ps_obj, *w_obj;
+    const mbs_entry *e = self->entry;
+    npy_intp n, i, nin = e->nin ? e->nin : MBS_NX, size = (npy_intp)e->rows * (e->cols ? e->cols : 1), copies;
+    const double *t, *x, *ps;
+    const npy_intp *which;
+    double *out, *p = (double *)self->p, *saved;
+    npy_intp current = -1;
+    int status = MBS_OK;
+    if (!PyArg_ParseTuple(args, "OOOOO:rows", &t_obj, &x_obj, &out_obj, &ps_obj, &w_obj)) return NULL;
+    if (!is_carray(t_obj, NPY_DOUBLE, 1, 0) || !is_carray(x_obj, NPY_DOUBLE, 2, 0) || !is_carray(out_obj, NPY_DOUBLE, 2, 1)
+        || !is_carray(ps_obj, NPY_DOUBLE, 2, 0) || !is_carray(w_obj, NPY_INTP, 1, 0)) {
+        PyErr_SetString(PyExc_TypeError, "rows(t, x, out, ps, which): C-contiguous float64 arrays (out writable) "
+                        "and an intp array");
+        return NULL;
+    }
+    n = PyArray_DIM((PyArrayObject *)t_obj, 0);
+    copies = PyArray_DIM((PyArrayObject *)ps_obj, 0);
+    if (PyArray_DIM((PyArrayObject *)x_obj, 0) != n || PyArray_DIM((PyArrayObject *)x_obj, 1) != nin
+        || PyArray_DIM((PyArrayObject *)out_obj, 0) != n || PyArray_DIM((PyArrayObject *)out_obj, 1) != size
+        || PyArray_DIM((PyArrayObject *)ps_obj, 1) != MBS_NP || PyArray_DIM((PyArrayObject *)w_obj, 0) != n) {
+        PyErr_SetString(PyExc_ValueError, "rows(t, x, out, ps, which): shapes (n,), (n, nx), (n, size), (k, np), (n,)");
+        return NULL;
+    }
+    t = PyArray_DATA((PyArrayObject *)t_obj);
+    x = PyArray_DATA((PyArrayObject *)x_obj);
+    out = PyArray_DATA((PyArrayObject *)out_obj);
+    ps = PyArray_DATA((PyArrayObject *)ps_obj);
+    which = PyArray_DATA((PyArrayObject *)w_obj);
+    for (i = 0; i < n; i++)
+        if (which[i] < 0 || which[i] >= copies) { PyErr_SetString(PyExc_IndexError, "which out of range"); return NULL; }
+    saved = PyMem_Malloc(((size_t)MBS_NP + 1) * sizeof(double));
+    if (!saved) return PyErr_NoMemory();
+    memcpy(saved, p, (size_t)MBS_NP * sizeof(double));
+    for (i = 0; i < n && status == MBS_OK; i++) {
+        const double *xi = x + i * nin;
+        if (which[i] != current) {
+            current = which[i];
+            memcpy(p, ps + current * MBS_NP, (size_t)MBS_NP * sizeof(double));
+        } else if (i > 0 && t[i] == t[i - 1] && memcmp(xi, xi - nin, (size_t)nin * sizeof(double)) == 0
+                   && out != x) {
+            memcpy(out + i * size, out + (i - 1) * size, (size_t)size * sizeof(double));
+            continue;
+        }
+        status = e->fn(t[i], xi, p, out + i * size, self->work);
+        self->calls++;
+    }
+    memcpy(p, saved, (size_t)MBS_NP * sizeof(double));
+    PyMem_Free(saved);
+    return PyLong_FromSsize_t(status == MBS_OK ? n : i - 1);
+}
+
 static PyObject *function_get_name(FunctionObject *self, void *closure)
 {
     (void)closure;
@@ -307,6 +372,8 @@ static PyObject *function_get_calls(FunctionObject *self, void *closure)
 static PyMethodDef function_methods[] = {
     {"time", (PyCFunction)function_time, METH_VARARGS,
      "time(x, n, t=0.0) -> seconds per call of n calls made inside C"},
+    {"rows", (PyCFunction)function_rows, METH_VARARGS,
+     "rows(t, x, out, ps, which) -> rows done: out[i] = f(t[i], x[i]) with p = ps[which[i]]"},
     {NULL, NULL, 0, NULL},
 };
 

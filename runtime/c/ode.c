@@ -213,7 +213,8 @@ static double mbs_ode_g_at(mbs_ode *o, int k, double t)
 
 /* The first time in (a, b] at which g_k has left the sign of ga, to adjacent doubles: Illinois (a secant that
  * halves the value at an end kept twice) until the bracket is 1e-12 s wide, bisection after that.  The same
- * algorithm as mbs.runtime.events.locate_crossing.  A NaN counts as the new side (the bracket closes on it). */
+ * algorithm as mbs.runtime.events.locate_crossing.  A NaN counts as the new side (the bracket closes on it); a trial
+ * point where g_k is exactly 0 is the crossing once g_k has ga's sign four doubles below it. */
 static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
 {
     int retained = 0, straddled = 0;
@@ -231,7 +232,7 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
             double s = b - gb * width / (gb - ga), e, side[2];
             int j;
             straddled = 1;
-            if (!(a < s && s < b)) continue;
+            s = fmin(fmax(s, a), b);  /* a root at an end to round-off: the probe inside it closes the bracket */
             e = 4.0 * (nextafter(s, HUGE_VAL) - s);
             side[0] = s - e; side[1] = s + e;
             for (j = 0; j < 2; j++) {
@@ -244,8 +245,12 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
         }
         if (width <= 1e-12 * fmax(1.0, fabs(b))) c = a + 0.5 * width;
         else {
+            /* the secant, kept half the goal width inside the bracket: a root at an end to round-off (the secant
+             * rounding onto it) is then closed by the next point instead of bisected towards for 30 halvings */
+            double margin = 0.5e-12 * fmax(1.0, fabs(b));
             c = b - gb * width / (gb - ga);
-            if (!(a < c && c < b)) c = a + 0.5 * width;
+            if (!(a <= c && c <= b)) c = a + 0.5 * width;
+            else c = fmin(fmax(c, a + margin), b - margin);
         }
         if (!(a < c && c < b)) return b;  /* adjacent doubles */
         gc = mbs_ode_g_at(o, k, c);
@@ -255,6 +260,11 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
             retained = 1;
         } else {
             b = c; gb = gc;
+            if (gc == 0) {  /* on the crossing to the last bit (a linear indicator): close the bracket below it */
+                double below = c - 4.0 * (nextafter(c, HUGE_VAL) - c), gp = a < below ? mbs_ode_g_at(o, k, below) : ga;
+                if (gp * ga > 0) return c;
+                b = below; gb = gp;
+            }
             if (retained == -1) ga *= 0.5;
             retained = -1;
         }

@@ -1,0 +1,52 @@
+"""Model functions evaluated at many rows of a run (its samples and the rows at its events) for the results:
+the projection onto the closed loops' constraints and the outputs, each row with the run-time values in force
+when it was computed.  On the C back end every row in one call (Function.rows in c/mbs_glue.c: no Python per
+row); elsewhere a Python loop that does the same."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import EvaluationError, MbsError
+from .workspace import Workspace
+
+
+def evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray,
+                  out: np.ndarray):
+    """out[i] = f(ts[i], xs[i]) of the model function ``name`` with the run-time values ps[which[i]] in force (a
+    run with events: modes, switch flags and parameters change at events, and a sticking friction element is a
+    constraint row only while it sticks: compiler/friction_loops.py), in one pass: p is set where it changes, and
+    a row that repeats the one before it (same time, state and p) takes its value.  Returns (rows done, None),
+    or at the first failure (its row, the MbsError: a model status, or a loop that cannot be closed)."""
+    f = data.function(name)
+    if hasattr(f, "rows"):  # the C back end: every row in one call (c/mbs_glue.c), the failing one again here
+        done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
+                      np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
+        if done == len(ts):
+            return done, None
+        saved = data.p.copy()
+        data.p[:] = ps[which[done]]
+        try:
+            f(float(ts[done]), xs[done])
+        except MbsError as exc:
+            return done, exc
+        finally:
+            data.p[:] = saved
+        return done, EvaluationError(name, 2, float(ts[done]))
+    p = data.p  # the workspace's own array: the model functions read it
+    saved, current = p.copy(), -1
+    try:
+        for i, (t, k) in enumerate(zip(ts.tolist(), which.tolist())):
+            if k != current:
+                p[:] = ps[k]
+                current = k
+            elif i and t == ts[i - 1] and np.array_equal(xs[i], xs[i - 1]):
+                out[i] = out[i - 1]
+                continue
+            try:
+                out[i] = f(t, xs[i])
+            except MbsError as exc:  # a model status (EvaluationError), or a loop that cannot be closed
+                return i, exc
+    finally:
+        p[:] = saved
+    return len(ts), None

@@ -1,0 +1,85 @@
+"""Model functions at many rows (runtime/rows.py): the C back end's one call (Function.rows) gives what calling the
+function row by row gives, with the run-time values of each row in force, and stops at the first failing row."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbs
+from mbs.runtime.rows import evaluate_rows
+
+SLIDER_CRANK = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
+SPRING = '''
+model spring {
+    param k = 100 N/m
+    rigid mass {
+        body {
+            mass = 1 kg
+            inertia = diag(1, 1, 1) kg*m^2
+        }
+    }
+    interact slide {
+        connect inertial -> mass
+        joint prismatic(axis = x) {
+            init s = 0.5 m
+        }
+        force f = joint(s = -k * slide.s)
+    }
+    output push = k * slide.s
+}
+'''
+
+
+def run(system):
+    res = system.simulate(t_end=0.5, sample=0.01)
+    compiled = system.compile()
+    data = system._workspace(compiled, system.generate(), {p.name: p.value for p in system.model.parameters})
+    return data, res.t, res.data[:, 1:1 + compiled.nx]
+
+
+@pytest.fixture(scope="module")
+def crank():
+    return run(mbs.load(SLIDER_CRANK))
+
+
+@pytest.fixture(scope="module")
+def spring():
+    return run(mbs.loads(SPRING))
+
+
+def one_by_one(data, name, ps, ts, xs, which):
+    """The reference: the bound function called per row, p set by hand."""
+    f, saved, rows = data.function(name), data.p.copy(), []
+    for t, x, k in zip(ts, xs, which):
+        data.p[:] = ps[k]
+        rows.append(f(float(t), x))
+    data.p[:] = saved
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("case, name, parameter", [("crank", "project", "L"), ("spring", "outputs", "k")])
+def test_one_call_gives_the_rows_of_single_calls_with_each_rows_values(request, case, name, parameter):
+    data, ts, xs = request.getfixturevalue(case)
+    longer = data.p.copy()
+    longer[data.model.parameter_index(parameter)] *= 1.1  # another rod (other constraints), another spring
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
+    before = data.p.copy()
+    out = np.empty((len(ts), len(one_by_one(data, name, ps, ts[:1], xs[:1], which[:1])[0])))
+    assert hasattr(data.function(name), "rows")  # the C back end
+    assert evaluate_rows(data, name, ps, ts, xs, which, out) == (len(ts), None)
+    np.testing.assert_array_equal(out, one_by_one(data, name, ps, ts, xs, which))
+    np.testing.assert_array_equal(data.p, before)  # the workspace's values restored
+
+
+def test_a_failing_row_stops_the_call_there_with_its_error(crank):
+    data, ts, xs = crank
+    xs = xs.copy()
+    xs[5, 0] = np.nan  # a state the projection cannot close
+    out = np.empty_like(xs)
+    done, error = evaluate_rows(data, "project", [data.p], ts, xs, np.zeros(len(ts), dtype=np.intp), out)
+    assert done == 5 and error is not None
+    np.testing.assert_array_equal(out[:5], one_by_one(data, "project", [data.p], ts[:5], xs[:5], [0] * 5))
