@@ -15,6 +15,8 @@
  *   mbs_loop_rhs         x' = [qdot(q_c, v_c); vdot] at the projected state x_c      (NX)
  *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
+ *   mbs_loop_project_step  mbs_project of DOPRI5's accepted state from the factors its last stage left    (NX)
+ *   mbs_loop_accept      [mbs_loop_rhs_direct; mbs_loop_project_step] at x: a step's end, for timing   (2 NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
  *   mbs_loop_rates       [x'; lambda] at x_c from one projection and one solve (the outputs)   (NX + NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
@@ -60,7 +62,8 @@
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
- * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs), and the driver stores
+ * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs; for DOPRI5 it is
+ * mbs_loop_project_step, which reuses the factors of G its last stage left at that state), and the driver stores
  * mbs_project(x) at output points.  For integrators that cannot project (scipy's), compiling with
  * -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds k (x_c - x) to x', which leaves the motion on the
  * constraints unchanged and pulls the drift back.
@@ -1070,16 +1073,17 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
 
 /* ---- the projection of an accepted step from the factors its last stage left (mbs_loop_project_step) ---- */
 
-/* A hash of the bits of p: the stamp's factors hold for the parameters they were computed with only. */
+/* A hash of the bits of p: the stamp's factors hold for the parameters they were computed with only.  Four
+ * independent lanes (FNV-1a on 64-bit words): one chain of multiplications would wait for each one's latency. */
 static double mbs_loop_hash_p(const double *p)
 {
-    unsigned long long h = 1469598103934665603ULL, bits;
+    unsigned long long h[4] = {1469598103934665603ULL, 1099511628211ULL, 14695981039346656037ULL, 7ULL}, bits;
     int i;
     for (i = 0; i < MBS_NP; i++) {
         memcpy(&bits, p + i, sizeof bits);
-        h = (h ^ bits) * 1099511628211ULL;
+        h[i & 3] = (h[i & 3] ^ bits) * 1099511628211ULL;
     }
-    return (double)(h >> 11);  /* 53 bits: exact as a double */
+    return (double)((h[0] ^ (h[1] * 31ULL) ^ (h[2] * 961ULL) ^ (h[3] * 29791ULL)) >> 11);  /* 53 bits: exact */
 }
 
 /* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
