@@ -26,6 +26,9 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
   open chain with the same number of joint velocities (bench/chain.py's spatial pendulum, compiled here);
   the ratios are medians of per-round ratios, the rounds interleaved;
+* the end of an accepted DOPRI5 step inside C: `loop_accept` (the step's last stage, then the projection from the
+  factors of G that stage left) against `loop_rhs` plus `project` (the projection with G evaluated and factored
+  afresh, as every accepted step did before) as the baseline, the ratio the median of per-round ratios;
 * equilibrium: `static_equilibrium` from the scene's assembled start (Newton on the reduced equations), against
   kinetic damping alone (the former method) as the baseline, and how far the two results lie apart;
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
@@ -90,16 +93,20 @@ def rhs_costs(system, scene, x, open_compiled, rounds: int):
     f_rhs, f_direct = data.function("rhs"), data.function("loop_rhs")
     f_open = open_data.function("rhs")
     x_open = open_compiled.x0
+    f_accept, f_project = data.function("loop_accept"), data.function("project")
     calls = 2000
     rows = []
     for _ in range(rounds):
         a = backend.time_call(f_rhs, x, calls, 0.0)
         b = backend.time_call(f_direct, x, calls, 0.0)
         c = open_compiled.backend.time_call(f_open, x_open, 20 * calls, 0.0)
-        rows.append((a, b, c))
+        d = backend.time_call(f_accept, x, calls, 0.0)
+        e = backend.time_call(f_project, x, calls, 0.0)
+        rows.append((a, b, c, d, e))
     med = statistics.median
     return (med(r[0] for r in rows), med(r[1] for r in rows), med(r[2] for r in rows),
-            med(r[0] / r[2] for r in rows), med(r[1] / r[2] for r in rows))
+            med(r[0] / r[2] for r in rows), med(r[1] / r[2] for r in rows),
+            med(r[3] for r in rows), med(r[1] + r[4] for r in rows), med((r[1] + r[4]) / r[3] for r in rows))
 
 
 def _values(system, scene):
@@ -180,13 +187,16 @@ def main() -> None:
               f"against {damped.residual:.1e}; largest difference {shift.max():.1e} in "
               f"{compiled.x_names[int(shift.argmax())]} (a direction without stiffness where the damping drifts)")
 
-        rhs, direct, open_rhs, ratio, ratio_direct = rhs_costs(system, args.scenes[0], eq.x, open_compiled,
-                                                                 args.repeat)
+        rhs, direct, open_rhs, ratio, ratio_direct, step_end, fresh_end, step_ratio = \
+            rhs_costs(system, args.scenes[0], eq.x, open_compiled, args.repeat)
         print(f"\nrhs per call inside C at the equilibrium (medians of {args.repeat} interleaved rounds):")
         print(f"  constrained rhs (projected)  {rhs * 1e6:8.2f} us  {ratio:5.1f} x the open chain")
         print(f"  constrained rhs (no projection) {direct * 1e6:5.2f} us  {ratio_direct:5.1f} x the open chain "
               f"(the rhs without the projection; target <= {TARGET_RHS_RATIO:g} x)")
         print(f"  open chain of {compiled.nv} links     {open_rhs * 1e6:8.2f} us")
+        print(f"  a step's end (last stage and projection) {step_end * 1e6:6.2f} us  (loop_accept: the projection from "
+              f"the factors of the last stage) against loop_rhs + project (a fresh projection, the baseline) "
+              f"{fresh_end * 1e6:.2f} us: {step_ratio:.2f} x")
 
         print(f"\n{'scene':8s} {'t_end':>5s} {'wall':>8s} {'RTF':>6s} {'equil.':>8s} {'integr.':>8s} "
               f"{'outputs':>8s} {'steps':>6s} {'rhs':>6s}" + (f" {'RK45':>8s} {'RK45/ours':>9s}" if args.rk45 else ""))

@@ -46,7 +46,8 @@ def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0) -> int:
     MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time); nz extra states ride along
     in its two state copies."""
     nx = nq + nv + nz
-    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS
+    stamp = nq + 4  # the state whose factors the solver keeps for the projection of an accepted step
+    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp
 
 
 def loop_routines(constraints: Constraints) -> list:

@@ -48,6 +48,7 @@ FUNCTION_SHAPES: dict[str, tuple[str, ...]] = {
     "multipliers": ("NC",),
     "loop_report": ("NREPORT",),
     "loop_rhs": ("NX",),  # x' without projection (what the C integrators call between projected steps)
+    "loop_accept": ("NX2",),  # [loop_rhs; x projected with the factors of that evaluation]: a DOPRI5 step's end
     # dynamics functions, generated only when asked for (compiler/dynamics_functions.py)
     "inverse_dynamics": ("NV",),
     "bias_forces": ("NV",),

@@ -15,6 +15,8 @@
  *   mbs_loop_rhs         x' = [qdot(q_c, v_c); vdot] at the projected state x_c      (NX)
  *   mbs_loop_rhs_direct  x' at x itself, no projection (the same where x is on the constraints)      (NX)
  *   mbs_project          x_c: q by Newton iterations on the dependent coordinates, then v      (NX)
+ *   mbs_loop_project_step  mbs_project of DOPRI5's accepted state from the factors its last stage left    (NX)
+ *   mbs_loop_accept      [mbs_loop_rhs_direct; mbs_loop_project_step] at x: a step's end, for timing   (2 NX)
  *   mbs_loop_multipliers lambda with M vdot = f + G^T lambda at x_c (0 for redundant rows)   (NC)
  *   mbs_loop_rates       [x'; lambda] at x_c from one projection and one solve (the outputs)   (NX + NC)
  *   mbs_loop_jacobian    G = d(gdot)/dv at the positions of x, no projection        (NC x NV, row-major)
@@ -60,7 +62,8 @@
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
- * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs), and the driver stores
+ * by mbs_project(x) (ode.c, mbs_ode_accept; the glue switches it on for this rhs; for DOPRI5 it is
+ * mbs_loop_project_step, which reuses the factors of G its last stage left at that state), and the driver stores
  * mbs_project(x) at output points.  For integrators that cannot project (scipy's), compiling with
  * -DMBS_LOOP_STABILIZE=k (a rate in 1/s, e.g. 10) adds k (x_c - x) to x', which leaves the motion on the
  * constraints unchanged and pulls the drift back.
@@ -75,7 +78,9 @@
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
 #define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * MBS_NX \
-                               + 10 * MBS_NV + MBS_NQ + 4 + 16)
+                               + 10 * MBS_NV + MBS_NQ + 4 + 16 + MBS_LOOP_STAMP_SIZE)
+/* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, hash of p, rank, q. */
+#define MBS_LOOP_STAMP_SIZE (MBS_NQ + 4)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -135,6 +140,7 @@ typedef struct {
     double *M, *A, *T;          /* NV x NV each: mass matrix, reduced mass matrix, null-space basis (packed) */
     int *Ti;                    /* NV x NV ints: the velocity of each packed entry of T */
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
+    double *stamp;              /* the state whose factors w->G holds after mbs_loop_rhs_direct (mbs_loop_stamp_*) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one),
                                  * or they are in the band around one (mbs_loop_partition) */
@@ -160,7 +166,7 @@ typedef struct {
  * (the hysteresis: a fresh choice happens only when the dependent block has clearly degraded). */
 #define MBS_LOOP_KEEP_RATIO 0.1
 
-static mbs_loop_work mbs_loop_layout(double *work)
+static mbs_loop_work mbs_loop_layout_keeping(double *work)
 {
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
@@ -192,6 +198,17 @@ static mbs_loop_work mbs_loop_layout(double *work)
     w.A = s; s += MBS_NV * MBS_NV;
     w.T = s; s += MBS_NV * MBS_NV;
     w.Ti = (int *)s;  /* NV * NV ints in the room of NV * NV doubles */
+    s += MBS_NV * MBS_NV;
+    w.stamp = s;
+    return w;
+}
+
+/* The layout of every exported function but mbs_loop_project_step: any of them may overwrite the factors of G,
+ * so the stamp of mbs_loop_rhs_direct is void after it. */
+static mbs_loop_work mbs_loop_layout(double *work)
+{
+    mbs_loop_work w = mbs_loop_layout_keeping(work);
+    w.stamp[0] = 0.0;
     return w;
 }
 
@@ -300,9 +317,11 @@ static void mbs_loop_eliminate(double *A, int k, int rows)
     for (i = k + 1; i < rows; i++) {
         double l;
         if (A[i * MBS_NV + k] == 0.0) continue;  /* another loop's row (independent blocks): nothing to do */
-        if (n < 0)  /* the pivot row's nonzero columns, listed once (a loop's row touches a few columns) */
-            for (n = 0, j = k + 1; j < MBS_NV; j++)
-                if (A[k * MBS_NV + j] != 0.0) nz[n++] = j;
+        if (n < 0)  /* the pivot row's nonzero columns, listed once (a loop's row touches a few columns), */
+            for (n = 0, j = k + 1; j < MBS_NV; j++) {  /* without a branch per entry */
+                nz[n] = j;
+                n += A[k * MBS_NV + j] != 0.0;
+            }
         l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
         for (j = 0; j < n; j++) A[i * MBS_NV + nz[j]] -= l * A[k * MBS_NV + nz[j]];
     }
@@ -381,6 +400,36 @@ static void mbs_loop_keep_store(mbs_loop_work *w, int r, double pivot, int clean
     memcpy(kp + 4 + MBS_NV, w->rp, r * sizeof(double));
 }
 
+/* The kept partition's r pivot rows of G (w->G0, as mbs_loop_jacobian_at left it) into w->G in the kept column
+ * order, rp and cp set; returns max |G| over all rows, -1 when an entry is not finite.  Only the structural
+ * nonzeros are read (row i's velocities, mbs_colour_column of compiler/jacobian_colours.py: Iltis 108 of 816
+ * entries), since G0 holds G itself here, not the rows of a singular position (mbs_loop_singular_rows), whose
+ * factorisation is never the kept one; the rest of the rows is zeroed. */
+static double mbs_loop_gather_kept(mbs_loop_work *w, int r)
+{
+    const double *kp = w->keep;
+    double amax = 0.0, probe = 0.0;
+    int i, j, k, c, position[MBS_NV], kept[MBS_NC];
+    for (j = 0; j < MBS_NV; j++) position[(int)(w->cp[j] = kp[4 + j])] = j;
+    for (i = 0; i < MBS_NC; i++) kept[i] = -1;
+    for (k = 0; k < r; k++) kept[(int)(w->rp[k] = kp[4 + MBS_NV + k])] = k;
+    memset(w->G, 0, (size_t)r * MBS_NV * sizeof(double));
+    for (i = 0; i < MBS_NC; i++) {
+        const double *src = w->G0 + i * MBS_NV;
+        double *dst = kept[i] >= 0 ? w->G + kept[i] * MBS_NV : NULL;
+        for (c = 0; c < MBS_NCOLOUR; c++) {
+            const int col = mbs_colour_column[i * MBS_NCOLOUR + c];
+            if (col >= 0) {
+                const double a = fabs(src[col]);
+                amax = a > amax ? a : amax;
+                probe += 0.0 * src[col];
+                if (dst) dst[position[col]] = src[col];
+            }
+        }
+    }
+    return probe == 0.0 ? amax : -1.0;
+}
+
 /* Factor G (unfactored, in w->G) with the kept partition: the kept pivot rows in the kept column order, row
  * exchanges among the pivot rows only (they leave the partition unchanged).  Returns the smallest pivot
  * relative to max |G|, 0 when a pivot vanishes, -1 when G is not finite. */
@@ -388,16 +437,10 @@ static double mbs_loop_factor_kept(mbs_loop_work *w)
 {
     const double *kp = w->keep;
     const int r = (int)kp[1];
-    double *A = w->G, amax0 = mbs_loop_gmax(w), minpivot = HUGE_VAL;
-    int i, j, k, column[MBS_NV];  /* the kept column order as ints (converted once, not per entry) */
+    double *A = w->G, amax0 = mbs_loop_gather_kept(w, r), minpivot = HUGE_VAL;
+    int i, k;
     if (amax0 < 0.0) return -1.0;
     if (!(amax0 > 0.0)) return 0.0;
-    for (j = 0; j < MBS_NV; j++) column[j] = (int)(w->cp[j] = kp[4 + j]);
-    for (k = 0; k < r; k++) {
-        const double *src = w->G0 + (int)kp[4 + MBS_NV + k] * MBS_NV;
-        w->rp[k] = kp[4 + MBS_NV + k];
-        for (j = 0; j < MBS_NV; j++) A[k * MBS_NV + j] = src[column[j]];
-    }
     for (k = 0; k < r; k++) {
         int pi = k;
         double amax = 0.0;
@@ -692,17 +735,15 @@ static void mbs_loop_row_lists(const mbs_loop_work *w, int r, mbs_loop_rows *row
     int j, k, e = 0;
     rows->col = w->Ti + MBS_NV * MBS_NV;
     for (j = 0; j < MBS_NV; j++) cpi[j] = (int)w->cp[j];
-    for (k = 0; k < r; k++) {
-        const double *row = A + k * MBS_NV;
+    for (k = 0; k < r; k++) {  /* branch-free compaction: whether an entry is zero follows no pattern the */
+        const double *row = A + k * MBS_NV;   /* branch predictor learns (it cost a fifth of the solve) */
+        int *col = rows->col;
         rows->at[k] = e;
-        for (j = 0; j < k; j++)
-            if (row[j] != 0.0) rows->col[e++] = j;
+        for (j = 0; j < k; j++) { col[e] = j; e += row[j] != 0.0; }
         rows->nl[k] = e - rows->at[k];
-        for (j = k + 1; j < r; j++)
-            if (row[j] != 0.0) rows->col[e++] = j;
+        for (j = k + 1; j < r; j++) { col[e] = j; e += row[j] != 0.0; }
         rows->u[k] = e;
-        for (j = r; j < MBS_NV; j++)
-            if (row[j] != 0.0) rows->col[e++] = j;
+        for (j = r; j < MBS_NV; j++) { col[e] = j; e += row[j] != 0.0; }
     }
     rows->at[r] = e;
 }
@@ -779,6 +820,20 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
 }
 #endif
 
+/* b = f - M c for c zero outside the r dependent velocities cpi[0 .. r - 1] (M symmetric: the rows of M at
+ * those velocities, each a contiguous run the compiler vectorises; restrict: b aliases neither M nor c). */
+static void mbs_loop_minus_mass_times(const double *restrict M, const double *restrict c, const int *cpi, int r,
+                                      const double *restrict f, double *restrict b)
+{
+    int i, k;
+    memcpy(b, f, MBS_NV * sizeof(double));
+    for (k = 0; k < r; k++) {
+        const double ck = c[cpi[k]];
+        const double *restrict row = M + cpi[k] * MBS_NV;
+        for (i = 0; i < MBS_NV; i++) b[i] -= row[i] * ck;
+    }
+}
+
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
  * position (mbs_loop_limit_rows). */
 static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
@@ -820,8 +875,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
                 const double *yi = Y + rows.col[e] * MBS_NV;
                 for (j = 0; j < m; j++) yk[j] -= u * yi[j];
             }
-            for (j = 0; j < m; j++)
-                if (yk[j] != 0.0) yk[j] /= d;  /* other loops' columns stay 0: no division */
+            for (j = 0; j < m; j++) yk[j] /= d;  /* other loops' columns stay 0 (no branch: it mispredicts) */
         }
         e = 0;
         for (j = 0; j < m; j++) {
@@ -858,12 +912,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
      * A = T^T M T entry by entry from the nonzeros of T: A_ij = sum over the nonzeros T_f of column i and T_e of
      * column j of T_f M(Ti_f, Ti_e) T_e, which costs nnz_i nnz_j (a suspension's column moves its loop's few
      * velocities, a free body's one) rather than an nv-long product M T_j per column */
-    memcpy(w->b, w->f, MBS_NV * sizeof(double));
-    for (k = 0; k < MBS_NV; k++) {
-        const double c = w->c0[k];
-        if (c != 0.0)
-            for (i = 0; i < MBS_NV; i++) w->b[i] -= M[k * MBS_NV + i] * c;
-    }
+    mbs_loop_minus_mass_times(M, w->c0, cpi, r, w->f, w->b);
     for (j = 0; j < m; j++) {
         double sum = 0.0;
         int e, f;
@@ -1013,6 +1062,9 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
     return s;
 }
 
+static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs_loop_work *w, int r);
+int mbs_project(double t, const double *x, const double *p, double *out, double *work);
+
 /* x' at x itself, without projection, by the kept partition: the right-hand side of the C integrators, which
  * project every accepted state (ode.c) so that the state stays on the constraints; between accepted states
  * the partition does not change, so x' is as smooth as the mechanism. */
@@ -1030,7 +1082,101 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
     if (s == 0) memcpy(xdot + MBS_NQ, w.vd, MBS_NV * sizeof(double));
     if (s == 0) s = mbs_loop_state_rates(t, x, p, xdot, &w);
+    if (s == 0 && !w.fresh && !w.singular && r == (int)w.keep[1]) mbs_loop_stamp_store(t, x, p, &w, r);
     return s;
+}
+
+/* ---- the projection of an accepted step from the factors its last stage left (mbs_loop_project_step) ---- */
+
+/* A hash of the bits of p: the stamp's factors hold for the parameters they were computed with only.  Four
+ * independent lanes (FNV-1a on 64-bit words): one chain of multiplications would wait for each one's latency. */
+static double mbs_loop_hash_p(const double *p)
+{
+    unsigned long long h[4] = {1469598103934665603ULL, 1099511628211ULL, 14695981039346656037ULL, 7ULL}, bits;
+    int i;
+    for (i = 0; i < MBS_NP; i++) {
+        memcpy(&bits, p + i, sizeof bits);
+        h[i & 3] = (h[i & 3] ^ bits) * 1099511628211ULL;
+    }
+    return (double)((h[0] ^ (h[1] * 31ULL) ^ (h[2] * 961ULL) ^ (h[3] * 29791ULL)) >> 11);  /* 53 bits: exact */
+}
+
+/* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
+static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs_loop_work *w, int r)
+{
+    w->stamp[0] = MBS_LOOP_KEEP_MARK;
+    w->stamp[1] = t;
+    w->stamp[2] = mbs_loop_hash_p(p);
+    w->stamp[3] = r;
+    memcpy(w->stamp + 4, x, MBS_NQ * sizeof(double));
+}
+
+/* Does the stamp hold for (t, q of x, p), with the partition still the kept one? */
+static int mbs_loop_stamp_holds(double t, const double *x, const double *p, const mbs_loop_work *w)
+{
+    return w->stamp[0] == MBS_LOOP_KEEP_MARK && w->stamp[1] == t && w->keep[0] == MBS_LOOP_KEEP_MARK
+           && w->stamp[3] == w->keep[1] && memcmp(w->stamp + 4, x, MBS_NQ * sizeof(double)) == 0
+           && w->stamp[2] == mbs_loop_hash_p(p);
+}
+
+/* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions:
+ * the integrated state of an accepted step is the state of its last stage (DOPRI5's first-same-as-last), already
+ * on the position constraints to the integration's drift (about 1e-13), so the projection is one residual, the
+ * polishing Newton steps of mbs_loop_positions_iterate with those factors, and the velocities from one gdot,
+ * instead of two fresh evaluations and factorisations of G.  The velocities use G at the positions before the
+ * polish (it moves them by the drift: G changes by that relatively).  Anything else (no stamp, another state, a
+ * residual above MBS_LOOP_TOL) goes the way of mbs_project. */
+static int mbs_loop_project_stamped(double t, const double *x, const double *p, mbs_loop_work *w)
+{
+    double *q = w->xc, res;
+    const int r = (int)w->stamp[3];
+    int i, k, s;
+    memcpy(w->xc, x, MBS_NX * sizeof(double));
+    if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+    res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+    if (!(res <= MBS_LOOP_TOL)) return -1;
+    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
+        double before = res;
+        if ((s = mbs_loop_newton_step(t, q, p, w, r)) != 0) return s;
+        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        if (!(res < before)) {  /* at the round-off floor: undo this step */
+            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
+            mbs_loop_normalize_q(q);
+            break;
+        }
+        if (res > 0.5 * before) break;
+    }
+    /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, dv_I = 0 */
+    if ((s = mbs_constraint_velocity(t, w->xc, p, w->c3, w->tree)) != 0) return s;
+    memset(w->dv, 0, MBS_NV * sizeof(double));
+    mbs_loop_solve(w, r, w->c3, w->dv);
+    for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
+    return isfinite(mbs_loop_maxabs(w->xc, MBS_NX, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+}
+
+/* mbs_project for the C integrators' accepted steps (ode.c, mbs_ode_accept; the glue sets it with
+ * mbs_loop_rhs_direct): the stamped factors of the step's last stage when they hold (mbs_loop_project_stamped),
+ * else mbs_project. */
+int mbs_loop_project_step(double t, const double *x, const double *p, double *out, double *work)
+{
+    mbs_loop_work w = mbs_loop_layout_keeping(work);
+    int s = -1;
+    if (mbs_loop_stamp_holds(t, x, p, &w)) {
+        s = mbs_loop_project_stamped(t, x, p, &w);
+    }
+    w.stamp[0] = 0.0;
+    if (s != 0) return mbs_project(t, x, p, out, work);
+    memcpy(out, w.xc, MBS_NX * sizeof(double));
+    return 0;
+}
+
+/* out = [x' at x (NX); x projected as an accepted step (NX)]: the last stage of a DOPRI5 step and the projection
+ * of its accepted state, what the glue's integrator does at the end of each step (bench/iltis.py times it
+ * against mbs_loop_rhs_direct and mbs_project called one after the other). */
+int mbs_loop_accept(double t, const double *x, const double *p, double *out, double *work)
+{
+    int s = mbs_loop_rhs_direct(t, x, p, out, work);
+    return s != 0 ? s : mbs_loop_project_step(t, x, p, out + MBS_NX, work);
 }
 
 int mbs_project(double t, const double *x, const double *p, double *out, double *work)

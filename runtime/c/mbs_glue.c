@@ -109,6 +109,7 @@ static mbs_entry MBS_TABLE[] = {
     {"multipliers", mbs_loop_multipliers, MBS_NC, 0},
     {"loop_report", mbs_loop_report, MBS_LOOP_NREPORT, 0},
     {"loop_rhs", mbs_loop_rhs_direct, MBS_NX, 0},  /* x' without projection: what the C integrators call */
+    {"loop_accept", mbs_loop_accept, 2 * MBS_NX, 0},  /* [x'; the accepted state projected]: a step's end */
 #endif
 #ifdef MBS_CLOSED_FORM  /* loops closed in closed form alone (status 4 off their branch), for tests and benches */
     {"closed_form_rhs", mbs_closed_form_rhs, MBS_NX, 0},
@@ -472,7 +473,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     /* the mechanism's own right-hand side: keep the integrated state on its loop-closure constraints */
     if (!rc && fn->entry->fn == mbs_rhs) {
         self->ode.yproj = calloc((size_t)MBS_NX + 1, sizeof(double));
-        self->ode.project = mbs_project;
+        /* DOPRI5's last stage is at the accepted state: its factors of G serve the projection */
+        self->ode.project = rhs == mbs_loop_rhs_direct ? mbs_loop_project_step : mbs_project;
         rc = self->ode.yproj ? 0 : -1;
     }
 #endif
