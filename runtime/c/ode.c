@@ -20,6 +20,9 @@
 #define MBS_ODE_BRIDGE_GAP 1e-6
 /* ... when that step's error estimate, in the method's error norm, is at most this (a step accepted with room) */
 #define MBS_ODE_BRIDGE_ERROR 1e-2
+/* The first step after a restart that went through without a rejection lets the next restart of that indicator in
+ * that direction start this much larger again (up to the controller's step: see mbs_ode_learn_first_step). */
+#define MBS_ODE_FIRST_STEP_RELAX 1.2
 
 /* Events restarted in C (see mbs_ode_restart): which indicators qualify and what their actions assign, and the
  * log of the events handled since the caller last read it. */
@@ -38,6 +41,10 @@ typedef struct mbs_ode_restarts {
     double h_resume;        /* > 0: the step size to go on with after the short step to t_next */
     double t_fence;         /* the next sample time: an Euler bridge to a second crossing stays before it */
     double *f_bridge;       /* [n]: the rhs at the end of an Euler bridge */
+    double *first_step;     /* [2 nev]: per indicator, falling and rising, the fraction of the controller's step the
+                             * first step after its last restart took (1: none rejected; mbs_ode_learn_first_step) */
+    int learning;           /* the index into first_step of the restart whose first step is under way, or -1 */
+    double h_tried;         /* the size that first step was tried with */
     long capacity, count;   /* log entries: room for, and taken */
     size_t width;           /* doubles per entry: t, y before [n], x after [n], g before [nev], g at [nev], values */
     double *log;            /* [capacity * width] */
@@ -47,7 +54,7 @@ static void mbs_ode_free_restarts(mbs_ode_restarts *r)
 {
     if (!r) return;
     free(r->handled); free(r->flag); free(r->first); free(r->index); free(r->slot); free(r->log);
-    free(r->f_bridge);
+    free(r->f_bridge); free(r->first_step);
     free(r);
 }
 
@@ -161,6 +168,8 @@ static int mbs_ode_next_h(mbs_ode *o, double *h, int *last)
     return 0;
 }
 
+static void mbs_ode_learn_first_step(mbs_ode_restarts *r, double h);
+
 /* Bookkeeping of an accepted step [t, t + h], whose result the method has stored in y: projected onto the
  * manifold when the problem has one.  The dense output keeps interpolating the integrated values. */
 static void mbs_ode_accept(mbs_ode *o, double h, int last)
@@ -168,6 +177,7 @@ static void mbs_ode_accept(mbs_ode *o, double h, int last)
     o->t_old = o->t;
     o->t = last ? o->t_bound : o->t + h;
     o->naccept++;
+    if (o->restarts && o->restarts->learning >= 0) mbs_ode_learn_first_step(o->restarts, last ? HUGE_VAL : h);
     if (o->project) {
         if (o->project(o->t, o->y, o->p, o->yproj, o->work) == MBS_OK)
             memcpy(o->y, o->yproj, (size_t)o->n * sizeof(double));
@@ -327,11 +337,15 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     r->slot = calloc((size_t)nassign + 1, sizeof(int));
     r->log = calloc((size_t)r->capacity * r->width, sizeof(double));
     r->f_bridge = calloc((size_t)o->n + 1, sizeof(double));
-    if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log || !r->f_bridge) {
+    r->first_step = calloc(2 * (size_t)nev + 1, sizeof(double));
+    r->learning = -1;
+    if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log || !r->f_bridge
+        || !r->first_step) {
         mbs_ode_free_restarts(r);
         return -1;
     }
     for (k = 0; k < nev; k++) { r->handled[k] = handled[k]; r->flag[k] = flag[k]; }
+    for (k = 0; k < 2 * nev; k++) r->first_step[k] = 1.0;
     for (k = 0; k <= nev; k++) r->first[k] = first[k];
     for (k = 0; k < nassign; k++) { r->index[k] = index[k]; r->slot[k] = slot[k]; }
     mbs_ode_free_restarts(o->restarts);
@@ -384,6 +398,40 @@ static int mbs_ode_settle(mbs_ode *o, const double *g)
 }
 
 static int mbs_ode_restart(mbs_ode *o);
+
+/* The first step after a restart at a switch into stiffer dynamics (a leaf spring's stop engaging) must be smaller
+ * than the step the controller proposed on the other side: there it was rejected once in three restarts, at six
+ * evaluations of f each (the Iltis over the bump).  So the step starts at the fraction of the controller's step that
+ * the first step after the last restart of the same indicator in the same direction took (the least over the
+ * indicators that fired; 1 until one was rejected), and the accepted step updates that fraction: to its share of
+ * the size tried when it was rejected on the way, else MBS_ODE_FIRST_STEP_RELAX times more, up to 1.  The error
+ * control is the method's as ever: a fraction too small costs a step that the controller then grows. */
+static void mbs_ode_first_step(mbs_ode *o, const double *g_before, const double *g_event)
+{
+    mbs_ode_restarts *r = o->restarts;
+    double least = HUGE_VAL;
+    int k;
+    r->learning = -1;
+    for (k = 0; k < o->nev; k++) {
+        if (mbs_ode_crossed(o, k, g_before[k], g_event[k])) {
+            int key = 2 * k + (g_event[k] > g_before[k]);
+            if (r->first_step[key] < least) { least = r->first_step[key]; r->learning = key; }
+        }
+    }
+    if (r->learning < 0) return;
+    o->h *= least;
+    r->h_tried = fmin(o->h, o->h_max);
+}
+
+/* An accepted step of size h (HUGE_VAL: the last, clipped to the end) after a restart: learn its fraction. */
+static void mbs_ode_learn_first_step(mbs_ode_restarts *r, double h)
+{
+    double *fraction = r->first_step + r->learning;
+    r->learning = -1;
+    if (h == HUGE_VAL) return;
+    if (h < 0.999 * r->h_tried) *fraction *= h / r->h_tried;
+    else *fraction = fmin(1.0, *fraction * MBS_ODE_FIRST_STEP_RELAX);
+}
 
 /* The Euler step from a restart: y(t) = y + (t - t_restart) f, f evaluated afresh at the restart. */
 static void mbs_ode_euler_dense(const mbs_ode *o, double t, double *out)
@@ -492,6 +540,7 @@ static int mbs_ode_restart(mbs_ode *o)
     if (r->h_resume > 0) o->h = r->h_resume;
     else if (h_step > 0 && o->h > h_step) o->h = h_step;
     r->h_resume = 0;
+    mbs_ode_first_step(o, entry + 1 + 2 * (size_t)n, g_event);
     /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
      * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
      * branch (rejected) and then be cut short by it */
@@ -499,6 +548,7 @@ static int mbs_ode_restart(mbs_ode *o)
     if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && r->t_next > o->t && o->status == MBS_ODE_RUNNING) {
         if (r->t_next - o->t <= MBS_ODE_BRIDGE_GAP * fmax(1.0, fabs(o->t)) && mbs_ode_bridge(o)) return 1;
         if (2.0 * (r->t_next - o->t) >= o->h_min) {
+            r->learning = -1;  /* the short step tells nothing about the step the switch needs */
             r->h_resume = o->h;
             o->h = 2.0 * (r->t_next - o->t);
         }
