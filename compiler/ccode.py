@@ -225,6 +225,8 @@ class CEmitter:
                  f"#define MBS_NWORK {self._work()}   /* doubles of work memory the caller provides */"]
         if self.outputs:
             lines.append(f"#define MBS_NY {len(self.outputs)}   /* outputs */")
+        if self._output_scratch():
+            lines.append(f"#define MBS_OUTPUTS_WORK {self._output_scratch()}   /* mbs_outputs solve in work from here */")
         if self.jacobian:
             lines.append("#define MBS_JACOBIAN 1   /* mbs_jacobian exists */")
         if self.dynamics_routines:

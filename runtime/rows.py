@@ -50,3 +50,46 @@ def evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.n
     finally:
         p[:] = saved
     return len(ts), None
+
+
+def project_and_evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray,
+                              which: np.ndarray, projected: np.ndarray, out: np.ndarray):
+    """projected[i] = the projection of xs[i] onto the closed loops' constraints, out[i] = f(ts[i], projected[i])
+    (the model function ``name``, the outputs), each row with ps[which[i]] in force.  On the C back end one pass
+    in which the outputs' loop solve starts from the factors the row's projection left (Function.rows with
+    ``projected``: c/mbs_glue.c, c/loops.c mbs_loop_rates) instead of projecting the row again; elsewhere the two
+    passes of :func:`evaluate_rows`.  Returns (rows done, None, None), or at the first failure (its row, the
+    MbsError, "project" or ``name``: which of the two failed there)."""
+    f = data.function(name)
+    if hasattr(f, "rows"):
+        try:
+            done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
+                          np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp),
+                          projected)
+        except ValueError:  # a model whose outputs do not solve the loops in their own work: two passes
+            done = None
+        if done is not None:
+            if done == len(ts):
+                return done, None, None
+            return (done, *_failure(data, name, ps[which[done]], float(ts[done]), xs[done]))
+    done, error = evaluate_rows(data, "project", ps, ts, xs, which, projected)
+    if error is not None or done < len(ts):
+        return done, error, "project"
+    done, error = evaluate_rows(data, name, ps, ts, projected, which, out)
+    return done, error, (None if error is None else name)
+
+
+def _failure(data: Workspace, name: str, p: np.ndarray, t: float, x: np.ndarray):
+    """(the MbsError, "project" or ``name``) of the row (t, x) that failed in one pass, evaluated again here."""
+    saved = data.p.copy()
+    data.p[:] = p
+    try:
+        stage = "project"
+        x = data.function("project")(t, x)
+        stage = name
+        data.function(name)(t, x)
+    except MbsError as exc:
+        return exc, stage
+    finally:
+        data.p[:] = saved
+    return EvaluationError(name, 2, t), stage

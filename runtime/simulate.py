@@ -26,7 +26,7 @@ from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
-from .rows import evaluate_rows
+from .rows import evaluate_rows, project_and_evaluate_rows
 from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
@@ -112,8 +112,20 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         status, filled = _run(solver, times, states, guard.progress, t_end, guard.chunks or PROGRESS_CHUNKS)
     message = explain_failure(model, data, solver.message, solver.t, solver.y) if status == FAILED else ""
     loops = "project" in model.functions
-    if loops:  # closed loops: store the samples projected onto the constraints
+    with_outputs = bool(outputs and model.ny and "outputs" in model.functions)
+    ys = None
+    if loops and with_outputs:  # one pass: each sample projected, its outputs solved from its projection's factors
+        ys, projected = np.empty((filled, model.ny)), np.empty((filled, model.nx))
+        done, error, stage = project_and_evaluate_rows(data, "outputs", [data.p], times[:filled], states[:filled],
+                                                       np.zeros(filled, dtype=np.intp), projected, ys)
+        states[:done] = projected[:done]
+        ys = ys[:done]
+        projected = done if stage == "project" else filled
+        if stage != "outputs":
+            error = None
+    elif loops:  # closed loops: store the samples projected onto the constraints
         projected = project_samples(data, times[:filled], states[:filled])
+    if loops:
         if projected < filled:
             filled, status = projected, FAILED
             message = f"the closed loops cannot be closed at t = {times[projected]:.6g} s (see loop_report)"
@@ -122,8 +134,9 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         status = "interrupted" if guard.interrupted else status
     columns = [times[:filled, None], states[:filled]]
     names = [TIME, *model.x_names]
-    if outputs and model.ny and "outputs" in model.functions:
-        ys, error = _outputs(data, times[:filled], states[:filled], model.ny)
+    if with_outputs:
+        if ys is None:
+            ys, error = _outputs(data, times[:filled], states[:filled], model.ny)
         if error is not None:  # keep the rows before the failing one
             filled = ys.shape[0]
             columns = [c[:filled] for c in columns]
@@ -217,17 +230,29 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     own = np.flatnonzero(~twin)
     source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
     xs, which = all_xs[own], all_which[own]
+    with_outputs = bool(outputs and model.ny and "outputs" in model.functions)
+    ys, fused = None, None
     if "project" in model.functions and len(own):
         unprojected, xs = xs, np.empty_like(xs)
-        projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
+        if with_outputs:  # one pass: each row projected, its outputs solved from the factors of its projection
+            ys = np.empty((len(own), model.ny))
+            done, error, stage = project_and_evaluate_rows(data, "outputs", segments.p, ts[own], unprojected, which,
+                                                           xs, ys)
+            projected = done if stage == "project" else len(own)
+            fused = (done, error) if stage == "outputs" else None
+        else:
+            projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
         if projected < len(own):
             ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
     columns, names = [ts[:, None], xs[source]], [TIME, *model.x_names]
-    if outputs and model.ny and "outputs" in model.functions:
-        ys = np.empty((len(own), model.ny))
+    if with_outputs:
         own_ts = ts[own[own < len(ts)]]
-        done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+        if ys is None:
+            ys = np.empty((len(own), model.ny))
+            done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+        else:
+            done, error = fused or (len(own_ts), None)
         if error is not None:
             keep, failed_at = int(own[done]), float(own_ts[done])
             ts, source = ts[:keep], source[:keep]

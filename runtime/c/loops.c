@@ -1063,6 +1063,7 @@ int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, doubl
 }
 
 static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs_loop_work *w, int r);
+static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w, int r);
 int mbs_project(double t, const double *x, const double *p, double *out, double *work);
 
 /* x' at x itself, without projection, by the kept partition: the right-hand side of the C integrators, which
@@ -1187,6 +1188,7 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_project(t, x, p, out, work));
     s = mbs_loop_project_state(t, x, p, &w, 1, &info);
     memcpy(out, w.xc, MBS_NX * sizeof(double));
+    if (s == 0) mbs_loop_projected_store(t, p, &w, info.rank);
     return s;
 }
 
@@ -1232,12 +1234,55 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
     return s != 0 ? s : mbs_loop_multipliers_of(&w, r, lambda);
 }
 
+/* The stamp mbs_project leaves (a marker apart from mbs_loop_stamp_store's): w->xc is the state it returned, G is
+ * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors. */
+#define MBS_LOOP_PROJECTED_MARK 2791.0
+
+static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w, int r)
+{
+    w->stamp[0] = MBS_LOOP_PROJECTED_MARK;
+    w->stamp[1] = t;
+    w->stamp[2] = mbs_loop_hash_p(p);
+    w->stamp[3] = r;
+    w->stamp[4] = w->fresh;
+    w->stamp[5] = w->singular;
+    w->stamp[6] = w->rband;
+    w->stamp[7] = w->pivot;
+}
+
+/* Is x the state the last mbs_project in this work returned, for (t, p)?  Then its factors are restored into w
+ * (the flags, and the rank in *r). */
+static int mbs_loop_projected_holds(double t, const double *x, const double *p, mbs_loop_work *w, int *r)
+{
+    if (!(w->stamp[0] == MBS_LOOP_PROJECTED_MARK && w->stamp[1] == t
+          && memcmp(w->xc, x, MBS_NX * sizeof(double)) == 0 && w->stamp[2] == mbs_loop_hash_p(p)))
+        return 0;
+    *r = (int)w->stamp[3];
+    w->fresh = (int)w->stamp[4];
+    w->singular = (int)w->stamp[5];
+    w->rband = (int)w->stamp[6];
+    w->pivot = w->stamp[7];
+    return 1;
+}
+
 /* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
- * (accelerations and reactions), formerly mbs_loop_rhs and mbs_loop_multipliers, each projecting and solving. */
+ * (accelerations and reactions), formerly mbs_loop_rhs and mbs_loop_multipliers, each projecting and solving.  A
+ * state mbs_project just returned in this work (the rows of a run: Function.rows in c/mbs_glue.c projects each
+ * row there first) is not projected again: the solve starts from the factors the projection left. */
 int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
-    int r, s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
+    mbs_loop_work w = mbs_loop_layout_keeping(work);
+    int r, s;
+    if (mbs_loop_projected_holds(t, x, p, &w, &r)) {
+        mbs_loop_info info;
+        memset(&info, 0, sizeof info);
+        info.worst = -1;
+        w.stamp[0] = 0.0;
+        s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
+    } else {
+        w.stamp[0] = 0.0;
+        s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
+    }
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, out, &w);
     return s != 0 ? s : mbs_loop_multipliers_of(&w, r, out + MBS_NX);
 }

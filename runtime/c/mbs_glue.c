@@ -301,13 +301,27 @@ static int is_carray(PyObject *obj, int type, int ndim, int writable)
            && (writable ? PyArray_ISCARRAY(a) : PyArray_ISCARRAY_RO(a));
 }
 
-/* f.rows(t, x, out, ps, which) -> rows done: out[i] = f(t[i], x[i]) with the run-time values ps[which[i]] copied
- * into the bound p where which changes (p restored at the end), a row equal to the one before it (time, state,
- * which) taking its value; stops at the first failing row (the caller calls f there for its error).  out may be x.
- * The rows of a run with events in one call, no Python between them (runtime/simulate.py). */
+/* The outputs of a model with loops solve in work + MBS_OUTPUTS_WORK (compiler/ccode.py): a row projected there
+ * first (mbs_project) is not projected again by their mbs_loop_rates (c/loops.c). */
+#if defined(MBS_NC) && defined(MBS_OUTPUTS_WORK) && (defined(MBS_NY) || defined(MBS_OUTPUTS_UNIT))
+static int rows_project(double t, const double *x, const double *p, double *out, double *work)
+{
+    return mbs_project(t, x, p, out, work + MBS_OUTPUTS_WORK);
+}
+#define MBS_ROWS_PROJECT 1
+#endif
+
+/* f.rows(t, x, out, ps, which[, projected]) -> rows done: out[i] = f(t[i], x[i]) with the run-time values
+ * ps[which[i]] copied into the bound p where which changes (p restored at the end), a row equal to the one before it
+ * (time, state, which) taking its value; stops at the first failing row (the caller calls f there for its error).
+ * out may be x.  With `projected` (the outputs of a model with loops): each row is projected first, into
+ * projected[i], and f evaluated there (one projection per row instead of the projection and the outputs' own: a
+ * failing row is then the projection's or f's).  The rows of a run in one call, no Python between them
+ * (runtime/simulate.py). */
 static PyObject *function_rows(FunctionObject *self, PyObject *args)
 {
-    PyObject *t_obj, *x_obj, *out_obj, *ps_obj, *w_obj;
+    PyObject *t_obj, *x_obj, *out_obj, *ps_obj, *w_obj, *proj_obj = NULL;
+    double *proj = NULL;
     const mbs_entry *e = self->entry;
     npy_intp n, i, nin = e->nin ? e->nin : MBS_NX, size = (npy_intp)e->rows * (e->cols ? e->cols : 1), copies;
     const double *t, *x, *ps;
@@ -315,7 +329,7 @@ static PyObject *function_rows(FunctionObject *self, PyObject *args)
     double *out, *p = (double *)self->p, *saved;
     npy_intp current = -1;
     int status = MBS_OK;
-    if (!PyArg_ParseTuple(args, "OOOOO:rows", &t_obj, &x_obj, &out_obj, &ps_obj, &w_obj)) return NULL;
+    if (!PyArg_ParseTuple(args, "OOOOO|O:rows", &t_obj, &x_obj, &out_obj, &ps_obj, &w_obj, &proj_obj)) return NULL;
     if (!is_carray(t_obj, NPY_DOUBLE, 1, 0) || !is_carray(x_obj, NPY_DOUBLE, 2, 0) || !is_carray(out_obj, NPY_DOUBLE, 2, 1)
         || !is_carray(ps_obj, NPY_DOUBLE, 2, 0) || !is_carray(w_obj, NPY_INTP, 1, 0)) {
         PyErr_SetString(PyExc_TypeError, "rows(t, x, out, ps, which): C-contiguous float64 arrays (out writable) "
@@ -335,6 +349,20 @@ static PyObject *function_rows(FunctionObject *self, PyObject *args)
     out = PyArray_DATA((PyArrayObject *)out_obj);
     ps = PyArray_DATA((PyArrayObject *)ps_obj);
     which = PyArray_DATA((PyArrayObject *)w_obj);
+    if (proj_obj && proj_obj != Py_None) {
+#ifdef MBS_ROWS_PROJECT
+        if (e->fn != mbs_outputs || !is_carray(proj_obj, NPY_DOUBLE, 2, 1) || PyArray_DIM((PyArrayObject *)proj_obj, 0) != n
+            || PyArray_DIM((PyArrayObject *)proj_obj, 1) != MBS_NX || proj_obj == x_obj) {
+            PyErr_SetString(PyExc_ValueError, "rows(..., projected): the outputs' rows, projected a writable (n, nx) "
+                            "array apart from x");
+            return NULL;
+        }
+        proj = PyArray_DATA((PyArrayObject *)proj_obj);
+#else
+        PyErr_SetString(PyExc_ValueError, "rows(..., projected): this model has no loops solved in its outputs");
+        return NULL;
+#endif
+    }
     for (i = 0; i < n; i++)
         if (which[i] < 0 || which[i] >= copies) { PyErr_SetString(PyExc_IndexError, "which out of range"); return NULL; }
     saved = PyMem_Malloc(((size_t)MBS_NP + 1) * sizeof(double));
@@ -348,8 +376,16 @@ static PyObject *function_rows(FunctionObject *self, PyObject *args)
         } else if (i > 0 && t[i] == t[i - 1] && memcmp(xi, xi - nin, (size_t)nin * sizeof(double)) == 0
                    && out != x) {
             memcpy(out + i * size, out + (i - 1) * size, (size_t)size * sizeof(double));
+            if (proj) memcpy(proj + i * nin, proj + (i - 1) * nin, (size_t)nin * sizeof(double));
             continue;
         }
+#ifdef MBS_ROWS_PROJECT
+        if (proj) {
+            status = rows_project(t[i], xi, p, proj + i * nin, self->work);
+            if (status != MBS_OK) continue;  /* (the loop ends: row i failed) */
+            xi = proj + i * nin;
+        }
+#endif
         status = e->fn(t[i], xi, p, out + i * size, self->work);
         self->calls++;
     }

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mbs
-from mbs.runtime.rows import evaluate_rows
+from mbs.runtime.rows import evaluate_rows, project_and_evaluate_rows
 
 SLIDER_CRANK = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
 SPRING = '''
@@ -83,3 +83,52 @@ def test_a_failing_row_stops_the_call_there_with_its_error(crank):
     done, error = evaluate_rows(data, "project", [data.p], ts, xs, np.zeros(len(ts), dtype=np.intp), out)
     assert done == 5 and error is not None
     np.testing.assert_array_equal(out[:5], one_by_one(data, "project", [data.p], ts[:5], xs[:5], [0] * 5))
+
+
+#: The slider crank with outputs that read the loop solve's accelerations (mbs_loop_rates in its mbs_outputs).
+CRANK_ACCELERATION = SLIDER_CRANK.read_text().rstrip()[:-1] + '''
+    interact slider_motion {
+        connect inertial -> slider
+        sensor acceleration = acceleration(in = inertial)
+    }
+    output slider_acc = slider_motion.acceleration.x
+    output crank_rate = der(main_bearing.phi)
+}
+'''
+
+
+@pytest.fixture(scope="module")
+def crank_outputs():
+    return run(mbs.loads(CRANK_ACCELERATION))
+
+
+def test_one_pass_projects_each_row_and_gives_its_outputs_there(crank_outputs):
+    """Function.rows with `projected`: each row's projection, and the outputs at it from the loop solve that starts
+    from the projection's factors (not projecting again), against project then outputs called row by row.  The
+    two differ only by the round-off of a second projection of a projected state."""
+    data, ts, xs = crank_outputs
+    longer = data.p.copy()
+    longer[data.model.parameter_index("L")] *= 1.1
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
+    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
+    assert data.function("outputs").rows(np.ascontiguousarray(ts), xs, ys, np.array(ps), which.astype(np.intp),
+                                         projected) == len(ts)  # the one pass in C
+    assert project_and_evaluate_rows(data, "outputs", ps, ts, xs, which, projected, ys) == (len(ts), None, None)
+    reference = one_by_one(data, "project", ps, ts, xs, which)
+    np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
+    outputs = one_by_one(data, "outputs", ps, ts, reference, which)
+    np.testing.assert_allclose(ys, outputs, rtol=1e-9, atol=1e-9 * np.abs(outputs).max())
+    assert np.ptp(ys[:, 0]) > 1.0  # the slider's acceleration varies over the run: the comparison means something
+
+
+def test_one_pass_names_the_stage_that_failed(crank_outputs):
+    data, ts, xs = crank_outputs
+    xs = xs.copy()
+    xs[5, 0] = np.nan  # a state the projection cannot close
+    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
+    done, error, stage = project_and_evaluate_rows(data, "outputs", [data.p], ts, xs, np.zeros(len(ts), dtype=np.intp),
+                                                   projected, ys)
+    assert (done, stage) == (5, "project") and error is not None
+    reference = one_by_one(data, "project", [data.p], ts[:5], xs[:5], [0] * 5)
+    np.testing.assert_allclose(projected[:5], reference, rtol=1e-12, atol=1e-14)
