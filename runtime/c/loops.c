@@ -1041,7 +1041,13 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
 #if MBS_CF_SCRATCH < MBS_TREE_NWORK + MBS_LOOP_KEEP_SIZE
 #error "the closed form's scratch overlaps the kept partition"
 #endif
-#define MBS_CLOSED_FORM_FIRST(call) do { if ((call) == 0) return 0; } while (0)
+/* Where the stamp of mbs_loop_rhs_direct lies: the closed form's scratch overwrites the factors it vouches for. */
+static double *mbs_loop_stamp_of(double *work)
+{
+    return mbs_loop_layout_keeping(work).stamp;
+}
+#define MBS_CLOSED_FORM_FIRST(call) \
+    do { if ((call) == 0) { mbs_loop_stamp_of(work)[0] = 0.0; return 0; } } while (0)
 #else
 #define MBS_CLOSED_FORM_FIRST(call) ((void)0)
 #endif
@@ -1050,9 +1056,10 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
  * other consumer (linearisation, outputs, equilibrium). */
 int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     int r, s;
-    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
+    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));  /* before the layout: it costs */
+    w = mbs_loop_layout(work);
     s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, xdot, &w);
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
@@ -1070,10 +1077,11 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
  * the partition does not change, so x' is as smooth as the mechanism. */
 int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     mbs_loop_info info;
     int r, s;
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
+    w = mbs_loop_layout(work);
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
     s = mbs_loop_jacobian_at(t, x, p, &w, 0);
@@ -1181,10 +1189,11 @@ int mbs_loop_accept(double t, const double *x, const double *p, double *out, dou
 
 int mbs_project(double t, const double *x, const double *p, double *out, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     mbs_loop_info info;
     int s;
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_project(t, x, p, out, work));
+    w = mbs_loop_layout(work);
     s = mbs_loop_project_state(t, x, p, &w, 1, &info);
     memcpy(out, w.xc, MBS_NX * sizeof(double));
     return s;
