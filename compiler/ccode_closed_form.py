@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import math
 
 import sympy as sp
 
@@ -112,8 +111,20 @@ def _with_roots(expr, tape, roots: dict):
         if base not in roots:
             roots[base] = tape.temp(sp.sqrt(base), "cf_root")
         return roots[base] ** int(2 * p.exp)
-    return expr.replace(lambda z: z.is_Pow and z.exp.is_Rational and z.exp.q == 2 and z.exp != sp.Rational(1, 2)
+    expr = expr.replace(lambda z: z.is_Pow and z.exp.is_Rational and z.exp.q == 2 and z.exp != sp.Rational(1, 2)
                         or (z.is_Pow and z.exp == sp.Rational(1, 2) and z.base in roots), half)
+    return _with_squares(expr, tape)
+
+
+def _with_squares(expr, tape):
+    """expr with every integer power b^n, |n| > 2, by squaring temporaries (b^4 = (b^2)^2 with b^2 one
+    temporary): C's pow() of a constant exponent other than 2 stays a library call (about 200 instructions)."""
+    def power(base, n):
+        if n <= 2:
+            return base ** n
+        return power(tape.temp(base ** 2, "cf_sq"), n // 2) * base ** (n % 2)
+    return expr.replace(lambda z: z.is_Pow and z.exp.is_Integer and abs(int(z.exp)) > 2,
+                        lambda z: power(z.base, int(z.exp)) if z.exp > 0 else 1 / power(z.base, -int(z.exp)))
 
 
 def _ints(values) -> str:
@@ -142,7 +153,6 @@ def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
         f"#define MBS_CF_TRIG {nout - 2 * k}   /* where the sines and cosines of the angles start in it */",
         f"#define MBS_CF_BAND {BAND!r}   /* |guard| above 1 - this: the numeric path */",
         f"#define MBS_CF_BRANCH_TOL {BRANCH_TOL!r}   /* [rad] a dependent angle further off: the numeric path */",
-        f"#define MBS_CF_BRANCH_COS {math.cos(BRANCH_TOL)!r}   /* cos(MBS_CF_BRANCH_TOL) */",
         f"#define MBS_CF_SCRATCH (MBS_TREE_NWORK + {scratch})   /* its scratch in work, after the kept partition */",
         f"#define MBS_CF_NWORK {need}   /* doubles of that scratch */",
         "#if MBS_CF_SCRATCH + MBS_CF_NWORK > MBS_TREE_NWORK + MBS_LOOP_NWORK",
@@ -162,13 +172,27 @@ def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
 
 #: The hand-written part: the same text for every model (sizes and tables from the definitions above).
 FUNCTIONS = r"""
+/* atan2(s, c) to 1e-5 rad (Abramowitz and Stegun 4.4.47 for atan on [0, 1], the octant by the signs): the
+ * branch test at every right-hand side, which needs no more; libm's atan2 where a state is projected. */
+static double mbs_cf_angle_near(double s, double c)
+{
+    const double as = fabs(s), ac = fabs(c);
+    const double z = as <= ac ? as / ac : ac / as, z2 = z * z;
+    double a = z * (0.9998660 + z2 * (-0.3302995 + z2 * (0.1801410 + z2 * (-0.0851330 + z2 * 0.0208351))));
+    if (as > ac)
+        a = 1.5707963267948966 - a;
+    if (c < 0.0)
+        a = 3.141592653589793 - a;
+    return s < 0.0 ? -a : a;
+}
+
 /* cf = mbs_closed_form at x; status 4 when x is not on the branch: a guard in the band around a singular
- * position, or a dependent angle further than MBS_CF_BRANCH_TOL from the branch's value u, tested as
- * cos(x_d - u) = cos x_d cos u + sin x_d sin u >= cos(MBS_CF_BRANCH_TOL) with sin u and cos u from the algebra
- * (no atan2 at every right-hand side: u itself only where a state is projected). */
+ * position, or a dependent angle further than MBS_CF_BRANCH_TOL (to 1e-5 rad) from the branch's value u modulo
+ * 2 pi, u from the sine and cosine the algebra gives (no trigonometric call at every right-hand side). */
 static int mbs_closed_form_at(double t, const double *x, const double *p, double *cf, double *work)
 {
     const double *const trig = cf + MBS_CF_TRIG;
+    const double two_pi = 6.283185307179586;
     int i, s = mbs_closed_form(t, x, p, cf, work);
     if (s != 0)
         return s;
@@ -176,11 +200,16 @@ static int mbs_closed_form_at(double t, const double *x, const double *p, double
         if (!(fabs(cf[MBS_CF_GUARDS + i]) < 1.0 - MBS_CF_BAND))
             return 4;
     for (i = 0; i < MBS_CF_ND; i++) {
-        const double xd = x[mbs_cf_dependent[i]];
         const int k = mbs_cf_trig[i];
+        double off, turns;
         if (!mbs_cf_angle[i])
             continue;
-        if (!((k >= 0 ? cos(xd) * trig[2 * k + 1] + sin(xd) * trig[2 * k] : cos(xd - cf[i])) >= MBS_CF_BRANCH_COS))
+        off = x[mbs_cf_dependent[i]] - (k >= 0 ? mbs_cf_angle_near(trig[2 * k], trig[2 * k + 1]) : cf[i]);
+        turns = off / two_pi;
+        if (!(fabs(turns) < 1e15))
+            return 4;
+        off -= two_pi * (double)(long long)(turns + (turns < 0.0 ? -0.5 : 0.5));
+        if (!(fabs(off) <= MBS_CF_BRANCH_TOL))
             return 4;
     }
     return 0;

@@ -166,7 +166,7 @@ typedef struct {
  * (the hysteresis: a fresh choice happens only when the dependent block has clearly degraded). */
 #define MBS_LOOP_KEEP_RATIO 0.1
 
-static mbs_loop_work mbs_loop_layout_keeping(double *work)
+static inline mbs_loop_work mbs_loop_layout_keeping(double *work)
 {
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
@@ -1041,10 +1041,12 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
 #if MBS_CF_SCRATCH < MBS_TREE_NWORK + MBS_LOOP_KEEP_SIZE
 #error "the closed form's scratch overlaps the kept partition"
 #endif
-/* Where the stamp of mbs_loop_rhs_direct lies: the closed form's scratch overwrites the factors it vouches for. */
-static double *mbs_loop_stamp_of(double *work)
+/* Where the stamp of mbs_loop_rhs_direct lies: the closed form's scratch overwrites the factors it vouches for.
+ * (Inline: the layout's other pointers are dead, what is left is one addition.) */
+static inline double *mbs_loop_stamp_of(double *work)
 {
-    return mbs_loop_layout_keeping(work).stamp;
+    const mbs_loop_work w = mbs_loop_layout_keeping(work);
+    return w.stamp;
 }
 #define MBS_CLOSED_FORM_FIRST(call) \
     do { if ((call) == 0) { mbs_loop_stamp_of(work)[0] = 0.0; return 0; } } while (0)
