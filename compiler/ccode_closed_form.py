@@ -165,6 +165,8 @@ def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
         "/* k >= 0: the angle's sine and cosine are pair k of the output's last block (its q_D entry is 0) */",
         f"static const int mbs_cf_trig[{max(nd, 1)}] = {{{_ints(pairs)}}};",
         f"int {CLOSED_FORM}(double t, const double *x, const double *p, double *out, double *work);",
+        "double mbs_cf_angle_near(double s, double c);",
+        "int mbs_closed_form_at(double t, const double *x, const double *p, double *cf, double *work);",
         "int mbs_closed_form_rhs(double t, const double *x, const double *p, double *xdot, double *work);",
         "int mbs_closed_form_project(double t, const double *x, const double *p, double *out, double *work);",
         ""])
@@ -173,8 +175,10 @@ def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
 #: The hand-written part: the same text for every model (sizes and tables from the definitions above).
 FUNCTIONS = r"""
 /* atan2(s, c) to 1e-5 rad (Abramowitz and Stegun 4.4.47 for atan on [0, 1], the octant by the signs): the
- * branch test at every right-hand side, which needs no more; libm's atan2 where a state is projected. */
-static double mbs_cf_angle_near(double s, double c)
+ * branch test at every right-hand side, which needs no more; libm's atan2 where a state is projected.  (These
+ * helpers are not static: a split build, runtime/translation_units.py, takes static ones only before the
+ * contract functions.) */
+double mbs_cf_angle_near(double s, double c)
 {
     const double as = fabs(s), ac = fabs(c);
     const double z = as <= ac ? as / ac : ac / as, z2 = z * z;
@@ -189,7 +193,7 @@ static double mbs_cf_angle_near(double s, double c)
 /* cf = mbs_closed_form at x; status 4 when x is not on the branch: a guard in the band around a singular
  * position, or a dependent angle further than MBS_CF_BRANCH_TOL (to 1e-5 rad) from the branch's value u modulo
  * 2 pi, u from the sine and cosine the algebra gives (no trigonometric call at every right-hand side). */
-static int mbs_closed_form_at(double t, const double *x, const double *p, double *cf, double *work)
+int mbs_closed_form_at(double t, const double *x, const double *p, double *cf, double *work)
 {
     const double *const trig = cf + MBS_CF_TRIG;
     const double two_pi = 6.283185307179586;
