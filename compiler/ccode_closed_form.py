@@ -2,14 +2,16 @@
 
 Three functions of the one model signature, printed into the model's file next to the loop solver's:
 
-    int mbs_closed_form(t, x, p, out, work)          generated: [q_D; J (nd x ni); Jdot v_I; guards; M; f]
+    int mbs_closed_form(t, x, p, out, work)          generated: [q_D; J (nd x ni); Jdot v_I; guards; A; b;
+                                                     sin, cos of the dependent angles]
     int mbs_closed_form_rhs(t, x, p, xdot, work)     x' at the state mapped onto the branch (NX)
     int mbs_closed_form_project(t, x, p, out, work)  x mapped onto the branch: q_D(q_I), v_D = J v_I (NX)
 
 The right-hand side is the reduced dynamics in the independent coordinates, (J^T M J) a = J^T (f - M Jdot v_I)
-with J stacked under the identity of the independent coordinates, and vdot = [a; J a + Jdot v_I]: the tree's
-mass matrix and forces at the mapped state, a Cholesky factorisation of the ni x ni reduced mass matrix, and no
-Newton iteration, partitioning or factorisation of G. A dependent angle is defined modulo 2 pi: the map takes
+with J stacked under the identity of the independent coordinates, and vdot = [a; J a + Jdot v_I]: A = J^T M J and
+b = J^T (f - M Jdot v_I) written out from the tree's mass matrix and forces at the mapped state (their zeros drop
+out at compile time), an L D L^T factorisation of the ni x ni matrix A at run time, and no Newton iteration,
+partitioning or factorisation of G. A dependent angle is defined modulo 2 pi: the map takes
 the representative nearest the state's own value, so a continuous motion stays continuous.
 
 Each returns 0 on success and otherwise a status that makes the loop solver (runtime/c/loops.c, which calls them
@@ -79,20 +81,39 @@ def closed_form_routine(equations: Equations, form: ClosedForm) -> tuple[Equatio
     J = [tape.temp(e, "cf_J") for e in reduced[:len(J)]]
     for i, d in enumerate(form.dependent):
         state[v[d]] = tape.temp(sum(J[i * ni + k] * v[c] for k, c in enumerate(form.independent)), "cf_v")
-    values = positions + J + reduced[len(J):]
-    assert len(values) == nd + nd * ni + nd + len(form.guards)
+    bias = [tape.temp(e, "cf_bias") for e in reduced[len(J):len(J) + nd]]
+    values = positions + J + bias + reduced[len(J) + nd:]
     tree_outputs = [m for row in equations.mass_matrix for m in row] + list(equations.forces)
     tape.section("the tree's mass matrix and forces at the state mapped onto the closed form")
     for entry in equations.tape.entries_for(tree_outputs):
         if entry.guard is not None:
             raise CodegenError(f"closed form: the tree functions divide by a guarded pivot ({entry.name})")
         state[entry.symbol] = tape.temp(entry.expr.xreplace(state), entry.name)
-    values += [sp.sympify(e).xreplace(state) for e in tree_outputs] + trig
+    nv = tree.nv
+    M = [[tape.temp(sp.sympify(equations.mass_matrix[i][j]).xreplace(state), "cf_M") for j in range(nv)]
+         for i in range(nv)]
+    f = [sp.sympify(e).xreplace(state) for e in equations.forces]
+    # the reduced dynamics (J^T M J) a = J^T (f - M Jdot v_I) with T = [I; J] written out: the zeros of M and T
+    # drop out here, not in loops at run time
+    T = [[sp.S.Zero] * ni for _ in range(nv)]
+    for k, c in enumerate(form.independent):
+        T[c][k] = sp.S.One
+    for i, d in enumerate(form.dependent):
+        for k in range(ni):
+            T[d][k] = J[i * ni + k]
+    shift = [sp.S.Zero] * nv  # Jdot v_I in the rows of the dependent speeds
+    for i, d in enumerate(form.dependent):
+        shift[d] = bias[i]
+    tape.section("the reduced dynamics in the independent coordinates")
+    MT = [[tape.temp(sum(M[j][m] * T[m][k] for m in range(nv)), "cf_MT") for k in range(ni)] for j in range(nv)]
+    r = [tape.temp(f[j] - sum(M[j][m] * shift[m] for m in range(nv)), "cf_r") for j in range(nv)]
+    values += [sum(T[j][k] * MT[j][l] for j in range(nv)) for k in range(ni) for l in range(ni)]
+    values += [sum(T[j][k] * r[j] for j in range(nv)) for k in range(ni)] + trig
     kinematics = copy.copy(equations.kinematics)
     kinematics.tape = tape
     routine = (CLOSED_FORM, "out", "the loops closed in closed form: [q_D (0 for an angle of the last block); "
-               "J = d q_D / d q_I (row-major); Jdot v_I; guards (|.| < 1 off the singular positions); M; f at the "
-               "mapped state; sin and cos of the dependent angles]",
+               "J = d q_D / d q_I (row-major); Jdot v_I; guards (|.| < 1 off the singular positions); J^T M J "
+               "(ni x ni); J^T (f - M Jdot v_I) at the mapped state; sin and cos of the dependent angles]",
                (len(values),), list(enumerate(values)), False)
     return dataclasses.replace(equations, kinematics=kinematics), routine
 
@@ -138,9 +159,9 @@ def closed_form_definitions(form: ClosedForm, nv: int, nc: int) -> str:
     for sc in _sin_cos(form):
         pairs.append(-1 if sc is None else k)
         k += sc is not None
-    nout = nd + nd * ni + nd + ng + nv * nv + nv + 2 * k  # [q_D; J; bias; guards; M; f; sin, cos of angles]
+    nout = nd + nd * ni + nd + ng + ni * ni + ni + 2 * k  # [q_D; J; bias; guards; A; b; sin, cos of angles]
     scratch = 4 + nv + nc  # the loop solver's kept partition (runtime/c/loops.c MBS_LOOP_KEEP_SIZE) comes first
-    need = nout + (nv + nv) + nv + nv * ni + ni * ni + ni  # xc, r, MT, A, b
+    need = nout + nv + nv  # xc
     return "\n".join([
         "/* Loops closed in closed form (compiler/closed_form_loops.py): q_D = q_D(q_I) on one branch. */",
         "#include <string.h>",
@@ -246,48 +267,19 @@ int mbs_closed_form_project(double t, const double *x, const double *p, double *
     return 0;
 }
 
-/* x' at x mapped onto the branch, from (J^T M J) a = J^T (f - M Jdot v_I) in the independent coordinates. */
+/* x' at x mapped onto the branch, from (J^T M J) a = J^T (f - M Jdot v_I) in the independent coordinates (the
+ * matrix A and the right-hand side b as mbs_closed_form writes them, factored and solved in place). */
 int mbs_closed_form_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
     double *const cf = work + MBS_CF_SCRATCH;
     const double *const J = cf + MBS_CF_ND, *const bias = J + MBS_CF_ND * MBS_CF_NI;
-    const double *const M = bias + MBS_CF_ND + MBS_CF_NG, *const f = M + MBS_NV * MBS_NV;
-    double *const r = cf + MBS_CF_NOUT;
-    double *const MT = r + MBS_NV, *const A = MT + MBS_NV * MBS_CF_NI, *const b = A + MBS_CF_NI * MBS_CF_NI;
+    double *const A = cf + MBS_CF_GUARDS + MBS_CF_NG, *const b = A + MBS_CF_NI * MBS_CF_NI;
     double *const vdot = xdot + MBS_NQ;
     const double *const v = x + MBS_NQ;
-    int i, j, k, l;
+    int i, k, l;
     const int s = mbs_closed_form_at(t, x, p, cf, work);
     if (s != 0)
         return s;
-    /* MT = M T with T = [I; J] (rows of the independent, then of the dependent coordinates); r = f - M c */
-    for (j = 0; j < MBS_NV; j++) {
-        const double *const row = M + j * MBS_NV;
-        double rj = f[j];
-        for (k = 0; k < MBS_CF_NI; k++)
-            MT[j * MBS_CF_NI + k] = row[mbs_cf_independent[k]];
-        for (i = 0; i < MBS_CF_ND; i++) {
-            const double m = row[mbs_cf_dependent[i]];
-            for (k = 0; k < MBS_CF_NI; k++)
-                MT[j * MBS_CF_NI + k] += m * J[i * MBS_CF_NI + k];
-            rj -= m * bias[i];
-        }
-        r[j] = rj;
-    }
-    /* A = T^T M T, b = T^T r */
-    for (k = 0; k < MBS_CF_NI; k++) {
-        const int c = mbs_cf_independent[k];
-        b[k] = r[c];
-        for (l = 0; l < MBS_CF_NI; l++)
-            A[k * MBS_CF_NI + l] = MT[c * MBS_CF_NI + l];
-        for (i = 0; i < MBS_CF_ND; i++) {
-            const int d = mbs_cf_dependent[i];
-            const double jik = J[i * MBS_CF_NI + k];
-            b[k] += jik * r[d];
-            for (l = 0; l < MBS_CF_NI; l++)
-                A[k * MBS_CF_NI + l] += jik * MT[d * MBS_CF_NI + l];
-        }
-    }
     /* A = L D L^T in place (L below the diagonal, unit diagonal; D on it), then L D L^T a = b into b */
     for (k = 0; k < MBS_CF_NI; k++) {
         double d = A[k * MBS_CF_NI + k];
