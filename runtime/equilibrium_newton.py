@@ -29,12 +29,12 @@ TOLERANCE = 1e-9
 #: afresh. Near the solution a chord step contracts about as |J0^-1 (J - J0)|, the relative change of the
 #: stiffness over the step (on the Iltis from the assembled start: 47 evaluations of the rhs -> 21).
 CHORD_CONTRACTION = 0.1
-#: Singular values of J below this fraction of the largest count as zero (a direction without stiffness). Kept as
-#: lstsq had it: a cut above the columns' noise (the loop solver's tolerance over DIFFERENCE_STEP, ~1e-5 of a
-#: stiffness entry) holds the Iltis' free directions exactly (no yaw by noise, its left-right symmetry to round-off),
-#: but its bump_10 then meets left and right events at the same instant, where the step size collapses (t = 0.26 s):
-#: left for the event handling first.
-RCOND = 1e-10
+#: Singular values of J below this fraction of the largest count as zero (a direction without stiffness): a cut
+#: above the columns' noise (the loop solver's tolerance over DIFFERENCE_STEP, ~1e-5 of a stiffness entry), so
+#: that the Iltis' free directions (yaw, fore-aft) are held exactly instead of moved by noise (which broke the
+#: in-phase bump's left-right symmetry: roll 2e-7 rad). A real direction softer than this cannot be told from
+#: noise by these columns either; Newton then stops reducing its residual and the kinetic damping takes over.
+RCOND = 1e-4
 #: Eigenvalues of d a / d q_I above this fraction of the largest magnitude count as unstable.
 UNSTABLE = 1e-8
 
