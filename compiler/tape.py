@@ -48,6 +48,28 @@ def is_trivial(expr: sp.Expr) -> bool:
     return expr.is_Mul and len(args) == 2 and args[0].is_Number and args[1].is_Atom
 
 
+def _unsigned_term(term) -> tuple:
+    """A term without the sign of its numeric coefficient: (|c|, the other factors), the same for -term."""
+    if term.is_Mul:
+        args = term.args
+        first = args[0]
+        if first.is_Number:
+            return (-first if first.is_extended_negative else first), args[1:]
+        return ONE, args
+    if term.is_Number:
+        return (-term if term.is_extended_negative else term), ()
+    return ONE, (term,)
+
+
+def sign_key(expr) -> tuple:
+    """A key that `expr` and sympy's `-expr` share (a sum negates term by term, a product its coefficient), and
+    that is cheap: computing -expr for a sum re-sorts all its terms, which made the negative lookup in `Tape.temp`
+    a seventh of the derivation's time; now -expr is only built when an entry on the tape has this key."""
+    if expr.is_Add:
+        return True, frozenset(map(_unsigned_term, expr.args))
+    return False, _unsigned_term(expr)
+
+
 class Tape:
     """An append-only list of assignments to named temporaries, with hashing-based sharing.
 
@@ -59,6 +81,7 @@ class Tape:
     def __init__(self):
         self.entries: list[Entry] = []
         self._by_expr: dict[sp.Expr, sp.Dummy] = {}
+        self._sign_keys: set = set()  # sign_key of every expression in _by_expr
         self._entry_of: dict[sp.Dummy, Entry] = {}
         self._names: set[str] = set()
         self._section = ""
@@ -73,6 +96,7 @@ class Tape:
         other = Tape()
         other.entries = list(self.entries)
         other._by_expr = dict(self._by_expr)
+        other._sign_keys = set(self._sign_keys)
         other._entry_of = dict(self._entry_of)
         other._names = set(self._names)
         other._section = self._section
@@ -102,9 +126,10 @@ class Tape:
         if hit is not None:
             return hit
         # x and -x share one temporary; a new one holds the value as asked, so that its name tells the truth.
-        hit = self._by_expr.get(-expr)
-        if hit is not None:
-            return -hit
+        if sign_key(expr) in self._sign_keys:
+            hit = self._by_expr.get(-expr)
+            if hit is not None:
+                return -hit
         return self._add(expr, name)
 
     def vector(self, exprs, name: str) -> tuple:
@@ -129,6 +154,7 @@ class Tape:
         entry = Entry(symbol, expr, name, self._section)
         self.entries.append(entry)
         self._by_expr[expr] = symbol
+        self._sign_keys.add(sign_key(expr))
         self._entry_of[symbol] = entry
         return symbol
 
