@@ -54,11 +54,20 @@ def _unsigned_term(term) -> tuple:
         args = term.args
         first = args[0]
         if first.is_Number:
-            return (-first if first.is_extended_negative else first), args[1:]
-        return ONE, args
+            return _magnitude(first), args[1:]
+        return _UNIT, args
     if term.is_Number:
-        return (-term if term.is_extended_negative else term), ()
-    return ONE, (term,)
+        return _magnitude(term), ()
+    return _UNIT, (term,)
+
+
+_UNIT = (1, 1)  # _magnitude of 1 and -1
+
+
+def _magnitude(number) -> object:
+    """|number| as something hashable, without sympy's Rational(|p|, q) and its gcd."""
+    p = getattr(number, "p", None)  # Integer, Rational
+    return (abs(p), number.q) if p is not None else abs(number)
 
 
 def sign_key(expr) -> tuple:
