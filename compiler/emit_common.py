@@ -143,6 +143,14 @@ class ExprPrinter:
         # the mass matrix, the forces, the constraints ...), and printing is a good part of the derivation time.
         # `used` and `hook_calls` only grow, so a text printed before has put its names there already.
         self._printed: dict = {}
+        self._free: dict = {}  # expression -> its free symbols, for the same reason
+
+    def free_symbols(self, expr) -> set:
+        """expr.free_symbols, remembered (the functions of a file read many of the same temporaries)."""
+        found = self._free.get(expr)
+        if found is None:
+            found = self._free[expr] = expr.free_symbols
+        return found
 
     def doprint(self, expr) -> str:
         text = self._printed.get(expr)
@@ -386,7 +394,7 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
             e = sp.sympify(e).xreplace(inlined)
             written.append(e)
         printed.append((k, e if isinstance(e, int) else printer.doprint(e)))
-    used = set().union(*(e.free_symbols for e in written))
+    used = set().union(*map(printer.free_symbols, written))
     reads = tuple(r for r in naming.inputs if r[0] in used)
     return Routine(name, out, doc, shape, t in used, reads, tuple(steps), tuple(printed), check_positive)
 

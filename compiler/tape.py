@@ -38,6 +38,7 @@ class Entry:
     section: str
     guard: sp.Expr | None = None
     _deps: frozenset | None = field(default=None, repr=False)
+    _symbols: frozenset | None = field(default=None, repr=False)
 
 
 def is_trivial(expr: sp.Expr) -> bool:
@@ -154,7 +155,8 @@ class Tape:
                 raise ZeroDivisionError(f"{name}: structurally singular (pivot {expr})")
             return 1 / expr
         inv = self._by_expr.get(1 / expr) or self._add(1 / expr, name)
-        self._entry_of[inv].guard = expr
+        entry = self._entry_of[inv]
+        entry.guard, entry._deps, entry._symbols = expr, None, None
         return inv
 
     def _add(self, expr: sp.Expr, name: str) -> sp.Dummy:
@@ -180,11 +182,19 @@ class Tape:
     def dependencies(self, entry: Entry) -> frozenset:
         """The temporaries `entry` reads (its expression's and its guard's)."""
         if entry._deps is None:
+            entry._deps = frozenset(s for s in self.symbols_read(entry) if s in self._entry_of)
+        return entry._deps
+
+    @staticmethod
+    def symbols_read(entry: Entry) -> frozenset:
+        """Every symbol `entry` reads (its expression's and its guard's), kept on the entry: the functions of a
+        file slice the same entries many times over."""
+        if entry._symbols is None:
             symbols = entry.expr.free_symbols
             if entry.guard is not None:
                 symbols = symbols | entry.guard.free_symbols
-            entry._deps = frozenset(s for s in symbols if s in self._entry_of)
-        return entry._deps
+            entry._symbols = frozenset(symbols)
+        return entry._symbols
 
     def entries_for(self, outputs) -> list[Entry]:
         """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order."""
@@ -201,9 +211,7 @@ class Tape:
         outputs = [sp.sympify(e) for e in outputs]
         found = set().union(*(e.free_symbols for e in outputs)) if outputs else set()
         for entry in self.entries_for(outputs):
-            found |= entry.expr.free_symbols
-            if entry.guard is not None:
-                found |= entry.guard.free_symbols
+            found |= self.symbols_read(entry)
         return {s for s in found if s not in self._entry_of}
 
     def expand(self, outputs) -> list[sp.Expr]:
