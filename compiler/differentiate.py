@@ -98,8 +98,9 @@ def sympy_diff(expr: sp.Expr, a: sp.Symbol, memo: dict) -> sp.Expr:
     here by the rules sympy applies to them (Add._eval_derivative, Mul._eval_derivative_n_times with n = 1,
     Pow._eval_derivative, AtomicExpr), every other node by sympy itself. What this saves is sympy's Derivative
     around every node (argument checks, a walk of the node's free symbols, and a walk of its result for unevaluated
-    derivatives): most of the constraint Jacobian's time (compiler/ccode_loops.py). `memo`: (node -> derivative)
-    for `a`, shared by the calls with the same `a`."""
+    derivatives): most of the constraint Jacobian's time (compiler/ccode_loops.py). `memo`: node -> its derivative
+    by `a` (a node met twice is differentiated once). tests/compiler/test_differentiate.py compares the results
+    with sympy's own, expression for expression."""
     hit = memo.get(expr)
     if hit is not None:
         return hit
