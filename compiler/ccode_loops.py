@@ -47,7 +47,8 @@ def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0) -> int:
     in its two state copies."""
     nx = nq + nv + nz
     stamp = nq + 4  # the state whose factors the solver keeps for the projection of an accepted step
-    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp
+    plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
+    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp + plan
 
 
 def loop_routines(constraints: Constraints) -> list:
