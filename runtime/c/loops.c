@@ -146,6 +146,7 @@ typedef struct {
     double *stamp;              /* the state whose factors w->G holds after mbs_loop_rhs_direct (mbs_loop_stamp_*) */
     double *plan;               /* the blocks of the kept partition (mbs_loop_plan_build), kept between calls */
     int blocked;                /* w->G holds the factors of the kept partition, block by block (its plan) */
+    int terms;                  /* M, f, G0 and h = gddot0 hold at w->xc (mbs_loop_terms_at, used once) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one),
                                  * or they are in the band around one (mbs_loop_partition) */
@@ -176,11 +177,14 @@ static mbs_loop_work mbs_loop_layout_keeping(double *work)
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
-    w.fresh = w.singular = w.rband = w.newton = w.blocked = 0;
+    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = 0;
     w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
-    w.G = s; s += MBS_NC * MBS_NV;
+    w.M = s; s += MBS_NV * MBS_NV;  /* [M; f; G0; h] in a row: what mbs_loop_terms writes */
+    w.f = s; s += MBS_NV;
     w.G0 = s; s += MBS_NC * MBS_NV;
+    w.h = s; s += MBS_NC;
+    w.G = s; s += MBS_NC * MBS_NV;
     w.K = s; s += MBS_NC * MBS_NV;
     w.rp = s; s += MBS_NC;
     w.cp = s; s += MBS_NV;
@@ -189,17 +193,14 @@ static mbs_loop_work mbs_loop_layout_keeping(double *work)
     w.xc = s; s += MBS_NX;
     w.xt = s; s += MBS_NX;
     w.g = s; s += MBS_NC;
-    w.h = s; s += MBS_NC;
     w.y = s; s += MBS_NC;
     w.c3 = s; s += MBS_NC;
     w.dv = s; s += MBS_NV;
-    w.f = s; s += MBS_NV;
     w.c0 = s; s += MBS_NV;
     w.b = s; s += MBS_NV;
     w.a = s; s += MBS_NV;
     w.vd = s; s += MBS_NV;
     w.dq = s; s += MBS_NQ;
-    w.M = s; s += MBS_NV * MBS_NV;
     w.A = s; s += MBS_NV * MBS_NV;
     w.T = s; s += MBS_NV * MBS_NV;
     w.Ti = (int *)s;  /* NV * NV ints in the room of NV * NV doubles */
@@ -1061,18 +1062,39 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
 }
 #endif
 
-/* b = f - M c for c zero outside the r dependent velocities cpi[0 .. r - 1] (M symmetric: the rows of M at
- * those velocities, each a contiguous run the compiler vectorises; restrict: b aliases neither M nor c). */
-static void mbs_loop_minus_mass_times(const double *restrict M, const double *restrict c, const int *cpi, int r,
-                                      const double *restrict f, double *restrict b)
+/* mt = M t for t given by its n nonzeros (values tv at velocities ti): the rows of M (symmetric) at those
+ * velocities, each a contiguous run the compiler vectorises (restrict: mt aliases neither M nor t). */
+static void mbs_loop_mass_times_column(const double *restrict M, const double *restrict tv, const int *ti, int n,
+                                       double *restrict mt)
 {
-    int i, k;
-    memcpy(b, f, MBS_NV * sizeof(double));
-    for (k = 0; k < r; k++) {
-        const double ck = c[cpi[k]];
-        const double *restrict row = M + cpi[k] * MBS_NV;
-        for (i = 0; i < MBS_NV; i++) b[i] -= row[i] * ck;
+    int i, e;
+    for (i = 0; i < MBS_NV; i++) mt[i] = 0.0;
+    for (e = 0; e < n; e++) {
+        const double c = tv[e];
+        const double *restrict row = M + ti[e] * MBS_NV;
+        for (i = 0; i < MBS_NV; i++) mt[i] += row[i] * c;
     }
+}
+
+/* gddot0 into w->h, M and f at w->xc, and G there into w->G0: one call of the generated mbs_loop_terms (one pass
+ * over the kinematics, compiler/ccode_loop_terms.py) when the model has it, else the separate functions (G0 then
+ * as the caller left it).  M need not be definite (massless parts): no Cholesky check of it here. */
+static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
+{
+    int s;
+#ifdef MBS_LOOP_TERMS
+    s = mbs_loop_terms(t, w->xc, p, w->M, w->tree);
+#else
+    if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+#ifdef MBS_MASS_MATRIX_UNCHECKED
+    s = mbs_mass_matrix_unchecked(t, w->xc, p, w->M, w->tree);
+#else
+    s = mbs_mass_matrix(t, w->xc, p, w->M, w->tree);  /* status 1 (M singular with massless parts) is no error */
+#endif
+    if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
+    s = mbs_forces(t, w->xc, p, w->f, w->tree);
+#endif
+    return s;
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -1083,42 +1105,34 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
     int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
     int i, j, k, s;
-    if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
+                    * the same state finds h replaced at a singular position) */
+        w->terms = 0;
+    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
+        return s;
     r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
     if (s != 0) return s;
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
-#ifdef MBS_MASS_MATRIX_UNCHECKED  /* M need not be definite: no Cholesky check of it here */
-    s = mbs_mass_matrix_unchecked(t, w->xc, p, M, w->tree);
-#else
-    s = mbs_mass_matrix(t, w->xc, p, M, w->tree);  /* status 1 (M singular with massless parts) is no error */
-#endif
-    if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
-    if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
     /* the null-space basis T (NV x m, packed columns) and c0 */
     for (j = 0; j < MBS_NV; j++) cpi[j] = (int)w->cp[j];
     if (w->blocked)
         mbs_loop_null_space_blocks(w, r, start, cpi);
     else
         mbs_loop_null_space(w, r, start, cpi);
-    /* b = f - M c0 (c0 is zero on the independent velocities), a_j = T_j^T b and the lower triangle of
-     * A = T^T M T entry by entry from the nonzeros of T: A_ij = sum over the nonzeros T_f of column i and T_e of
-     * column j of T_f M(Ti_f, Ti_e) T_e, which costs nnz_i nnz_j (a suspension's column moves its loop's few
-     * velocities, a free body's one) rather than an nv-long product M T_j per column */
-    mbs_loop_minus_mass_times(M, w->c0, cpi, r, w->f, w->b);
+    /* per column j of T: mt = M T_j (the rows of M at T_j's few velocities, each a contiguous run the compiler
+     * vectorises; M is symmetric), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and
+     * a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 is zero on the independent velocities) */
     for (j = 0; j < m; j++) {
-        double sum = 0.0;
+        double *restrict mt = w->b, sum = 0.0;
         int e, f;
-        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->b[Ti[e]];
+        mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j], mt);
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
+        for (k = 0; k < r; k++) sum -= mt[cpi[k]] * w->c0[cpi[k]];
         w->a[j] = sum;
         for (i = j; i < m; i++) {
             sum = 0.0;
-            for (f = start[i]; f < start[i + 1]; f++) {
-                const double *Mrow = M + Ti[f] * MBS_NV;
-                double column = 0.0;
-                for (e = start[j]; e < start[j + 1]; e++) column += Mrow[Ti[e]] * T[e];
-                sum += T[f] * column;
-            }
+            for (f = start[i]; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
@@ -1269,7 +1283,12 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
+#ifdef MBS_LOOP_TERMS  /* G with M, f and gddot0 from one pass over the kinematics */
+    s = mbs_loop_terms_at(t, p, &w);
+    w.terms = s == 0;
+#else
     s = mbs_loop_jacobian_at(t, x, p, &w, 0);
+#endif
     r = -1;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
