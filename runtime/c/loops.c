@@ -580,6 +580,35 @@ static void mbs_loop_plan_dirty(const mbs_loop_work *w)
     *mbs_loop_plan_blocks(w).clean = 0;
 }
 
+/* mbs_loop_solve with the factors of mbs_loop_factor_blocks: each block's rows from its own columns (the same
+ * arithmetic in the same order: the other blocks' entries of a row are exact zeros). */
+static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z)
+{
+    const double *A = w->G;
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    double *y = w->y;
+    int b, c, e, k;
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
+        for (k = k0; k < k1; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+            double s = h ? -h[(int)w->rp[k]] : 0.0;
+            for (c = k0; c < k; c++) s -= A[k * MBS_NV + c] * y[c];
+            y[k] = s;
+        }
+        for (e = 0; e < nj; e++) {
+            const double zj = z[(int)w->cp[jl[e]]];
+            if (zj != 0.0)
+                for (k = k0; k < k1; k++) y[k] -= A[k * MBS_NV + jl[e]] * zj;
+        }
+        for (k = k1 - 1; k >= k0; k--) {  /* U11 z_D = y */
+            double s = y[k];
+            for (c = k + 1; c < k1; c++) s -= A[k * MBS_NV + c] * y[c];
+            y[k] = s / A[k * MBS_NV + k];
+        }
+        for (k = k0; k < k1; k++) z[(int)w->cp[k]] = y[k];
+    }
+}
+
 /* Factor G with the kept partition (valid), by its plan (made first when it is not the kept partition's). */
 static double mbs_loop_factor_kept(mbs_loop_work *w)
 {
@@ -589,11 +618,17 @@ static double mbs_loop_factor_kept(mbs_loop_work *w)
 
 /* Given the independent entries of z (NV, original column order), set its dependent entries so that the pivot
  * rows of G z + h vanish: G_D z_D = -(G_I z_I + h) on the r pivot rows.  h may be NULL (zero). */
+static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z);
+
 static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, double *z)
 {
     const double *A = w->G;
     double *y = w->y;
     int j, k;
+    if (w->blocked) {  /* the kept partition's factors: block by block */
+        mbs_loop_solve_blocks(w, h, z);
+        return;
+    }
     for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I; the zeros of the factors (other loops) skipped */
         double s = h ? -h[(int)w->rp[k]] : 0.0;
         for (j = 0; j < k; j++)
@@ -1343,6 +1378,7 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
     double *q = w->xc, res;
     const int r = (int)w->stamp[3];
     int i, k, s;
+    w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
     res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
