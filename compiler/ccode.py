@@ -36,6 +36,7 @@ from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this m
 from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
                           loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
 from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form_functions, closed_form_routine
+from .ccode_loop_terms import LOOP_TERMS, loop_terms_checks, loop_terms_routine
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -198,7 +199,8 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine) if r]
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine,
+                               loop_terms_routine(self.eqs, self.constraints, self.constraint_matrix)) if r]
                 + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
@@ -381,6 +383,8 @@ class CEmitter:
             lines.append("    return 0;")
         lines.append("}\n")
         text = "\n".join(lines)
+        if r.name == LOOP_TERMS:
+            return loop_terms_checks(text)
         return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
 
 
