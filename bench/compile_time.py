@@ -9,7 +9,11 @@ and noisy, so CPU seconds are printed beside wall seconds):
 * compile: ``mbs.load(text).compile(scene)`` into an empty cache: parse, derive, emit C, the C compiler (the
   equations' units start while the outputs are derived, runtime/build.py prebuild), load. The baseline is the
   same with the former settings: the former C printer (every function of the file printed its temporaries anew,
-  and sympy's could_extract_minus_sign, which builds -term for every term of a sum) and the former flags (the
+  and sympy's could_extract_minus_sign, which builds -term for every term of a sum), the former derivation helpers
+  (compiler/tape.py: -expr built for every new temporary to look its negative up, where now a cheap sign key says
+  whether any entry could be it; compiler/differentiate.py: the constraint Jacobian's partial derivatives by
+  sympy's diff, a Derivative around every node, where now sympy_diff applies sympy's rules to sums, products and
+  powers itself; every entry's and printed expression's free symbols computed anew) and the former flags (the
   outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
   level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS). Printed: wall time, and of it the derivation (to the generated C)
   and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
@@ -40,7 +44,8 @@ from pathlib import Path
 import numpy as np
 
 import mbs
-from mbs.compiler import emit_common
+from mbs.compiler import differentiate, emit_common
+from mbs.compiler import tape as tape_module
 from mbs.runtime import build
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -84,17 +89,39 @@ def _former_print_add(self, expr):
     return out, emit_common.PREC_ADD
 
 
+def _former_temp(self, expr, name: str):
+    """Tape.temp as it was: -expr built for every expression not on the tape (a sum's terms re-sorted)."""
+    expr = emit_common.sp.sympify(expr)
+    if tape_module.is_trivial(expr):
+        return expr
+    hit = self._by_expr.get(expr)
+    if hit is not None:
+        return hit
+    hit = self._by_expr.get(-expr)
+    return -hit if hit is not None else self._add(expr, name)
+
+
+def _former_symbols_read(entry):
+    symbols = entry.expr.free_symbols
+    return frozenset(symbols | entry.guard.free_symbols if entry.guard is not None else symbols)
+
+
 @contextlib.contextmanager
 def former_settings():
-    """The printer and the build flags as they were before: the baseline."""
-    printer = emit_common.ExprPrinter
-    saved = printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS
+    """The printer, the derivation's helpers and the build flags as they were before: the baseline."""
+    printer, tape = emit_common.ExprPrinter, tape_module.Tape
+    saved = (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.__dict__["symbols_read"],
+             differentiate.sympy_diff, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS)
     printer.doprint, printer._print_Add = _former_doprint, _former_print_add
+    printer.free_symbols = lambda self, expr: expr.free_symbols
+    tape.temp, tape.symbols_read = _former_temp, staticmethod(_former_symbols_read)
+    differentiate.sympy_diff = lambda expr, a, memo: emit_common.sp.diff(expr, a)
     build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
         yield
     finally:
-        printer.doprint, printer._print_Add, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = saved
+        (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.symbols_read,
+         differentiate.sympy_diff, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS) = saved
 
 
 def _children_cpu() -> float:

@@ -18,9 +18,10 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
   mbs/model_cache.py); Python's bytecode cached, as in an installed package; with --only-cli nothing else after
   the compile;
 * other outputs: text to loaded library of a scene that asks for other outputs than S (--other, default settle)
-  when S was derived and compiled before (the equations taken from the derivation cache, the outputs derived on
-  them, only outputs.c compiled, the other objects from the build cache), against the same scene's fresh compile
-  (whole derivation, every unit) in this run;
+  when S was derived and compiled before (the equations and their code taken from the derivation cache, the
+  model lowered and the outputs derived on the lowering, the equations of motion not derived again; only
+  outputs.c compiled, the other objects from the build cache), against the same scene's fresh compile (whole
+  derivation, every unit) in this run; with --only-other nothing else after the first compile;
 * rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
   the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
   accelerations), the same without the projection (`loop_rhs`), and the articulated-body right-hand side of an
@@ -47,6 +48,7 @@ import argparse
 import os
 import re
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -123,6 +125,7 @@ def main() -> None:
     ap.add_argument("--other", default="settle", help="a scene with other outputs than the first of --scenes")
     ap.add_argument("--no-one-unit", action="store_true", help="skip the one-unit C build (the slow baseline)")
     ap.add_argument("--only-cli", action="store_true", help="after the compile only the command line's times")
+    ap.add_argument("--only-other", action="store_true", help="after the compile only the other outputs' times")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
         start = time.perf_counter()
@@ -150,6 +153,9 @@ def main() -> None:
         print(f"model {MODEL.name}: compile {compile_time:.1f} s (text to loaded library, fresh cache: derivation "
               f"{derived - start:.1f} s, then C build {built - derived:.1f} s with {build_jobs()} jobs); generated C "
               f"{len(gen.c_source) / 1024:.0f} KiB")
+        if args.only_other:
+            print_other_outputs(cache, args.other, args.scenes[0])
+            return
         with tempfile.TemporaryDirectory() as empty, former_settings():
             before = fresh_compile("iltis", empty)
         print(f"  baseline: the former settings (compile_time.py: the former C printer, the outputs' unit at the model "
@@ -162,9 +168,7 @@ def main() -> None:
             print(f"  baseline: the same C built as one unit after the derivation (the former way) {one:.1f} s, "
                   f"compile {former:.1f} s: {former / compile_time:.1f} x the split, overlapped compile")
         if not args.only_cli:
-            other, other_fresh = other_outputs_times(cache, args.other)
-            print(f"other outputs (scene {args.other} after {args.scenes[0]}): {other:.1f} s to the loaded library, "
-                  f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x")
+            print_other_outputs(cache, args.other, args.scenes[0])
         cli = cli_times(cache, args.scenes[0], args.repeat)
         (warm, warm_cpu), (read, read_cpu), (cold, cold_cpu) = cli["warm"], cli["model read"], cli["cold"]
         print(f"command line `mbs simulate {MODEL.name} --scene {args.scenes[0]}`: warm {warm:.2f} s (CPU {warm_cpu:.2f}"
@@ -265,16 +269,33 @@ def one_unit_build(code: str) -> float:
         translation_units.SPLIT_MIN_CHARS = saved
 
 
-def other_outputs_times(cache: str, scene: str) -> tuple[float, float]:
+def print_other_outputs(cache: str, scene: str, before: str) -> None:
+    other, former, other_fresh = other_outputs_times(cache, scene)
+    print(f"other outputs (scene {scene} after {before}): {other:.1f} s to the loaded library, "
+          f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x; the former way "
+          f"(the equations of motion derived again, then the outputs) {former:.1f} s: {former / other:.2f} x")
+
+
+def other_outputs_times(cache: str, scene: str) -> tuple[float, float, float]:
     """Seconds from text to loaded library of `scene` (its outputs differ from the scene compiled before in
-    `cache`): with that cache, and with an empty one (the fresh compile, the baseline)."""
+    `cache`): with that cache, with a copy of it taken before and the equations of motion derived again (the
+    former way, pipeline._derive told to), and with an empty one (the fresh compile, the baseline)."""
+    from mbs import pipeline
     times = []
-    for folder in (cache, None):
-        with tempfile.TemporaryDirectory() as empty:
-            start = time.perf_counter()
-            mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
-            times.append(time.perf_counter() - start)
-    return times[0], times[1]
+    with tempfile.TemporaryDirectory() as copy:
+        shutil.copytree(cache, copy, dirs_exist_ok=True)
+        for folder, former in ((cache, False), (copy, True), (None, False)):
+            with tempfile.TemporaryDirectory() as empty:
+                real = pipeline._derive
+                if former:
+                    pipeline._derive = lambda *a, **k: real(*a, **{**k, "equations": True})
+                try:
+                    start = time.perf_counter()
+                    mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
+                    times.append(time.perf_counter() - start)
+                finally:
+                    pipeline._derive = real
+    return times[0], times[1], times[2]
 
 
 def cli_times(cache: str, scene: str, repeat: int) -> dict[str, tuple[float, float]]:

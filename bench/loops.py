@@ -1,6 +1,7 @@
 """The cost of closing kinematic loops, and how far the integrated state drifts off them over a long run.
 
     python bench/loops.py [--models slider_crank quarter_car vehicle four_bar] [--rounds 9] [--t-end-scale 1]
+                          [--instructions]
 
 For each closed-loop model of the library:
 
@@ -16,6 +17,11 @@ For each closed-loop model of the library:
   rhs without the projection ("direct", `loop_rhs`, the loop algebra alone). Shared machines are noisy: each figure is the median
   over --rounds rounds in which the two models' batches are interleaved, and the ratio is the median of the
   per-round ratios (the stable figure).
+  With --instructions the same calls are counted in instructions instead (valgrind's callgrind, needs `valgrind`
+  on the PATH; a few minutes): a child process loads the built libraries and makes n calls of each function at
+  the run's middle state inside C, collected only inside that timing loop (one callgrind dump per function).
+  Instructions do not depend on the machine's load; they weigh a division or a libm call by its instructions,
+  not its latency, so they are the load-independent figure next to the timed one, not a replacement.
   Two builds of the closed-loop model are timed in the same rounds: the default one, whose loops close in closed
   form where compiler/closed_form_loops.py proves it ("closed form": the dependent coordinates explicit functions
   of the independent ones, the reduced dynamics in minimal coordinates, the numeric solver where it declines),
@@ -34,8 +40,11 @@ Nothing is asserted: figures are printed for a reader to compare.
 from __future__ import annotations
 
 import argparse
+import json
 import re
+import shutil
 import statistics
+import subprocess
 import sys
 import tempfile
 import time
@@ -196,14 +205,72 @@ def _batch(f, states, repeat):
     return time.perf_counter() - start
 
 
+# ---- instructions per call (callgrind) ------------------------------------------------------------------------
+
+#: The child: load each built library by its path (no compilation: under valgrind the closed-form attempt would
+#: run out of its time budget) and make n calls of one function at one state inside C.
+INSTRUCTION_CHILD = """
+import importlib.util, json, sys
+import numpy as np
+for entry in json.load(open(sys.argv[1])):
+    name = entry["library"].rsplit("/", 1)[-1].split(".")[0]
+    spec = importlib.util.spec_from_file_location(name, entry["library"])
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    f = module.Function(entry["function"], np.array(entry["p"], dtype=float), np.zeros(module.NWORK))
+    f.time(np.array(entry["x"], dtype=float), int(sys.argv[2]), 0.0)
+"""
+
+
+def instruction_entry(data, function: str, x) -> dict:
+    """What the child needs to call `function` of the workspace's library at x with the workspace's parameters."""
+    return dict(library=str(data.model.backend.module.__file__), function=function,
+                x=[float(v) for v in x], p=[float(v) for v in data.p])
+
+
+def instructions_per_call(entries: list[dict], calls: int = 2000) -> list[float]:
+    """Instructions per call of each entry (callgrind, collected inside the C timing loop only, one dump per
+    entry; the loop's own few instructions per call included, the same for every entry)."""
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-callgrind-") as tmp:
+        spec, out = Path(tmp) / "spec.json", Path(tmp) / "callgrind.out"
+        spec.write_text(json.dumps(entries))
+        done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no",
+                               "--toggle-collect=function_time", "--dump-after=function_time",
+                               f"--callgrind-out-file={out}", sys.executable, "-c", INSTRUCTION_CHILD, str(spec),
+                               str(calls)], capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"valgrind failed:\n{done.stderr[-2000:]}")
+        counts = []
+        for k in range(1, len(entries) + 1):
+            found = re.search(r"^totals:\s*(\d+)", (Path(f"{out}.{k}")).read_text(), re.M)
+            counts.append(int(found.group(1)) / calls if found else float("nan"))
+        return counts
+
+
+def print_instructions(rows) -> None:
+    """rows: (model, [closed rhs, closed direct, numeric rhs, numeric direct, open rhs] instructions per call)."""
+    print("\nrhs instructions per call at the run's middle state (callgrind; load-independent)")
+    print(f"{'model':14s} {'open':>7s} {'closed form':>12s} {'ratio':>6s} {'direct':>7s} {'ratio':>6s}"
+          f" {'numeric':>8s} {'ratio':>6s} {'direct':>7s} {'ratio':>6s}")
+    for name, (cf, cf_direct, nu, nu_direct, open_) in rows:
+        print(f"{name:14s} {open_:7.0f} {cf:12.0f} {cf / open_:6.2f} {cf_direct:7.0f} {cf_direct / open_:6.2f}"
+              f" {nu:8.0f} {nu / open_:6.2f} {nu_direct:7.0f} {nu_direct / open_:6.2f}")
+    print("(ratio = closed / open tree; 'closed form': the default build (the numeric solver where no closed form "
+          "is proven), 'numeric': closed_form=False; rhs projects, direct does not; issue 12's target: under 3)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--models", nargs="+", default=["slider_crank", "quarter_car", "vehicle", "four_bar"],
                     choices=sorted(MODELS))
     ap.add_argument("--rounds", type=int, default=9)
     ap.add_argument("--t-end-scale", type=float, default=1.0, help="scale the long runs' simulated time")
+    ap.add_argument("--instructions", action="store_true",
+                    help="also count instructions per rhs call with callgrind (needs valgrind; a few minutes)")
     args = ap.parse_args()
-    cost_rows, drift_rows = [], []
+    if args.instructions and shutil.which("valgrind") is None:
+        raise SystemExit("--instructions: valgrind is not on the PATH")
+    cost_rows, drift_rows, instruction_rows = [], [], []
     for name in args.models:
         file, scene, t_end, sample, settings = MODELS[name]
         path = LIBRARY / file
@@ -242,6 +309,13 @@ def main() -> None:
         numeric = Workspace(system.compile(scene, closed_form=False))
         numeric.p = data.p
         closed_form, baseline = rhs_costs([data, numeric], open_data, states, args.rounds)
+        if args.instructions:
+            probe = states[len(states) // 2]
+            order = [compiled.x_names.index(n) for n in open_compiled.x_names]
+            entries = [instruction_entry(data, "rhs", probe), instruction_entry(data, "loop_rhs", probe),
+                       instruction_entry(numeric, "rhs", probe), instruction_entry(numeric, "loop_rhs", probe),
+                       instruction_entry(open_data, "rhs", probe[order])]
+            instruction_rows.append((name, instructions_per_call(entries)))
         has_form = "mbs_closed_form(" in gen.c_source
         cost_rows.append((name + (" closed form" if has_form else " (no closed form)"), *closed_form))
         cost_rows.append((name + " numeric", *baseline))
@@ -256,6 +330,9 @@ def main() -> None:
     print("(ratio = closed / open tree, the loop overhead; issue 12's target: under 3; closed C projects the state at "
           "every call, direct C does not project; 'closed form': the default build, loops closed in closed form where "
           "proven; 'numeric': the numeric loop solver alone, the baseline, same rounds)")
+
+    if instruction_rows:
+        print_instructions(instruction_rows)
 
     print("\nconstraint residuals of the long runs (DOPRI5 in C): max |g| [m] of the stored (projected) samples and"
           " of the raw integrated state")

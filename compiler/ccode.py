@@ -35,7 +35,8 @@ import sympy as sp
 from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this module's API)
 from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
                           loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
-from .ccode_closed_form import closed_form_definitions, closed_form_functions, closed_form_routine
+from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form_functions, closed_form_routine
+from .ccode_loop_terms import LOOP_TERMS, loop_terms_checks, loop_terms_routine
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -198,7 +199,8 @@ class CEmitter:
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
         return ([r for r in routines if r[0] != "mbs_rhs"] + loops
-                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine) if r]
+                + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine,
+                               loop_terms_routine(self.eqs, self.constraints, self.constraint_matrix)) if r]
                 + (list(self.friction[0]) if self.friction else []))
 
     def write(self, path: str | Path) -> Path:
@@ -375,13 +377,16 @@ class CEmitter:
         lines.append("    /* outputs */")
         for k, value in r.results:
             lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
-        lines += [f"    if (!mbs_all_finite({out}, {size}))", "        return 2;"]
+        if r.name != CLOSED_FORM:  # (the closed form's callers test what they give: runtime/c/loops.c hooks)
+            lines += [f"    if (!mbs_all_finite({out}, {size}))", "        return 2;"]
         if r.check_positive:
             lines.append(f"    return mbs_positive_definite({out}, MBS_NV, work) ? 0 : 1;")
         else:
             lines.append("    return 0;")
         lines.append("}\n")
         text = "\n".join(lines)
+        if r.name == LOOP_TERMS:
+            return loop_terms_checks(text)
         return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
 
 

@@ -47,7 +47,8 @@ def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0) -> int:
     in its two state copies."""
     nx = nq + nv + nz
     stamp = nq + 4  # the state whose factors the solver keeps for the projection of an accepted step
-    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp
+    plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
+    return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp + plan
 
 
 def loop_routines(constraints: Constraints) -> list:
@@ -100,7 +101,8 @@ def constraint_matrix_routine(equations: Equations, constraints: Constraints) ->
 
 def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0) -> str:
     """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
-    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`); extra_work: doubles
+    constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`) and mbs_loop_terms
+    (compiler/ccode_loop_terms.py); extra_work: doubles
     the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
@@ -126,7 +128,9 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, 
            "int mbs_state_rates(double t, const double *x, const double *p, double *out, double *work);"]
           if tree.nz else []),
         *(["#define MBS_CONSTRAINT_MATRIX 1   /* mbs_constraint_matrix gives G (the colours are not used) */",
-           "int mbs_constraint_matrix(double t, const double *x, const double *p, double *out, double *work);"]
+           "int mbs_constraint_matrix(double t, const double *x, const double *p, double *out, double *work);",
+           "#define MBS_LOOP_TERMS 1   /* mbs_loop_terms gives [M; f; G; gddot0] (compiler/ccode_loop_terms.py) */",
+           "int mbs_loop_terms(double t, const double *x, const double *p, double *out, double *work);"]
           if constraint_matrix else []),
         "",
         "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",

@@ -82,7 +82,7 @@ def partial_derivative(expr: sp.Expr, a: sp.Symbol) -> sp.Expr:
     expr = expr.replace(lambda e: isinstance(e, (sp.Max, sp.Min)), _as_piecewise)
     # piecewise constant functions: constants for the differentiation, put back afterwards
     steps = {e: sp.Dummy("step") for e in expr.atoms(*_PIECEWISE_CONSTANT)}
-    d = sp.diff(expr.xreplace(steps), a).xreplace({v: k for k, v in steps.items()})
+    d = sympy_diff(expr.xreplace(steps), a, {}).xreplace({v: k for k, v in steps.items()})
     bad = d.atoms(sp.Derivative, sp.Subs)
     if bad:
         raise NotDifferentiable(f"no derivative of {sorted(map(str, bad))[0]} for the generated Jacobian")
@@ -90,6 +90,56 @@ def partial_derivative(expr: sp.Expr, a: sp.Symbol) -> sp.Expr:
 
 
 _PIECEWISE_CONSTANT = (sp.sign, sp.Heaviside, sp.floor, sp.ceiling)
+_NOT_FINITE = frozenset({sp.oo, -sp.oo, sp.zoo, sp.nan})
+
+
+def sympy_diff(expr: sp.Expr, a: sp.Symbol, memo: dict) -> sp.Expr:
+    """sp.diff(expr, a), the same expression, for less: sums, products, powers and symbols are differentiated
+    here by the rules sympy applies to them (Add._eval_derivative, Mul._eval_derivative_n_times with n = 1,
+    Pow._eval_derivative, AtomicExpr), every other node by sympy itself. What this saves is sympy's Derivative
+    around every node (argument checks, a walk of the node's free symbols, and a walk of its result for unevaluated
+    derivatives): most of the constraint Jacobian's time (compiler/ccode_loops.py). `memo`: node -> its derivative
+    by `a` (a node met twice is differentiated once). tests/compiler/test_differentiate.py compares the results
+    with sympy's own, expression for expression."""
+    hit = memo.get(expr)
+    if hit is not None:
+        return hit
+    if expr.is_Symbol:
+        d = sp.S.One if expr == a else sp.S.Zero
+    elif expr.is_Number:
+        d = sp.S.Zero
+    elif expr.is_Add:
+        terms = [sympy_diff(term, a, memo) for term in expr.args]
+        d = sp.S.Zero if all(term is sp.S.Zero for term in terms) else sp.Add(*terms)
+    elif expr.is_Mul and expr.is_commutative:
+        d = _product_rule(expr, a, memo)
+    elif expr.is_Pow:
+        base, exp = expr.args
+        dbase, dexp = sympy_diff(base, a, memo), sympy_diff(exp, a, memo)
+        d = sp.S.Zero if dbase is sp.S.Zero and dexp is sp.S.Zero \
+            else expr * (dexp * sp.log(base) + dbase * exp / base)
+    else:
+        d = expr.diff(a)
+    memo[expr] = d
+    return d
+
+
+def _product_rule(expr: sp.Mul, a: sp.Symbol, memo: dict) -> sp.Expr:
+    """Mul._eval_derivative_n_times(a, 1): the sum over the factors of the product with that factor differentiated,
+    in the order sympy's multinomial iterator gives them; a term whose differentiated factor is zero is zero (unless
+    another factor is not finite, which only sympy's own product gives right)."""
+    from sympy.ntheory.multinomial import multinomial_coefficients_iterator
+    args = expr.args
+    derivatives = [sympy_diff(arg, a, memo) for arg in args]
+    if all(d is sp.S.Zero for d in derivatives) and not any(arg in _NOT_FINITE for arg in args):
+        return sp.S.Zero
+    terms = []
+    for kvals, c in multinomial_coefficients_iterator(len(args), 1):
+        k = kvals.index(1)
+        if derivatives[k] is sp.S.Zero and not any(arg in _NOT_FINITE for arg in args):
+            continue
+        terms.append(c * sp.Mul(*[derivatives[i] if i == k else arg for i, arg in enumerate(args)]))
+    return sp.Add(*terms)
 
 
 def _as_piecewise(e):

@@ -143,6 +143,16 @@ class ExprPrinter:
         # the mass matrix, the forces, the constraints ...), and printing is a good part of the derivation time.
         # `used` and `hook_calls` only grow, so a text printed before has put its names there already.
         self._printed: dict = {}
+        self._free: dict = {}  # expression -> its free symbols, for the same reason
+        self._nodes: dict = {}  # node -> (text, precedence) (see _print)
+        self._methods: dict = {}  # node type -> its print method
+
+    def free_symbols(self, expr) -> set:
+        """expr.free_symbols, remembered (the functions of a file read many of the same temporaries)."""
+        found = self._free.get(expr)
+        if found is None:
+            found = self._free[expr] = expr.free_symbols
+        return found
 
     def doprint(self, expr) -> str:
         text = self._printed.get(expr)
@@ -152,12 +162,26 @@ class ExprPrinter:
         return text
 
     def _print(self, expr) -> tuple:
-        """(text, precedence)."""
-        for cls in type(expr).__mro__:
-            method = getattr(self, f"_print_{cls.__name__}", None)
-            if method is not None:
-                return method(expr)
-        raise CodegenError(f"cannot write {type(expr).__name__} in {self.LANGUAGE}: {expr}")
+        """(text, precedence), remembered per node: the temporaries' expressions share their factors and terms
+        (a sine, a product of two temporaries), printed once each."""
+        done = self._nodes.get(expr)
+        if done is None:
+            done = self._nodes[expr] = self._method(type(expr))(expr)
+        return done
+
+    def _method(self, kind: type):
+        """The _print_<class> method for a node type: its own class's, else the nearest base class's."""
+        method = self._methods.get(kind)
+        if method is None:
+            for cls in kind.__mro__:
+                method = getattr(self, f"_print_{cls.__name__}", None)
+                if method is not None:
+                    break
+            else:
+                def method(expr):
+                    raise CodegenError(f"cannot write {type(expr).__name__} in {self.LANGUAGE}: {expr}")
+            self._methods[kind] = method
+        return method
 
     def _paren(self, expr, prec: int) -> str:
         text, p = self._print(expr)
@@ -386,7 +410,7 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
             e = sp.sympify(e).xreplace(inlined)
             written.append(e)
         printed.append((k, e if isinstance(e, int) else printer.doprint(e)))
-    used = set().union(*(e.free_symbols for e in written))
+    used = set().union(*map(printer.free_symbols, written))
     reads = tuple(r for r in naming.inputs if r[0] in used)
     return Routine(name, out, doc, shape, t in used, reads, tuple(steps), tuple(printed), check_positive)
 

@@ -38,6 +38,7 @@ class Entry:
     section: str
     guard: sp.Expr | None = None
     _deps: frozenset | None = field(default=None, repr=False)
+    _symbols: frozenset | None = field(default=None, repr=False)
 
 
 def is_trivial(expr: sp.Expr) -> bool:
@@ -46,6 +47,37 @@ def is_trivial(expr: sp.Expr) -> bool:
         return True
     args = expr.args
     return expr.is_Mul and len(args) == 2 and args[0].is_Number and args[1].is_Atom
+
+
+def _unsigned_term(term) -> tuple:
+    """A term without the sign of its numeric coefficient: (|c|, the other factors), the same for -term."""
+    if term.is_Mul:
+        args = term.args
+        first = args[0]
+        if first.is_Number:
+            return _magnitude(first), args[1:]
+        return _UNIT, args
+    if term.is_Number:
+        return _magnitude(term), ()
+    return _UNIT, (term,)
+
+
+_UNIT = (1, 1)  # _magnitude of 1 and -1
+
+
+def _magnitude(number) -> object:
+    """|number| as something hashable, without sympy's Rational(|p|, q) and its gcd."""
+    p = getattr(number, "p", None)  # Integer, Rational
+    return (abs(p), number.q) if p is not None else abs(number)
+
+
+def sign_key(expr) -> tuple:
+    """A key that `expr` and sympy's `-expr` share (a sum negates term by term, a product its coefficient), and
+    that is cheap: computing -expr for a sum re-sorts all its terms, which made the negative lookup in `Tape.temp`
+    a seventh of the derivation's time; now -expr is only built when an entry on the tape has this key."""
+    if expr.is_Add:
+        return True, frozenset(map(_unsigned_term, expr.args))
+    return False, _unsigned_term(expr)
 
 
 class Tape:
@@ -59,6 +91,7 @@ class Tape:
     def __init__(self):
         self.entries: list[Entry] = []
         self._by_expr: dict[sp.Expr, sp.Dummy] = {}
+        self._sign_keys: set = set()  # sign_key of every expression in _by_expr
         self._entry_of: dict[sp.Dummy, Entry] = {}
         self._names: set[str] = set()
         self._section = ""
@@ -73,6 +106,7 @@ class Tape:
         other = Tape()
         other.entries = list(self.entries)
         other._by_expr = dict(self._by_expr)
+        other._sign_keys = set(self._sign_keys)
         other._entry_of = dict(self._entry_of)
         other._names = set(self._names)
         other._section = self._section
@@ -102,9 +136,10 @@ class Tape:
         if hit is not None:
             return hit
         # x and -x share one temporary; a new one holds the value as asked, so that its name tells the truth.
-        hit = self._by_expr.get(-expr)
-        if hit is not None:
-            return -hit
+        if sign_key(expr) in self._sign_keys:
+            hit = self._by_expr.get(-expr)
+            if hit is not None:
+                return -hit
         return self._add(expr, name)
 
     def vector(self, exprs, name: str) -> tuple:
@@ -120,7 +155,8 @@ class Tape:
                 raise ZeroDivisionError(f"{name}: structurally singular (pivot {expr})")
             return 1 / expr
         inv = self._by_expr.get(1 / expr) or self._add(1 / expr, name)
-        self._entry_of[inv].guard = expr
+        entry = self._entry_of[inv]
+        entry.guard, entry._deps, entry._symbols = expr, None, None
         return inv
 
     def _add(self, expr: sp.Expr, name: str) -> sp.Dummy:
@@ -129,6 +165,7 @@ class Tape:
         entry = Entry(symbol, expr, name, self._section)
         self.entries.append(entry)
         self._by_expr[expr] = symbol
+        self._sign_keys.add(sign_key(expr))
         self._entry_of[symbol] = entry
         return symbol
 
@@ -145,11 +182,19 @@ class Tape:
     def dependencies(self, entry: Entry) -> frozenset:
         """The temporaries `entry` reads (its expression's and its guard's)."""
         if entry._deps is None:
+            entry._deps = frozenset(s for s in self.symbols_read(entry) if s in self._entry_of)
+        return entry._deps
+
+    @staticmethod
+    def symbols_read(entry: Entry) -> frozenset:
+        """Every symbol `entry` reads (its expression's and its guard's), kept on the entry: the functions of a
+        file slice the same entries many times over."""
+        if entry._symbols is None:
             symbols = entry.expr.free_symbols
             if entry.guard is not None:
                 symbols = symbols | entry.guard.free_symbols
-            entry._deps = frozenset(s for s in symbols if s in self._entry_of)
-        return entry._deps
+            entry._symbols = frozenset(symbols)
+        return entry._symbols
 
     def entries_for(self, outputs) -> list[Entry]:
         """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order."""
@@ -166,9 +211,7 @@ class Tape:
         outputs = [sp.sympify(e) for e in outputs]
         found = set().union(*(e.free_symbols for e in outputs)) if outputs else set()
         for entry in self.entries_for(outputs):
-            found |= entry.expr.free_symbols
-            if entry.guard is not None:
-                found |= entry.guard.free_symbols
+            found |= self.symbols_read(entry)
         return {s for s in found if s not in self._entry_of}
 
     def expand(self, outputs) -> list[sp.Expr]:

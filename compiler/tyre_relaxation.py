@@ -65,6 +65,21 @@ def relaxation_states(model: M.Model, inputs: Mapping[str, X.E] | None = None) -
     return out
 
 
+def structural_inputs(model: M.Model) -> frozenset[str]:
+    """Names of the inputs that a tyre reads as a relaxation length: their value decides the compiled code (a
+    state per relaxed slip, or none), so they cannot be run-time values (mbs/inputs.py leaves them undriven: a
+    linearisation has no B column for a length that adds or removes a state)."""
+    names = set()
+    for inter in model.interactions:
+        for force in inter.forces:
+            if force.kind == "tyre":
+                for arg in RELAXED:
+                    length = force.arg(arg)
+                    if isinstance(length, X.Sym) and length.kind == "input":
+                        names.add(length.name)
+    return frozenset(names)
+
+
 def relax(lowering, force: M.Force, values: dict, speed) -> None:
     """Replace alpha and kappa in `values` by their relaxed states where the element asks for it, and register
     the states' rates with the lowering."""

@@ -54,8 +54,9 @@ def bound_body_problems(model: M.Model, values: Mapping[str, float], overridden:
     out = []
     defaults = {p.name: p.value for p in model.parameters}
     for part in model.parts:
-        if part.body is None:
-            continue
+        if part.body is None or not any(name in overridden for quantity in ("mass", "inertia")
+                                        for name in _parameters_of(part.body, quantity, model)):
+            continue  # nothing set here reaches this body: what it has, `mbs check` reported from the defaults
         problems = body_problems(part, values, massless_ok=True)
         if not problems or body_problems(part, defaults, massless_ok=True) == problems:
             continue  # none, or reported by `mbs check` already

@@ -15,10 +15,14 @@ under a key of everything that can change them:
   versions of sympy and Python.
 
 The equations and a scene's outputs are kept apart. pipeline.generate writes the equations' C first and the
-outputs, lowered onto the end of the same tape, as the last part of the file; the equations' entry is keyed by all
-of the above but the outputs, an outputs entry by the equations' key and the outputs. A scene asking for other
-outputs finds the equations' entry, derives the equations again (the outputs share their tape; about a third of
-the whole) without writing their code, and writes only its outputs' part: the same text a whole derivation gives.
+outputs, lowered onto the end of the lowering's tape, as the last part of the file; the equations' entry is keyed
+by all of the above but the outputs, an outputs entry by the equations' key and the outputs. A scene asking for
+other outputs finds the equations' entry, lowers the model again (the outputs are expressions on its tape) and
+writes only its outputs' part: the same text a whole derivation gives. With loops it does not derive the equations
+of motion (the outputs read the loop solver's accelerations and multipliers at run time, and generate writes their
+part with the same stand-in, pipeline.outputs_equations, whichever wrote the file); a tree derives them again
+without writing their code (its NumPy module holds the outputs and the equations in one), as does bearing
+friction in loops.
 The build compiles that part as a unit of its own (runtime/translation_units.py), so nothing else recompiles.
 Outputs that cannot stand apart (they call a user hook or add a switch) are kept with the whole file under the
 outputs' key.
@@ -128,7 +132,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
             outputs = {"key": out_key, "kind": "outputs", "equations": eq_key, "c_outputs": c_outputs,
                        "numpy_source": numpy_source, "y_names": list(y_names)}
             _write(out_path, outputs, model, scene)
-            return _joined(model, scene, equations, outputs, lambda: symbolic)
+            return _joined(model, scene, equations, outputs, derive if symbolic is None else lambda: symbolic)
     generated = pipeline.generate(model, scene, **options, equations_ready=equations_ready)
     payload = _payload(generated, out_key)
     if generated.outputs_at is not None:  # the equations apart, for scenes that ask for other outputs

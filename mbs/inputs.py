@@ -25,23 +25,36 @@ from mbs.language import expr as X
 from mbs.language import model as M
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from mbs.compiler.tyre_relaxation import structural_inputs
+
 from .quantities import parameter_overrides, quantity
 
 DRIVEN, VALUE = "driven.", "u."
 
 
+def drivable_inputs(model: M.Model) -> tuple[str, ...]:
+    """Names of the inputs that can be run-time values: all but the ones that decide the compiled code (a tyre's
+    relaxation length, compiler/tyre_relaxation.py)."""
+    fixed = structural_inputs(model)
+    return tuple(i.name for i in model.inputs if i.name not in fixed)
+
+
 def with_driven_inputs(model: M.Model) -> M.Model:
-    """The model whose every input can be switched to a run-time parameter (module docstring)."""
-    if not model.inputs:
+    """The model whose every drivable input can be switched to a run-time parameter (module docstring)."""
+    if not drivable_inputs(model):
         return model
     extra = []
+    fixed = structural_inputs(model)
     for i in model.inputs:
+        if i.name in fixed:
+            continue
         extra.append(M.Parameter(DRIVEN + i.name, X.ZERO, 0.0, None, f"1: input {i.name} is u.{i.name}",
                                  i.span, None))
         extra.append(M.Parameter(VALUE + i.name, X.ZERO, 0.0, i.dimension, f"value of input {i.name} when driven",
                                  i.span, _unit(i.dimension)))
-    inputs = tuple(dataclasses.replace(i, value=_switch(i.name, i.value)) for i in model.inputs)
-    scenes = tuple(dataclasses.replace(s, inputs=tuple((n, _switch(n, e)) for n, e in s.inputs))
+    inputs = tuple(i if i.name in fixed else dataclasses.replace(i, value=_switch(i.name, i.value))
+                   for i in model.inputs)
+    scenes = tuple(dataclasses.replace(s, inputs=tuple((n, e if n in fixed else _switch(n, e)) for n, e in s.inputs))
                    for s in model.scenes)
     return dataclasses.replace(model, parameters=model.parameters + tuple(extra), inputs=inputs, scenes=scenes)
 
@@ -99,6 +112,10 @@ def input_sources(model: M.Model, inputs: Mapping[str, object]) -> tuple[dict[st
             names = ", ".join(declared) or "none"
             raise MbsError([Diagnostic("error", f"model '{model.name}' has no input '{name}'"
                                                 f"{did_you_mean(name, declared)} (inputs: {names})", None)])
+        if name in structural_inputs(model):
+            raise MbsError([Diagnostic("error", f"input '{name}' is a tyre's relaxation length: its value decides "
+                                                "the compiled code (a state per relaxed slip, or none), so it is set "
+                                                "in a scene (input NAME = VALUE), not given at run time", None)])
         if isinstance(given, str):
             constants[name] = quantity(given, declared[name].dimension, f"input {name}")
         elif isinstance(given, (int, float, np.number)):
@@ -154,7 +171,7 @@ def _takes_state(source: Callable) -> bool:
 
 def driven_system(system):
     """The system compiled with switchable inputs (cached on the system; the plain model when it has none)."""
-    if not system.model.inputs:
+    if not drivable_inputs(system.model):
         return system
     key = ("driven-system", None)
     if key not in system._compiled:
@@ -201,7 +218,10 @@ def linearization_system(system, scene: str | None, params, t: float):
     overrides.update(parameter_overrides(system.model, params))
     values = pipeline.parameter_values(system.model, overrides)
     params = dict(params or {})
+    fixed = structural_inputs(system.model)
     for name, value in input_values(system.model, system.scene(scene), values, t).items():
+        if name in fixed:  # a relaxation length: part of the compiled code, not an input of the linear model
+            continue
         params[DRIVEN + name] = 1.0
         params[VALUE + name] = value
     return driven_system(system), params

@@ -177,9 +177,11 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
                      jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
                      frames: tuple[str, ...] = (), closed_form: bool = True
                      ) -> tuple[str, str, tuple[str, ...], Symbolic]:
-    """(outputs part, NumPy source, output names, symbolic stages) of a scene whose equations part (generate's
-    c_source up to outputs_at, with the same options) is `equations_source`: the equations are derived again
-    (their tape, which the outputs share, must be the same) but not written; the text is the one generate gives.
+    """(outputs part, NumPy source, output names, symbolic stages or None) of a scene whose equations part
+    (generate's c_source up to outputs_at, with the same options) is `equations_source`: the model is lowered
+    again (the outputs are expressions on its tape); with loops the equations of motion are not derived
+    (outputs_equations; symbolic stages None), a tree's are for its NumPy module, not written into the C; the
+    text is the one generate gives.
     Raises compiler.ccode.NotSeparable when the outputs cannot stand apart. (closed_form: as for generate; the
     outputs do not depend on it: they read the loop solver's rates.)"""
     del closed_form
@@ -187,24 +189,28 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else "") + " (outputs only)")
-    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock)
-    # what generate does before it lowers the outputs, so that the tape they share is the same
-    options, _ = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
-                               parameter_jacobian, dynamics, frames)
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock,
+                                                                    equations=False)
+    if equations is None:  # loops: no NumPy module, and the outputs read the accelerations at run time
+        options = {}
+    else:  # what generate does before it lowers the outputs, so that the tape they share is the same
+        options, _ = _code_options(model, scene, lowered, equations, constraints, parameters, jacobian,
+                                   parameter_jacobian, dynamics, frames)
     first_table = len(lowered.tables.tables)
     with_outputs = _outputs_apart(lowered, lower_outputs(lowered))
     clock("lowered the outputs")
-    c_outputs = generate_c_outputs(equations, parameters, equations_source, first_table,
-                                   outputs=with_outputs.outputs, tables=with_outputs.tables, constraints=constraints,
-                                   run_time_inputs=with_outputs.run_time_inputs, friction=friction)
+    c_outputs = generate_c_outputs(equations or outputs_equations(lowered), parameters, equations_source,
+                                   first_table, outputs=with_outputs.outputs, tables=with_outputs.tables,
+                                   constraints=constraints, run_time_inputs=with_outputs.run_time_inputs,
+                                   friction=friction)
     numpy_source = ""
-    if constraints is None:
+    if equations is not None and constraints is None:
         options.update(outputs=with_outputs.outputs, tables=with_outputs.tables,
                        run_time_inputs=with_outputs.run_time_inputs)
         numpy_source = generate_numpy(equations, parameters, model.name, **options)
     clock("generated the outputs' C")
     return c_outputs, numpy_source, tuple(name for name, _ in with_outputs.outputs), \
-        Symbolic(with_outputs, equations, constraints)
+        Symbolic(with_outputs, equations, constraints) if equations is not None else None
 
 
 def join_parts(equations_source: str, outputs_source: str) -> str:
@@ -224,9 +230,26 @@ def _outputs_apart(before, after):
     return after
 
 
-def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False):
+def outputs_equations(lowered):
+    """Equations without the equations of motion, on the lowering's tape: all the outputs' part of a model with
+    loops reads of them (its tree, tape and sizes; the outputs read the accelerations and multipliers the loop
+    solver gives at run time, not the symbolic M, f or vdot), so that a scene asking for other outputs does not
+    derive the equations again (mbs/derivation_cache.py). generate writes that part with the same stand-in, so
+    the text is the same whichever wrote it."""
+    import sympy as sp
+
+    from mbs.compiler.equations import Equations
+    tree, zero = lowered.tree, sp.S.Zero
+    return Equations(lowered.kinematics, tuple((zero,) * tree.nv for _ in range(tree.nv)), (zero,) * tree.nv,
+                     (zero,) * tree.nq, None, (zero,) * len(lowered.state_rates))
+
+
+def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False,
+            equations: bool = True):
     """(lowered, constraints, equations, parameters, friction): the model lowered (with its outputs only if
-    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None)."""
+    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None).
+    `equations` False: a model with loops and no bearing friction in them is not derived further (equations
+    None; what the outputs' part alone needs)."""
     from mbs.compiler.constraints import derive_constraints
     from mbs.compiler.equations import derive_equations
     from mbs.compiler.friction_loops import with_friction_rows
@@ -240,6 +263,9 @@ def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, out
         constraints = with_friction_rows(constraints, lowered.friction_rows)
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
+    if not equations and constraints is not None and lowered.bearing_friction is None:
+        parameters = run_parameters(model, lowered)
+        return lowered, constraints, None, parameters, None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     if lowered.tree.states and dynamics:
         where = model.states[0].span if model.states else model.span
@@ -334,7 +360,8 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         _outputs_apart(before, lowered)
         clock("lowered the outputs")
         outputs_at = len(c_source) + 1
-        c_source = join_parts(c_source, generate_c_outputs(equations, parameters, c_source, first_table,
+        written = outputs_equations(lowered) if constraints is not None and friction is None else equations
+        c_source = join_parts(c_source, generate_c_outputs(written, parameters, c_source, first_table,
                                                            outputs=lowered.outputs, tables=lowered.tables,
                                                            constraints=constraints,
                                                            run_time_inputs=lowered.run_time_inputs,

@@ -233,8 +233,8 @@ class System:
         initial speeds of the scene are dropped), the initial state (at="initial") or a given state (an
         array [q; v]). hooks: as for simulate (the linear model then comes from finite differences)."""
         from mbs.runtime.linearize import linearize as _linearize
-        from .inputs import is_driven, linearization_system, state_space_of
-        if self.model.inputs and not is_driven(self.model):
+        from .inputs import drivable_inputs, is_driven, linearization_system, state_space_of
+        if drivable_inputs(self.model) and not is_driven(self.model):
             system, params = linearization_system(self, scene, params, t)  # B and D need switchable inputs
             return system.linearize(scene, params=params, at=at, t=t, hooks=hooks)
         compiled, gen, values = self._scene_parameters(scene, params, hooks)

@@ -78,9 +78,12 @@
 
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
 #define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * MBS_NX \
-                               + 10 * MBS_NV + MBS_NQ + 4 + 16 + MBS_LOOP_STAMP_SIZE)
+                               + 10 * MBS_NV + MBS_NQ + 4 + 16 + MBS_LOOP_STAMP_SIZE + MBS_LOOP_PLAN_SIZE)
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, hash of p, rank, q. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + 4)
+/* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then 3 + 2 NC + 2 NV ints in as many doubles. */
+#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -141,6 +144,9 @@ typedef struct {
     int *Ti;                    /* NV x NV ints: the velocity of each packed entry of T */
     double *keep;               /* the partition kept between calls (see mbs_loop_keep_*) */
     double *stamp;              /* the state whose factors w->G holds after mbs_loop_rhs_direct (mbs_loop_stamp_*) */
+    double *plan;               /* the blocks of the kept partition (mbs_loop_plan_build), kept between calls */
+    int blocked;                /* w->G holds the factors of the kept partition, block by block (its plan) */
+    int terms;                  /* M, f, G0 and h = gddot0 hold at w->xc (mbs_loop_terms_at, used once) */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one),
                                  * or they are in the band around one (mbs_loop_partition) */
@@ -166,16 +172,19 @@ typedef struct {
  * (the hysteresis: a fresh choice happens only when the dependent block has clearly degraded). */
 #define MBS_LOOP_KEEP_RATIO 0.1
 
-static mbs_loop_work mbs_loop_layout_keeping(double *work)
+static inline mbs_loop_work mbs_loop_layout_keeping(double *work)
 {
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
-    w.fresh = w.singular = w.rband = w.newton = 0;
+    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = 0;
     w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
-    w.G = s; s += MBS_NC * MBS_NV;
+    w.M = s; s += MBS_NV * MBS_NV;  /* [M; f; G0; h] in a row: what mbs_loop_terms writes */
+    w.f = s; s += MBS_NV;
     w.G0 = s; s += MBS_NC * MBS_NV;
+    w.h = s; s += MBS_NC;
+    w.G = s; s += MBS_NC * MBS_NV;
     w.K = s; s += MBS_NC * MBS_NV;
     w.rp = s; s += MBS_NC;
     w.cp = s; s += MBS_NV;
@@ -184,22 +193,20 @@ static mbs_loop_work mbs_loop_layout_keeping(double *work)
     w.xc = s; s += MBS_NX;
     w.xt = s; s += MBS_NX;
     w.g = s; s += MBS_NC;
-    w.h = s; s += MBS_NC;
     w.y = s; s += MBS_NC;
     w.c3 = s; s += MBS_NC;
     w.dv = s; s += MBS_NV;
-    w.f = s; s += MBS_NV;
     w.c0 = s; s += MBS_NV;
     w.b = s; s += MBS_NV;
     w.a = s; s += MBS_NV;
     w.vd = s; s += MBS_NV;
     w.dq = s; s += MBS_NQ;
-    w.M = s; s += MBS_NV * MBS_NV;
     w.A = s; s += MBS_NV * MBS_NV;
     w.T = s; s += MBS_NV * MBS_NV;
     w.Ti = (int *)s;  /* NV * NV ints in the room of NV * NV doubles */
     s += MBS_NV * MBS_NV;
-    w.stamp = s;
+    w.stamp = s; s += MBS_LOOP_STAMP_SIZE;
+    w.plan = s;
     return w;
 }
 
@@ -266,13 +273,11 @@ static int mbs_loop_jacobian_into(double t, const double *x, const double *p, mb
     return 0;
 }
 
-/* G (NC x NV) at the positions of x, with a copy of G in G0, and h = g_t there when `rate` (only the velocity
- * projection reads it; the accelerations replace h by gddot0). */
+/* G (NC x NV) at the positions of x into w->G0 (each factorisation takes what it needs from there into w->G),
+ * and h = g_t there when `rate` (only the velocity projection reads it; the accelerations replace h by gddot0). */
 static int mbs_loop_jacobian_at(double t, const double *x, const double *p, mbs_loop_work *w, int rate)
 {
-    int s = mbs_loop_jacobian_into(t, x, p, w, w->G, rate ? w->h : NULL);
-    if (s == 0) memcpy(w->G0, w->G, MBS_NC * MBS_NV * sizeof(double));
-    return s;
+    return mbs_loop_jacobian_into(t, x, p, w, w->G0, rate ? w->h : NULL);
 }
 
 static double mbs_loop_gmax(const mbs_loop_work *w)
@@ -327,6 +332,8 @@ static void mbs_loop_eliminate(double *A, int k, int rows)
     }
 }
 
+static void mbs_loop_plan_dirty(const mbs_loop_work *w);
+
 /* Gaussian elimination with complete pivoting of G in place (rows and columns physically exchanged; rp, cp
  * record the original indices).  Returns the rank, or -1 if G is not finite; *minpivot: the smallest pivot
  * relative to max |G|. */
@@ -336,6 +343,8 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
     int i, j, k, r = 0;
     *minpivot = 0.0;
     w->rband = 0;
+    w->blocked = 0;
+    mbs_loop_plan_dirty(w);
     if (amax0 < 0.0) return -1;
     for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
     for (j = 0; j < MBS_NV; j++) w->cp[j] = j;
@@ -362,11 +371,14 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
 }
 
 /* Is w->keep a partition (marker, rank in range, columns a permutation, rows distinct and in range)? */
+static int mbs_loop_plan_holds(const mbs_loop_work *w);
+
 static int mbs_loop_keep_valid(const mbs_loop_work *w)
 {
     const double *kp = w->keep;
     int r, j, seen = 0;
     if (kp[0] != MBS_LOOP_KEEP_MARK) return 0;
+    if (mbs_loop_plan_holds(w)) return 1;  /* checked when its plan was made */
     r = (int)kp[1];
     if (kp[1] != r || r < 1 || r > MBS_NC || r > MBS_NV) return 0;
     for (j = 0; j < MBS_NV; j++) {  /* a permutation: every index in range, all distinct (dv as marks) */
@@ -400,67 +412,223 @@ static void mbs_loop_keep_store(mbs_loop_work *w, int r, double pivot, int clean
     memcpy(kp + 4 + MBS_NV, w->rp, r * sizeof(double));
 }
 
-/* The kept partition's r pivot rows of G (w->G0, as mbs_loop_jacobian_at left it) into w->G in the kept column
- * order, rp and cp set; returns max |G| over all rows, -1 when an entry is not finite.  Only the structural
- * nonzeros are read (row i's velocities, mbs_colour_column of compiler/jacobian_colours.py: Iltis 108 of 816
- * entries), since G0 holds G itself here, not the rows of a singular position (mbs_loop_singular_rows), whose
- * factorisation is never the kept one; the rest of the rows is zeroed. */
-static double mbs_loop_gather_kept(mbs_loop_work *w, int r)
+/* The plan of the kept partition (w->plan, rebuilt whenever the kept partition is not the one it was made for):
+ * its pivots grouped into independent blocks.  Loops closed relative to a body (compiler/relative_motion.py) give
+ * G rows that share no column with another loop's: G is block diagonal up to the order of its rows and columns,
+ * and so are its factors.  A block is a connected set of pivot rows and the columns they touch (the structural
+ * nonzeros of mbs_colour_column, compiler/jacobian_colours.py); the kept pivots are reordered block by block (the
+ * order within a block, and so its factors, unchanged), and each block is factored and solved on its own (the
+ * Iltis: four of 6 rows and 7 columns instead of one of 24 rows and 34 columns, whose zeros cost more than the
+ * blocks' arithmetic).  The ints after the copy of the kept partition: */
+typedef struct {
+    int *nb;     /* the number of blocks */
+    int *k0;     /* NC + 1: block b holds the pivot positions k0[b] .. k0[b + 1] - 1 */
+    int *j0;     /* NC + 1: and the independent column positions jl[j0[b]] .. jl[j0[b + 1] - 1] */
+    int *jl;     /* NV */
+    int *block;  /* NV: the block of each column position, -1 for an independent one that no pivot row touches */
+    int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
+} mbs_loop_blocks;
+
+static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
 {
-    const double *kp = w->keep;
-    double amax = 0.0, probe = 0.0;
-    int i, j, k, c, position[MBS_NV], kept[MBS_NC];
-    for (j = 0; j < MBS_NV; j++) position[(int)(w->cp[j] = kp[4 + j])] = j;
-    for (i = 0; i < MBS_NC; i++) kept[i] = -1;
-    for (k = 0; k < r; k++) kept[(int)(w->rp[k] = kp[4 + MBS_NV + k])] = k;
-    memset(w->G, 0, (size_t)r * MBS_NV * sizeof(double));
-    for (i = 0; i < MBS_NC; i++) {
-        const double *src = w->G0 + i * MBS_NV;
-        double *dst = kept[i] >= 0 ? w->G + kept[i] * MBS_NV : NULL;
+    mbs_loop_blocks b;
+    int *s = (int *)(w->plan + 1 + MBS_LOOP_KEEP_SIZE);
+    b.nb = s; s += 1;
+    b.k0 = s; s += MBS_NC + 1;
+    b.j0 = s; s += MBS_NC + 1;
+    b.jl = s; s += MBS_NV;
+    b.block = s; s += MBS_NV;
+    b.clean = s;
+    return b;
+}
+
+/* Was the plan made for the kept partition as it stands (then that partition is valid: plans are made from
+ * valid ones only)? */
+static int mbs_loop_plan_holds(const mbs_loop_work *w)
+{
+    return w->plan[0] == MBS_LOOP_KEEP_MARK
+           && memcmp(w->plan + 1, w->keep, MBS_LOOP_KEEP_SIZE * sizeof(double)) == 0;
+}
+
+static int mbs_loop_root(const int *parent, int j)
+{
+    while (parent[j] != j) j = parent[j];
+    return j;
+}
+
+/* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
+ * block by block (the independent columns no pivot row touches last), each in its former order. */
+static void mbs_loop_plan_build(mbs_loop_work *w)
+{
+    double *kp = w->keep, cols[MBS_NV], rows[MBS_NC];
+    const int r = (int)kp[1];
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    int parent[MBS_NV], id[MBS_NV], i, j, k, c, b, n, e;
+    for (j = 0; j < MBS_NV; j++) parent[j] = j;
+    for (k = 0; k < r; k++) {  /* join the columns of each pivot row */
+        int first = -1;
+        i = (int)kp[4 + MBS_NV + k];
+        for (c = 0; c < MBS_NCOLOUR; c++) {
+            int col = mbs_colour_column[i * MBS_NCOLOUR + c];
+            if (col < 0) continue;
+            col = mbs_loop_root(parent, col);
+            if (first < 0) first = col;
+            else if (col != first) parent[col] = first;
+        }
+    }
+    for (j = 0; j < MBS_NV; j++) id[j] = -1;  /* block ids by first appearance among the pivots */
+    *bl.nb = 0;
+    for (k = 0; k < r; k++) {
+        const int root = mbs_loop_root(parent, (int)kp[4 + k]);
+        if (id[root] < 0) id[root] = (*bl.nb)++;
+    }
+    for (b = 0, n = 0, e = 0; b < *bl.nb; b++) {
+        bl.k0[b] = n;
+        for (k = 0; k < r; k++)
+            if (id[mbs_loop_root(parent, (int)kp[4 + k])] == b) {
+                cols[n] = kp[4 + k];
+                rows[n] = kp[4 + MBS_NV + k];
+                bl.block[n++] = b;
+            }
+        bl.j0[b] = e;
+        for (j = r; j < MBS_NV; j++)
+            if (id[mbs_loop_root(parent, (int)kp[4 + j])] == b) {
+                cols[r + e] = kp[4 + j];
+                bl.jl[e] = r + e;
+                bl.block[r + e++] = b;
+            }
+    }
+    bl.k0[*bl.nb] = n;
+    bl.j0[*bl.nb] = e;
+    for (j = r; j < MBS_NV; j++)
+        if (id[mbs_loop_root(parent, (int)kp[4 + j])] < 0) {
+            cols[r + e] = kp[4 + j];
+            bl.block[r + e++] = -1;
+        }
+    memcpy(kp + 4, cols, MBS_NV * sizeof(double));
+    memcpy(kp + 4 + MBS_NV, rows, r * sizeof(double));
+    memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
+    w->plan[0] = MBS_LOOP_KEEP_MARK;
+    *bl.clean = 0;
+}
+
+/* Factor G (w->G0, as mbs_loop_jacobian_at left it) with the kept partition, block by block (its plan): each
+ * block's pivot rows in the kept column order into w->G, the rest of its r rows zero, row exchanges among the
+ * block's rows only (they leave the partition unchanged).  rp, cp set.  Returns the smallest pivot relative to
+ * max |G| over all rows (read at the structural nonzeros only), 0 when a pivot vanishes, -1 when G is not
+ * finite. */
+static double mbs_loop_factor_blocks(mbs_loop_work *w)
+{
+    const double *kp = w->keep, *G0 = w->G0;
+    const int r = (int)kp[1];
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    double *A = w->G, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    int i, j, k, c, b, e;
+    for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
+    for (k = 0; k < r; k++) w->rp[k] = kp[4 + MBS_NV + k];
+    for (i = 0; i < MBS_NC; i++)
         for (c = 0; c < MBS_NCOLOUR; c++) {
             const int col = mbs_colour_column[i * MBS_NCOLOUR + c];
             if (col >= 0) {
-                const double a = fabs(src[col]);
-                amax = a > amax ? a : amax;
-                probe += 0.0 * src[col];
-                if (dst) dst[position[col]] = src[col];
+                const double a = fabs(G0[i * MBS_NV + col]);
+                amax0 = a > amax0 ? a : amax0;
+                probe += 0.0 * G0[i * MBS_NV + col];
             }
         }
-    }
-    return probe == 0.0 ? amax : -1.0;
-}
-
-/* Factor G (unfactored, in w->G) with the kept partition: the kept pivot rows in the kept column order, row
- * exchanges among the pivot rows only (they leave the partition unchanged).  Returns the smallest pivot
- * relative to max |G|, 0 when a pivot vanishes, -1 when G is not finite. */
-static double mbs_loop_factor_kept(mbs_loop_work *w)
-{
-    const double *kp = w->keep;
-    const int r = (int)kp[1];
-    double *A = w->G, amax0 = mbs_loop_gather_kept(w, r), minpivot = HUGE_VAL;
-    int i, k;
-    if (amax0 < 0.0) return -1.0;
+    if (!(probe == 0.0)) return -1.0;
     if (!(amax0 > 0.0)) return 0.0;
-    for (k = 0; k < r; k++) {
-        int pi = k;
-        double amax = 0.0;
-        for (i = k; i < r; i++)
-            if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
-        if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
-        minpivot = fmin(minpivot, amax / amax0);
-        if (pi != k) mbs_loop_swap_rows(w, k, pi);
-        mbs_loop_eliminate(A, k, r);
+    if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
+        memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
+        *bl.clean = 1;
+    }
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
+        for (k = k0; k < k1; k++) {  /* the block's rows: its dependent columns, then its independent ones */
+            const double *row = G0 + (int)w->rp[k] * MBS_NV;
+            double *dst = A + k * MBS_NV;
+            for (c = k0; c < k1; c++) dst[c] = row[(int)w->cp[c]];
+            for (e = 0; e < nj; e++) dst[jl[e]] = row[(int)w->cp[jl[e]]];
+        }
+        for (k = k0; k < k1; k++) {
+            int pi = k;
+            double amax = 0.0;
+            for (i = k; i < k1; i++)
+                if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
+            if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
+            minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
+            if (pi != k) {
+                double *x = A + k * MBS_NV, *z = A + pi * MBS_NV;
+                for (c = k0; c < k1; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
+                for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
+                tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+            }
+            for (i = k + 1; i < k1; i++) {
+                double l;
+                if (A[i * MBS_NV + k] == 0.0) continue;
+                l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
+                for (c = k + 1; c < k1; c++) A[i * MBS_NV + c] -= l * A[k * MBS_NV + c];
+                for (e = 0; e < nj; e++) A[i * MBS_NV + jl[e]] -= l * A[k * MBS_NV + jl[e]];
+            }
+        }
     }
     return minpivot;
 }
 
+/* Another factorisation is about to write w->G: the blocks' rows are no longer zero outside them. */
+static void mbs_loop_plan_dirty(const mbs_loop_work *w)
+{
+    *mbs_loop_plan_blocks(w).clean = 0;
+}
+
+/* mbs_loop_solve with the factors of mbs_loop_factor_blocks: each block's rows from its own columns (the same
+ * arithmetic in the same order: the other blocks' entries of a row are exact zeros). */
+static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z)
+{
+    const double *A = w->G;
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    double *y = w->y;
+    int b, c, e, k;
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
+        for (k = k0; k < k1; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+            double s = h ? -h[(int)w->rp[k]] : 0.0;
+            for (c = k0; c < k; c++) s -= A[k * MBS_NV + c] * y[c];
+            y[k] = s;
+        }
+        for (e = 0; e < nj; e++) {
+            const double zj = z[(int)w->cp[jl[e]]];
+            if (zj != 0.0)
+                for (k = k0; k < k1; k++) y[k] -= A[k * MBS_NV + jl[e]] * zj;
+        }
+        for (k = k1 - 1; k >= k0; k--) {  /* U11 z_D = y */
+            double s = y[k];
+            for (c = k + 1; c < k1; c++) s -= A[k * MBS_NV + c] * y[c];
+            y[k] = s / A[k * MBS_NV + k];
+        }
+        for (k = k0; k < k1; k++) z[(int)w->cp[k]] = y[k];
+    }
+}
+
+/* Factor G with the kept partition (valid), by its plan (made first when it is not the kept partition's). */
+static double mbs_loop_factor_kept(mbs_loop_work *w)
+{
+    if (!mbs_loop_plan_holds(w)) mbs_loop_plan_build(w);
+    return mbs_loop_factor_blocks(w);
+}
+
 /* Given the independent entries of z (NV, original column order), set its dependent entries so that the pivot
  * rows of G z + h vanish: G_D z_D = -(G_I z_I + h) on the r pivot rows.  h may be NULL (zero). */
+static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z);
+
 static void mbs_loop_solve(const mbs_loop_work *w, int r, const double *h, double *z)
 {
     const double *A = w->G;
     double *y = w->y;
     int j, k;
+    if (w->blocked) {  /* the kept partition's factors: block by block */
+        mbs_loop_solve_blocks(w, h, z);
+        return;
+    }
     for (k = 0; k < r; k++) {  /* y = L11^-1 (-h_R) - U12 z_I; the zeros of the factors (other loops) skipped */
         double s = h ? -h[(int)w->rp[k]] : 0.0;
         for (j = 0; j < k; j++)
@@ -522,15 +690,17 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
 {
     double pivot;
     int r, rb, valid = adopt >= 0 && mbs_loop_keep_valid(w);
-    w->fresh = w->singular = 0;
+    w->fresh = w->singular = w->blocked = 0;
     if (valid) {
         pivot = mbs_loop_factor_kept(w);
         if (pivot < 0.0) return -1;
         w->pivot = pivot;
-        if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2] && (pivot >= MBS_LOOP_BAND_TOL || w->keep[3] == 0.0))
+        if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2] && (pivot >= MBS_LOOP_BAND_TOL || w->keep[3] == 0.0)) {
+            w->blocked = 1;
             return (int)w->keep[1];
-        memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
+        }
     }
+    memcpy(w->G, w->G0, MBS_NC * MBS_NV * sizeof(double));
     r = mbs_loop_factor(w, &pivot);
     w->fresh = 1;
     w->pivot = pivot;
@@ -748,6 +918,113 @@ static void mbs_loop_row_lists(const mbs_loop_work *w, int r, mbs_loop_rows *row
     rows->at[r] = e;
 }
 
+/* The null-space basis T (NV x m) by packed columns and c0 from the factors in w->G (rank r), whatever their
+ * order: column j holds entries e = start[j] .. start[j + 1] - 1, the value T[e] at velocity Ti[e], for the
+ * independent velocity cp[r + j] (1) and the dependent ones it moves, in velocity order; c0_D solves
+ * G_D c0_D = -gddot0 (w->h) on the pivot rows, c0_I = 0.  Independent loops (blocks of G that share no column)
+ * leave most of T zero: only its nonzeros are stored. */
+static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
+{
+    double *T = w->T;
+    int *Ti = w->Ti, j, k;
+    const int m = MBS_NV - r;
+    mbs_loop_rows rows;
+    mbs_loop_row_lists(w, r, &rows, cpi);
+    {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
+        * row upwards, each row from the nonzeros of U11 and U12 (independent loops: a few per row) */
+        const double *G = w->G;
+        double *Y = w->K;
+        int e = 0;
+        for (k = r - 1; k >= 0; k--) {
+            double *yk = Y + k * MBS_NV;
+            const double d = G[k * MBS_NV + k];
+            memset(yk, 0, m * sizeof(double));
+            for (e = rows.u[k]; e < rows.at[k + 1]; e++) yk[rows.col[e] - r] = -G[k * MBS_NV + rows.col[e]];
+            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) {
+                const double u = G[k * MBS_NV + rows.col[e]];
+                const double *yi = Y + rows.col[e] * MBS_NV;
+                for (j = 0; j < m; j++) yk[j] -= u * yi[j];
+            }
+            for (j = 0; j < m; j++) yk[j] /= d;  /* other loops' columns stay 0 (no branch: it mispredicts) */
+        }
+        e = 0;
+        for (j = 0; j < m; j++) {
+            int first = start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = cpi[r + j];
+            for (k = 0; k < r; k++)
+                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order (the sums below read M along */
+                    int at = e++;                 /* its rows in order) */
+                    for (; at > first && Ti[at - 1] > cpi[k]; at--) {
+                        T[at] = T[at - 1];
+                        Ti[at] = Ti[at - 1];
+                    }
+                    T[at] = Y[k * MBS_NV + j];
+                    Ti[at] = cpi[k];
+                }
+        }
+        start[m] = e;
+        /* c0: G_D c0_D = -gddot0 on the pivot rows, c0_I = 0 (mbs_loop_solve, by the row lists) */
+        for (k = 0; k < r; k++) {
+            double sum = -w->h[(int)w->rp[k]];
+            for (e = rows.at[k]; e < rows.at[k] + rows.nl[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
+            w->y[k] = sum;
+        }
+        for (k = r - 1; k >= 0; k--) {
+            double sum = w->y[k];
+            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
+            w->y[k] = sum / G[k * MBS_NV + k];
+        }
+        memset(w->c0, 0, MBS_NV * sizeof(double));
+        for (k = 0; k < r; k++) w->c0[cpi[k]] = w->y[k];
+    }
+}
+
+/* T, start and c0 as mbs_loop_null_space, from factors of the kept partition made block by block (w->blocked,
+ * mbs_loop_factor_blocks): each independent column's dependent velocities are those of its block, from that
+ * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise. */
+static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
+{
+    const double *G = w->G;
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    double *T = w->T, *y = w->y;
+    int *Ti = w->Ti, b, j, k, c, e = 0;
+    const int m = MBS_NV - r;
+    for (j = 0; j < m; j++) {
+        start[j] = e;
+        T[e] = 1.0;
+        Ti[e++] = cpi[r + j];
+        if ((b = bl.block[r + j]) >= 0) {  /* U11 y = -U12 e_j on the block's rows, upwards */
+            const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
+            for (k = k1 - 1; k >= k0; k--) {
+                double sum = -G[k * MBS_NV + r + j];
+                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
+                y[k] = sum / G[k * MBS_NV + k];
+            }
+            for (k = k0; k < k1; k++) {
+                T[e] = y[k];
+                Ti[e++] = cpi[k];
+            }
+        }
+    }
+    start[m] = e;
+    memset(w->c0, 0, MBS_NV * sizeof(double));
+    for (b = 0; b < *bl.nb; b++) {  /* L11 U11 c0_D = -gddot0 on each block's rows */
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
+        for (k = k0; k < k1; k++) {
+            double sum = -w->h[(int)w->rp[k]];
+            for (c = k0; c < k; c++) sum -= G[k * MBS_NV + c] * y[c];
+            y[k] = sum;
+        }
+        for (k = k1 - 1; k >= k0; k--) {
+            double sum = y[k];
+            for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
+            y[k] = sum / G[k * MBS_NV + k];
+        }
+        for (k = k0; k < k1; k++) w->c0[cpi[k]] = y[k];
+    }
+}
+
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
  * their factors and w->G0, w->h the rows themselves). */
 static int mbs_loop_limit_rows(double t, const double *p, mbs_loop_work *w, int r, int *status)
@@ -820,18 +1097,39 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
 }
 #endif
 
-/* b = f - M c for c zero outside the r dependent velocities cpi[0 .. r - 1] (M symmetric: the rows of M at
- * those velocities, each a contiguous run the compiler vectorises; restrict: b aliases neither M nor c). */
-static void mbs_loop_minus_mass_times(const double *restrict M, const double *restrict c, const int *cpi, int r,
-                                      const double *restrict f, double *restrict b)
+/* mt = M t for t given by its n nonzeros (values tv at velocities ti): the rows of M (symmetric) at those
+ * velocities, each a contiguous run the compiler vectorises (restrict: mt aliases neither M nor t). */
+static void mbs_loop_mass_times_column(const double *restrict M, const double *restrict tv, const int *ti, int n,
+                                       double *restrict mt)
 {
-    int i, k;
-    memcpy(b, f, MBS_NV * sizeof(double));
-    for (k = 0; k < r; k++) {
-        const double ck = c[cpi[k]];
-        const double *restrict row = M + cpi[k] * MBS_NV;
-        for (i = 0; i < MBS_NV; i++) b[i] -= row[i] * ck;
+    int i, e;
+    for (i = 0; i < MBS_NV; i++) mt[i] = 0.0;
+    for (e = 0; e < n; e++) {
+        const double c = tv[e];
+        const double *restrict row = M + ti[e] * MBS_NV;
+        for (i = 0; i < MBS_NV; i++) mt[i] += row[i] * c;
     }
+}
+
+/* gddot0 into w->h, M and f at w->xc, and G there into w->G0: one call of the generated mbs_loop_terms (one pass
+ * over the kinematics, compiler/ccode_loop_terms.py) when the model has it, else the separate functions (G0 then
+ * as the caller left it).  M need not be definite (massless parts): no Cholesky check of it here. */
+static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
+{
+    int s;
+#ifdef MBS_LOOP_TERMS
+    s = mbs_loop_terms(t, w->xc, p, w->M, w->tree);
+#else
+    if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+#ifdef MBS_MASS_MATRIX_UNCHECKED
+    s = mbs_mass_matrix_unchecked(t, w->xc, p, w->M, w->tree);
+#else
+    s = mbs_mass_matrix(t, w->xc, p, w->M, w->tree);  /* status 1 (M singular with massless parts) is no error */
+#endif
+    if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
+    s = mbs_forces(t, w->xc, p, w->f, w->tree);
+#endif
+    return s;
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -841,91 +1139,35 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
     int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
-    mbs_loop_rows rows;
     int i, j, k, s;
-    if ((s = mbs_constraint_acceleration(t, w->xc, p, w->h, w->tree)) != 0) return s;
+    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
+                    * the same state finds h replaced at a singular position) */
+        w->terms = 0;
+    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
+        return s;
     r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
     if (s != 0) return s;
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
-#ifdef MBS_MASS_MATRIX_UNCHECKED  /* M need not be definite: no Cholesky check of it here */
-    s = mbs_mass_matrix_unchecked(t, w->xc, p, M, w->tree);
-#else
-    s = mbs_mass_matrix(t, w->xc, p, M, w->tree);  /* status 1 (M singular with massless parts) is no error */
-#endif
-    if (s != 0 && s != MBS_LOOP_SINGULAR) return s;
-    if ((s = mbs_forces(t, w->xc, p, w->f, w->tree)) != 0) return s;
-    /* null-space basis T (NV x m) by packed columns: column j holds entries e = start[j] .. start[j + 1] - 1,
-     * the value T[e] at velocity Ti[e]; first the independent velocity cp[r + j] (1), then the dependent ones it
-     * moves.  Independent loops (blocks of G that share no column) leave most of T zero: only its nonzeros are
-     * stored and touched below. */
-    mbs_loop_row_lists(w, r, &rows, cpi);
-    {  /* U11 Y = -U12 (L11^-1 0 = 0): the dependent rows of all columns at once (Y in K, row stride NV), row by
-        * row upwards, each row from the nonzeros of U11 and U12 (independent loops: a few per row) */
-        const double *G = w->G;
-        double *Y = w->K;
-        int e = 0;
-        for (k = r - 1; k >= 0; k--) {
-            double *yk = Y + k * MBS_NV;
-            const double d = G[k * MBS_NV + k];
-            memset(yk, 0, m * sizeof(double));
-            for (e = rows.u[k]; e < rows.at[k + 1]; e++) yk[rows.col[e] - r] = -G[k * MBS_NV + rows.col[e]];
-            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) {
-                const double u = G[k * MBS_NV + rows.col[e]];
-                const double *yi = Y + rows.col[e] * MBS_NV;
-                for (j = 0; j < m; j++) yk[j] -= u * yi[j];
-            }
-            for (j = 0; j < m; j++) yk[j] /= d;  /* other loops' columns stay 0 (no branch: it mispredicts) */
-        }
-        e = 0;
-        for (j = 0; j < m; j++) {
-            int first = start[j] = e;
-            T[e] = 1.0;
-            Ti[e++] = cpi[r + j];
-            for (k = 0; k < r; k++)
-                if (Y[k * MBS_NV + j] != 0.0) {  /* inserted in velocity order (the sums below read M along */
-                    int at = e++;                 /* its rows in order) */
-                    for (; at > first && Ti[at - 1] > cpi[k]; at--) {
-                        T[at] = T[at - 1];
-                        Ti[at] = Ti[at - 1];
-                    }
-                    T[at] = Y[k * MBS_NV + j];
-                    Ti[at] = cpi[k];
-                }
-        }
-        start[m] = e;
-        /* c0: G_D c0_D = -gddot0 on the pivot rows, c0_I = 0 (mbs_loop_solve, by the row lists) */
-        for (k = 0; k < r; k++) {
-            double sum = -w->h[(int)w->rp[k]];
-            for (e = rows.at[k]; e < rows.at[k] + rows.nl[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
-            w->y[k] = sum;
-        }
-        for (k = r - 1; k >= 0; k--) {
-            double sum = w->y[k];
-            for (e = rows.at[k] + rows.nl[k]; e < rows.u[k]; e++) sum -= G[k * MBS_NV + rows.col[e]] * w->y[rows.col[e]];
-            w->y[k] = sum / G[k * MBS_NV + k];
-        }
-        memset(w->c0, 0, MBS_NV * sizeof(double));
-        for (k = 0; k < r; k++) w->c0[cpi[k]] = w->y[k];
-    }
-    /* b = f - M c0 (c0 is zero on the independent velocities), a_j = T_j^T b and the lower triangle of
-     * A = T^T M T entry by entry from the nonzeros of T: A_ij = sum over the nonzeros T_f of column i and T_e of
-     * column j of T_f M(Ti_f, Ti_e) T_e, which costs nnz_i nnz_j (a suspension's column moves its loop's few
-     * velocities, a free body's one) rather than an nv-long product M T_j per column */
-    mbs_loop_minus_mass_times(M, w->c0, cpi, r, w->f, w->b);
+    /* the null-space basis T (NV x m, packed columns) and c0 */
+    for (j = 0; j < MBS_NV; j++) cpi[j] = (int)w->cp[j];
+    if (w->blocked)
+        mbs_loop_null_space_blocks(w, r, start, cpi);
+    else
+        mbs_loop_null_space(w, r, start, cpi);
+    /* per column j of T: mt = M T_j (the rows of M at T_j's few velocities, each a contiguous run the compiler
+     * vectorises; M is symmetric), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and
+     * a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 is zero on the independent velocities) */
     for (j = 0; j < m; j++) {
-        double sum = 0.0;
+        double *restrict mt = w->b, sum = 0.0;
         int e, f;
-        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->b[Ti[e]];
+        mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j], mt);
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
+        for (k = 0; k < r; k++) sum -= mt[cpi[k]] * w->c0[cpi[k]];
         w->a[j] = sum;
         for (i = j; i < m; i++) {
             sum = 0.0;
-            for (f = start[i]; f < start[i + 1]; f++) {
-                const double *Mrow = M + Ti[f] * MBS_NV;
-                double column = 0.0;
-                for (e = start[j]; e < start[j + 1]; e++) column += Mrow[Ti[e]] * T[e];
-                sum += T[f] * column;
-            }
+            for (f = start[i]; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
@@ -1041,7 +1283,15 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
 #if MBS_CF_SCRATCH < MBS_TREE_NWORK + MBS_LOOP_KEEP_SIZE
 #error "the closed form's scratch overlaps the kept partition"
 #endif
-#define MBS_CLOSED_FORM_FIRST(call) do { if ((call) == 0) return 0; } while (0)
+/* Where the stamp of mbs_loop_rhs_direct lies: the closed form's scratch overwrites the factors it vouches for.
+ * (Inline: the layout's other pointers are dead, what is left is one addition.) */
+static inline double *mbs_loop_stamp_of(double *work)
+{
+    const mbs_loop_work w = mbs_loop_layout_keeping(work);
+    return w.stamp;
+}
+#define MBS_CLOSED_FORM_FIRST(call) \
+    do { if ((call) == 0) { mbs_loop_stamp_of(work)[0] = 0.0; return 0; } } while (0)
 #else
 #define MBS_CLOSED_FORM_FIRST(call) ((void)0)
 #endif
@@ -1050,9 +1300,10 @@ static int mbs_loop_rates_at_projection(double t, const double *p, double *xdot,
  * other consumer (linearisation, outputs, equilibrium). */
 int mbs_loop_rhs(double t, const double *x, const double *p, double *xdot, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     int r, s;
-    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
+    MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));  /* before the layout: it costs */
+    w = mbs_loop_layout(work);
     s = mbs_loop_project_and_solve(t, x, p, &w, 1, &r);
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, xdot, &w);
     if (s == 0 && MBS_LOOP_STABILIZE > 0) {
@@ -1071,13 +1322,19 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
  * the partition does not change, so x' is as smooth as the mechanism. */
 int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     mbs_loop_info info;
     int r, s;
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_rhs(t, x, p, xdot, work));
+    w = mbs_loop_layout(work);
     memset(&info, 0, sizeof info);
     memcpy(w.xc, x, MBS_NX * sizeof(double));
+#ifdef MBS_LOOP_TERMS  /* G with M, f and gddot0 from one pass over the kinematics */
+    s = mbs_loop_terms_at(t, p, &w);
+    w.terms = s == 0;
+#else
     s = mbs_loop_jacobian_at(t, x, p, &w, 0);
+#endif
     r = -1;
     if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 0, &r, &info);
     if (s == 0) s = mbs_qdot(t, x, p, xdot, w.tree);
@@ -1132,6 +1389,7 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
     double *q = w->xc, res;
     const int r = (int)w->stamp[3];
     int i, k, s;
+    w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
     res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
@@ -1182,10 +1440,11 @@ int mbs_loop_accept(double t, const double *x, const double *p, double *out, dou
 
 int mbs_project(double t, const double *x, const double *p, double *out, double *work)
 {
-    mbs_loop_work w = mbs_loop_layout(work);
+    mbs_loop_work w;
     mbs_loop_info info;
     int s;
     MBS_CLOSED_FORM_FIRST(mbs_closed_form_project(t, x, p, out, work));
+    w = mbs_loop_layout(work);
     s = mbs_loop_project_state(t, x, p, &w, 1, &info);
     memcpy(out, w.xc, MBS_NX * sizeof(double));
     if (s == 0) mbs_loop_projected_store(t, p, &w, info.rank);
@@ -1291,7 +1550,7 @@ int mbs_loop_jacobian(double t, const double *x, const double *p, double *G, dou
 {
     mbs_loop_work w = mbs_loop_layout(work);
     int s = mbs_loop_jacobian_at(t, x, p, &w, 0);
-    memcpy(G, w.G, MBS_NC * MBS_NV * sizeof(double));
+    memcpy(G, w.G0, MBS_NC * MBS_NV * sizeof(double));
     /* the generated G does not test its entries (the solver's scan for the largest does) */
     return s != 0 ? s : isfinite(mbs_loop_maxabs(G, MBS_NC * MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
 }

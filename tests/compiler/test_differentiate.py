@@ -3,7 +3,7 @@
 import pytest
 import sympy as sp
 
-from mbs.compiler.differentiate import NotDifferentiable, forward_derivatives, partial_derivative
+from mbs.compiler.differentiate import NotDifferentiable, forward_derivatives, partial_derivative, sympy_diff
 from mbs.compiler.tape import Tape
 
 x, y, z = sp.symbols("x y z")
@@ -58,3 +58,19 @@ def test_the_generated_jacobian_is_the_same_text_in_every_process(tmp_path):
                              check=True)
         digests.add(out.stdout.strip())
     assert len(digests) == 1 and len(next(iter(digests))) == len(hashlib.sha256().hexdigest())
+
+
+def _expressions():
+    """Sums, products, powers and functions of the kinds the tape holds (and a few it rarely does)."""
+    w = sp.Dummy("w")
+    yield from (x, 3, sp.Rational(-1, 2) * x, x * y * z, -x * y, 2.5 * x**2 * y, 1 / (x + y), sp.sqrt(x * y + 1),
+                x**y, sp.sin(x) * sp.cos(x * y) - 3 * y, (x + 1) * (y - 1) * sp.exp(z * x), sp.atan2(y, x) + w * x,
+                sp.Piecewise((x * y, x > y), (x**3, True)), sp.Abs(x) * y, (x - y)**-3 * w / (1 + z**2),
+                sp.Float(1.5) * (x * y + sp.pi) ** 2)
+
+
+def test_sympy_diff_gives_sympys_expression_itself():
+    # not only the same value: the same expression, so the generated C does not change (the text is compared)
+    for e in _expressions():
+        for s in (x, y, z):
+            assert sympy_diff(sp.sympify(e), s, {}) == sp.diff(e, s), (e, s)

@@ -10,7 +10,7 @@ import sympy as sp
 from mbs.compiler.ccode import generate_c
 from mbs.compiler.equations import derive_equations
 from mbs.compiler.kinematics import Kinematics
-from mbs.compiler.tape import Tape, is_trivial
+from mbs.compiler.tape import Tape, is_trivial, sign_key
 
 sys.path.insert(0, str(Path(__file__).parents[2] / "bench"))
 from chain import chain  # noqa: E402
@@ -78,3 +78,19 @@ def test_generated_code_has_no_multiplication_by_zero_or_one(chain5):
     body = source[source.index("int mbs_rhs"):]
     assert not re.search(r"(?<![\w.])[01](\.0)?\*|\*[01](\.0)?(?![\w.])", body)
     assert not re.search(r"[+-] 0(\.0)?(?![\w.])", body)
+
+
+def test_sign_key_is_the_same_for_an_expression_and_its_negative():
+    # Tape.temp only looks -expr up when an entry has expr's sign key: a key that differed would lose sharing
+    w = sp.Dummy("w")
+    for e in (x + y, x - y, -x - 2 * y + 3, sp.Rational(1, 3) * x * y - z, 2.5 * x * y, -x * y * z, sp.sin(x),
+              -sp.cos(x) * w, x**2 - sp.Float(0.5), (x + y) * z - 1, sp.sqrt(x) - x * w / y):
+        assert sign_key(-e) == sign_key(e), e
+
+
+def test_a_negative_shares_the_temporary():
+    tape = Tape()
+    a = tape.temp(x * y + z * x - 3, "a")
+    assert tape.temp(-x * y - z * x + 3, "b") == -a
+    assert tape.temp(sp.Rational(-1, 2) * sp.sin(x) * y, "c") == -tape.temp(sp.sin(x) * y / 2, "d")
+    assert len(tape) == 2

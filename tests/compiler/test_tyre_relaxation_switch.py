@@ -43,3 +43,17 @@ def test_a_scene_that_sets_the_input_switches_the_relaxation_on():
     assert res.success and system.generate("relaxed").z_names == ("contact.tyre.alpha_r",)
     assert res.unit("contact.tyre.alpha_r") == "rad"
     assert np.max(np.abs(res["fy"] - FY_SS * (1 - np.exp(-V_E * res.t / SIGMA)))) < 1e-9 * FY_SS
+
+
+def test_a_relaxation_length_input_is_not_a_run_time_input():
+    """The length decides the compiled code, so linearising leaves it as the scene sets it (it used to be
+    driven like any input, and the driven length's 1/sigma met sigma = 0: a code generation error) and a
+    run-time value for it is a clear error."""
+    import pytest
+    from mbs.language.diagnostics import MbsError
+    switched = mbs.loads(SWITCHED, path=str(WHEEL))
+    plain = mbs.loads(WHEEL.read_text().replace(", relax_y = sigma", ""), path=str(WHEEL))
+    lin = switched.linearize("roll", at="initial")
+    assert np.allclose(lin.A, plain.linearize("roll", at="initial").A, rtol=1e-9, atol=1e-9)
+    with pytest.raises(MbsError, match="relaxation length"):
+        switched.simulate("roll", inputs={"relax": 0.5})

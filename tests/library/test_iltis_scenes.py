@@ -4,11 +4,16 @@ the tie rods sit 0.14 m behind the front axle, so a rack moved to the left (+y, 
 rear of the carriers left and the wheels steer right (negative angle about z)."""
 
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbs
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from tyrekit import assert_tyre_loads_never_pull  # noqa: E402
 
 TYRES = ("tyre_fl", "tyre_fr", "tyre_rl", "tyre_rr")
 ROD_LEVER = 0.14  # m: the tie rod's carrier point behind the wheel centre (data sheet)
@@ -20,8 +25,7 @@ def vehicle():
 
 
 def loads_never_pull(res):
-    for tyre in TYRES:
-        assert res[f"{tyre}.radial.load"].min() >= 0.0
+    assert_tyre_loads_never_pull(res, TYRES)
 
 
 def test_quarter_car_sinks_into_the_dip_first():

@@ -1,5 +1,8 @@
 """What the tyre tests share: reading a probe scene's tyre outputs at its start, and the fade-in of the library
-tyres' forces from standstill (vx^2 / (vx^2 + v_low^2), see library/tyres/calspan.mbs)."""
+tyres' forces from standstill (vx^2 / (vx^2 + v_low^2), see library/tyres/calspan.mbs), and the
+check that a tyre never pulls."""
+
+import numpy as np
 
 
 def tyre_forces(system, **params) -> dict:
@@ -36,3 +39,18 @@ class TyreProbe:
         if height is not None:
             x[self.index["free.z"]] = height
         return dict(zip(self.names, self.data.outputs(0.0, x)))
+
+
+def assert_tyre_loads_never_pull(res, tyres) -> None:
+    """A tyre load is never negative, up to what the event location leaves: at a lift-off the row before the
+    event evaluates the contact branch where the root finder put its zero, to 1e-12 s (times max(1, t), c/ode.c),
+    so the load there is zero to that time times the load's rate. The rate is bounded from the samples
+    themselves (their steepest difference quotient), not assumed."""
+    t = res.t
+    location = 1e-12 * max(1.0, float(t[-1]))
+    apart = np.diff(t) > 0
+    for tyre in tyres:
+        load = res[f"{tyre}.radial.load"]
+        rate = np.max(np.abs(np.diff(load)[apart] / np.diff(t)[apart]))
+        round_off = 1e-14 * np.max(np.abs(load))
+        assert load.min() >= -(2 * location * rate + round_off), (tyre, load.min(), rate)

@@ -289,3 +289,28 @@ def test_an_edited_model_derives_and_compiles_its_changed_units_again(tmp_path, 
     # same, may come from the cache)
     assert len(built) == 1 and "model_" in built[0].split("compiled ")[1].split(";")[0], built
     assert not np.array_equal(before["guide.s"], after["guide.s"])
+
+
+def test_other_outputs_on_cached_equations_do_not_derive_the_equations(tmp_path, monkeypatch):
+    """A scene with other outputs than the one derived before lowers the model and its outputs, and derives
+    neither the equations of motion nor their code again (a closed loop: its outputs read the loop solver's
+    accelerations and multipliers at run time); its results are those of a run derived and built from nothing."""
+    from mbs.compiler import equations as equations_module
+    calls = []
+    real = equations_module.derive_equations
+
+    def counting(*args, **kwargs):
+        calls.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(equations_module, "derive_equations", counting)
+    cache = tmp_path / "cache"
+    mbs.load(CRANK, cache_dir=cache).simulate("positions")
+    assert len(calls) == 1
+    loads = mbs.load(CRANK, cache_dir=cache).simulate("loads")
+    assert len(calls) == 1  # the equations from the cache, the outputs derived on the lowering alone
+    fresh = mbs.load(CRANK, cache_dir=tmp_path / "fresh").simulate("loads")
+    assert len(calls) == 2
+    assert loads.names == fresh.names
+    for name in loads.names:
+        assert np.array_equal(loads[name], fresh[name]), name
