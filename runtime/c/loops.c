@@ -1494,8 +1494,10 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 }
 
 /* The stamp mbs_project leaves (a marker apart from mbs_loop_stamp_store's): w->xc is the state it returned, G is
- * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors. */
+ * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors (packed:
+ * the stamp holds NQ + 4 doubles, so a model with one position coordinate has no room and always projects). */
 #define MBS_LOOP_PROJECTED_MARK 2791.0
+#define MBS_LOOP_PROJECTED_STAMP (MBS_LOOP_STAMP_SIZE >= 6)
 
 static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w, int r)
 {
@@ -1503,10 +1505,12 @@ static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w
     w->stamp[1] = t;
     w->stamp[2] = mbs_loop_hash_p(p);
     w->stamp[3] = r;
-    w->stamp[4] = w->fresh;
-    w->stamp[5] = w->singular;
-    w->stamp[6] = w->rband;
-    w->stamp[7] = w->pivot;
+    if (!MBS_LOOP_PROJECTED_STAMP) {
+        w->stamp[0] = 0.0;
+        return;
+    }
+    w->stamp[4] = w->fresh + 2 * w->singular + 4 * w->blocked + 8 * w->rband;
+    w->stamp[5] = w->pivot;
 }
 
 /* Is x the state the last mbs_project in this work returned, for (t, p)?  Then its factors are restored into w
@@ -1517,10 +1521,12 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
           && memcmp(w->xc, x, MBS_NX * sizeof(double)) == 0 && w->stamp[2] == mbs_loop_hash_p(p)))
         return 0;
     *r = (int)w->stamp[3];
-    w->fresh = (int)w->stamp[4];
-    w->singular = (int)w->stamp[5];
-    w->rband = (int)w->stamp[6];
-    w->pivot = w->stamp[7];
+    w->fresh = (int)w->stamp[4] & 1;
+    w->singular = ((int)w->stamp[4] >> 1) & 1;
+    w->blocked = ((int)w->stamp[4] >> 2) & 1;
+    w->rband = (int)w->stamp[4] >> 3;
+    w->pivot = w->stamp[5];
+    w->terms = 0;
     return 1;
 }
 
