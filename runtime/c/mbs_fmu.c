@@ -699,7 +699,8 @@ static int fmu_sample(mbs_fmu *m, double *target, long *index)
 #ifdef MBS_FMU_FROZEN
         m->t = m->ode.t;
         memcpy(m->x, m->ode.y, sizeof(double) * MBS_NX);
-        m->ode.restarts->last_t = -HUGE_VAL;  /* chattering is watched here (fmu_zeno), not by the window */
+        for (int k = 0; k < m->ode.nev; k++)  /* chattering is watched here (fmu_zeno), not by the window */
+            m->ode.restarts->last_t[k] = -HUGE_VAL;
         m->ode.restarts->count = 0;
         if (mbs_ode_restart(&m->ode)) {
             fmu_note_event(m, m->ode.t);

@@ -34,8 +34,9 @@ typedef struct mbs_ode_restarts {
     int *flag;              /* [nev]: p index of a switch's branch flag, or -1 */
     int *first;             /* [nev + 1]: the p assignments of event k are index[first[k] .. first[k + 1]) */
     int *index, *slot;      /* p index assigned, and the slot of the actions' output it takes */
-    double window;          /* an event this close after the previous one goes back to the caller (chattering) */
-    double last_t;          /* time of the last event handled here */
+    double window;          /* an indicator firing again this close after its last event here goes back to the
+                             * caller (chattering); another indicator may fire within it (the twin wheel) */
+    double *last_t;         /* [nev]: per indicator, the time of its last event handled here (-HUGE_VAL: none) */
     double h_cut;           /* size of the step in which the pending event was located */
     double t_next;          /* the next crossing located in that step after the event (HUGE_VAL: none) */
     double h_resume;        /* > 0: the step size to go on with after the short step to t_next */
@@ -54,7 +55,7 @@ static void mbs_ode_free_restarts(mbs_ode_restarts *r)
 {
     if (!r) return;
     free(r->handled); free(r->flag); free(r->first); free(r->index); free(r->slot); free(r->log);
-    free(r->f_bridge); free(r->first_step);
+    free(r->f_bridge); free(r->first_step); free(r->last_t);
     free(r);
 }
 
@@ -325,7 +326,7 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     int k, nev = o->nev, nassign = first[nev];
     mbs_ode_restarts *r = calloc(1, sizeof *r);
     if (!r) return -1;
-    r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window; r->last_t = -HUGE_VAL;
+    r->p = p; r->actions = actions; r->nvalues = nvalues; r->window = window;
     r->t_next = HUGE_VAL;
     r->t_fence = -HUGE_VAL;
     r->capacity = capacity > 0 ? capacity : 1;
@@ -338,13 +339,14 @@ static int mbs_ode_set_restarts(mbs_ode *o, double *p, mbs_fn actions, int nvalu
     r->log = calloc((size_t)r->capacity * r->width, sizeof(double));
     r->f_bridge = calloc((size_t)o->n + 1, sizeof(double));
     r->first_step = calloc(2 * (size_t)nev + 1, sizeof(double));
+    r->last_t = calloc((size_t)nev + 1, sizeof(double));
     r->learning = -1;
     if (!r->handled || !r->flag || !r->first || !r->index || !r->slot || !r->log || !r->f_bridge
-        || !r->first_step) {
+        || !r->first_step || !r->last_t) {
         mbs_ode_free_restarts(r);
         return -1;
     }
-    for (k = 0; k < nev; k++) { r->handled[k] = handled[k]; r->flag[k] = flag[k]; }
+    for (k = 0; k < nev; k++) { r->handled[k] = handled[k]; r->flag[k] = flag[k]; r->last_t[k] = -HUGE_VAL; }
     for (k = 0; k < 2 * nev; k++) r->first_step[k] = 1.0;
     for (k = 0; k <= nev; k++) r->first[k] = first[k];
     for (k = 0; k < nassign; k++) { r->index[k] = index[k]; r->slot[k] = slot[k]; }
@@ -448,15 +450,15 @@ static void mbs_ode_euler_dense(const mbs_ode *o, double t, double *out)
  * adjacent doubles), the step's error estimate (half the step times the change of f, in the method's norm) is
  * checked, and the event there is applied and restarted from as the first was.  Returns 1 when it was (the run
  * continues, or stops there when its restart hands it back), 0 with nothing changed when the Euler step does not
- * qualify: no crossing on it, too large an error, a sample time or the end before it, an event closer than the
- * chattering window, or an indicator crossing there that C does not handle. */
+ * qualify: no crossing on it, too large an error, a sample time or the end before it, or an indicator crossing
+ * there that C does not handle (an indicator firing again within the chattering window: mbs_ode_restart). */
 static int mbs_ode_bridge(mbs_ode *o)
 {
     mbs_ode_restarts *r = o->restarts;
     void (*dense)(const mbs_ode *, double, double *) = o->dense;
     double t1 = o->t, b = t1 + 2.0 * (r->t_next - t1), t2 = HUGE_VAL, err;
     int i, k, ok = 0;
-    if (!(b < r->t_fence && b <= o->t_bound && r->t_next - t1 > r->window * fmax(1.0, fabs(r->t_next)))) return 0;
+    if (!(b < r->t_fence && b <= o->t_bound && r->t_next > t1)) return 0;
     o->dense = mbs_ode_euler_dense;
     o->dense(o, b, o->y_try);
     if (o->events(b, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
@@ -466,7 +468,7 @@ static int mbs_ode_bridge(mbs_ode *o)
             if (tk < t2) t2 = tk;
         }
     }
-    if (!(t2 < HUGE_VAL && t2 - t1 > r->window * fmax(1.0, fabs(t2)))) goto done;
+    if (!(t2 < HUGE_VAL && t2 > t1)) goto done;
     o->dense(o, t2, o->y_try);
     if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
     for (k = 0; k < o->nev; k++)
@@ -491,20 +493,20 @@ done:
  * that fired is handled here, log it, apply its actions (values computed before any is applied, Modelica's pre)
  * and restart the method from the same state: f and the indicators evaluated afresh, the step size kept (the
  * state did not jump).  Returns 1 when the run continues, 0 to hand the event to the caller (an event not
- * handled here, a full log, or chattering: two events closer than the window). */
+ * handled here, a full log, or chattering: an indicator firing again within the window). */
 static int mbs_ode_restart(mbs_ode *o)
 {
     mbs_ode_restarts *r = o->restarts;
     int k, j, n = o->n, nev = o->nev, fired = 0, pass;
     double *entry, *g_event, *values, h_step;
-    if (!r || o->t - r->last_t <= r->window * fmax(1.0, fabs(o->t)) || mbs_ode_log_room(r)) return 0;
+    if (!r || mbs_ode_log_room(r)) return 0;
     entry = r->log + (size_t)r->count * r->width;
     g_event = entry + 1 + 2 * (size_t)n + nev;
     values = g_event + nev;
     if (o->events(o->t, o->y, o->p, g_event, o->work) != MBS_OK) return 0;
     for (k = 0; k < nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
-            if (!r->handled[k]) return 0;
+            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) return 0;
             fired++;
         }
     }
@@ -514,6 +516,7 @@ static int mbs_ode_restart(mbs_ode *o)
     memcpy(entry + 1 + 2 * (size_t)n, o->g_old, (size_t)nev * sizeof(double));
     for (k = 0; k < nev; k++) {
         if (!mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) continue;
+        r->last_t[k] = o->t;
         for (j = r->first[k]; j < r->first[k + 1]; j++) r->p[r->index[j]] = values[r->slot[j]];
         if (r->flag[k] >= 0) r->p[r->flag[k]] = g_event[k] > o->g_old[k] ? 1.0 : 0.0;
     }
@@ -523,7 +526,6 @@ static int mbs_ode_restart(mbs_ode *o)
      * old side and fire again within 1e-11 s. */
     memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
     r->count++;
-    r->last_t = o->t;
     h_step = r->h_resume > 0 ? r->h_resume : r->h_cut;
     o->t_old = o->t;
     for (pass = 0;; pass++) {
