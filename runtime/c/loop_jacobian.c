@@ -111,14 +111,19 @@ static int mbs_lj_factor(int n, double *A, double *piv)
     return 0;
 }
 
+/* Solve with the factors of mbs_lj_factor.  Its row exchanges move whole rows, the multipliers already stored
+ * included, so L holds them in the final row order: all exchanges are applied to b first, then L and U (applying
+ * each exchange just before its elimination step, as for factors that exchange only the trailing columns, pairs
+ * a multiplier with the wrong row whenever a later step exchanges rows again). */
 static void mbs_lj_solve(int n, const double *LU, const double *piv, double *b)
 {
     int i, j, k;
     for (k = 0; k < n; k++) {
         int p = (int)piv[k];
         if (p != k) { double tmp = b[k]; b[k] = b[p]; b[p] = tmp; }
-        for (i = k + 1; i < n; i++) b[i] -= LU[i * n + k] * b[k];
     }
+    for (k = 0; k < n; k++)
+        for (i = k + 1; i < n; i++) b[i] -= LU[i * n + k] * b[k];
     for (i = n - 1; i >= 0; i--) {
         for (j = i + 1; j < n; j++) b[i] -= LU[i * n + j] * b[j];
         b[i] /= LU[i * n + i];
