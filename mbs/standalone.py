@@ -33,8 +33,15 @@ def standalone_source(gen: Generated) -> str:
         return gen.c_source
     source = gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
     if "#define MBS_LOOP_JACOBIAN " in gen.c_source:  # its exact Jacobian, when the scene's integrator asked for it
-        source += "\n/* ---- runtime/c/loop_jacobian.c ---- */\n" + (C_DIR / "loop_jacobian.c").read_text()
+        source += "\n/* ---- runtime/c/loop_jacobian.c ---- */\n" + _with_includes_inlined("loop_jacobian.c")
     return source
+
+
+def _with_includes_inlined(name: str) -> str:
+    """The run-time C file `name` with its `#include "x.c"` lines replaced by those files (runtime/c/dense_lu.c in
+    loop_jacobian.c): the standalone source is one file, compiled where runtime/c is not."""
+    return re.sub(r'^#include "(\w+\.c)".*$', lambda m: (C_DIR / m.group(1)).read_text(),
+                  (C_DIR / name).read_text(), flags=re.MULTILINE)
 
 
 #: A top-level declaration or definition of an mbs_ function or datum that is not static yet.

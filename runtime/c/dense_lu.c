@@ -1,4 +1,7 @@
-/* Dense LU factorisation with partial pivoting, row-major, in place (for the stiff integrators). */
+/* Dense LU factorisation with partial pivoting, row-major, in place (for the stiff integrators and the loop
+ * Jacobian, runtime/c/loop_jacobian.c, which includes it too). */
+#ifndef MBS_DENSE_LU_C
+#define MBS_DENSE_LU_C
 #include <math.h>
 
 /* Factor the n x n matrix a (row-major) as P a = L U; piv[k] is the row swapped with row k.
@@ -25,7 +28,10 @@ static int mbs_lu_factor(int n, double *a, int *piv)
     return 0;
 }
 
-/* Solve a x = b in place (b becomes x) with the factors from mbs_lu_factor. */
+/* Solve a x = b in place (b becomes x) with the factors from mbs_lu_factor.  Its row exchanges move whole rows,
+ * multipliers included, so L is in the final row order: the forward substitution goes row by row, exchanging
+ * b[i] just before row i (all later exchanges touch rows after i only); column by column, the exchanges would
+ * have to come first (runtime/c/loop_jacobian.c once paired multipliers with the wrong rows so). */
 static void mbs_lu_solve(int n, const double *lu, const int *piv, double *b)
 {
     int i, j;
@@ -42,3 +48,4 @@ static void mbs_lu_solve(int n, const double *lu, const int *piv, double *b)
         b[i] = s / lu[i * n + i];
     }
 }
+#endif

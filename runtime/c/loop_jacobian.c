@@ -37,6 +37,8 @@
 #include <math.h>
 #include <string.h>
 
+#include "dense_lu.c"  /* the factors of S and T^T M T: mbs_lu_factor, mbs_lu_solve */
+
 #define MBS_LJ_W (MBS_NX + 1)  /* columns of the partials and of the result */
 #define MBS_LJ_ROWS (MBS_NV + 3 * MBS_NC + MBS_NQ)  /* of the partials: R1, R2, gdot, g, qdot */
 #define MBS_LJ_QDOT (MBS_NV + 3 * MBS_NC)  /* first row of qdot */
@@ -47,8 +49,9 @@
 #endif
 
 typedef struct {
-    double *xin, *xdot, *part, *D, *M, *T, *A, *S, *pivS, *pivA, *dx, *h1, *h2, *c, *z, *s, *u, *dn;
+    double *xin, *xdot, *part, *D, *M, *T, *A, *S, *dx, *h1, *h2, *c, *z, *s, *u, *dn;
     double *Mfd, *Gfd, *r0, *r1, *xt;  /* the partials by differences: scratch */
+    int *pivS, *pivA;  /* NV each, in the room of NV doubles each: the row exchanges of S's and A's factors */
     double *dr;  /* MBS_LJ_ROWS: the partials times w->dx (mbs_lj_along) */
     double *zero;  /* MBS_NX: 1 for the columns the projection undoes (mbs_lj_zero_columns) */
     int r, d;
@@ -66,8 +69,8 @@ static mbs_lj_work mbs_lj_layout(double *work)
     w.T = s; s += MBS_NV * MBS_NV;
     w.A = s; s += MBS_NV * MBS_NV;
     w.S = s; s += MBS_NV * MBS_NV;
-    w.pivS = s; s += MBS_NV;
-    w.pivA = s; s += MBS_NV;
+    w.pivS = (int *)s; s += MBS_NV;
+    w.pivA = (int *)s; s += MBS_NV;
     w.dx = s; s += MBS_LJ_W;
     w.h1 = s; s += MBS_NV;
     w.h2 = s; s += MBS_NC;
@@ -91,40 +94,6 @@ static mbs_lj_work mbs_lj_layout(double *work)
     return w;
 }
 
-/* LU with partial pivoting of the n x n row-major A in place; piv[k] the row exchanged with k.  1: singular. */
-static int mbs_lj_factor(int n, double *A, double *piv)
-{
-    int i, j, k;
-    for (k = 0; k < n; k++) {
-        int p = k;
-        for (i = k + 1; i < n; i++)
-            if (fabs(A[i * n + k]) > fabs(A[p * n + k])) p = i;
-        piv[k] = p;
-        if (!(A[p * n + k] != 0.0) || !isfinite(A[p * n + k])) return 1;
-        if (p != k)
-            for (j = 0; j < n; j++) { double tmp = A[k * n + j]; A[k * n + j] = A[p * n + j]; A[p * n + j] = tmp; }
-        for (i = k + 1; i < n; i++) {
-            double l = A[i * n + k] /= A[k * n + k];
-            for (j = k + 1; j < n; j++) A[i * n + j] -= l * A[k * n + j];
-        }
-    }
-    return 0;
-}
-
-static void mbs_lj_solve(int n, const double *LU, const double *piv, double *b)
-{
-    int i, j, k;
-    for (k = 0; k < n; k++) {
-        int p = (int)piv[k];
-        if (p != k) { double tmp = b[k]; b[k] = b[p]; b[p] = tmp; }
-        for (i = k + 1; i < n; i++) b[i] -= LU[i * n + k] * b[k];
-    }
-    for (i = n - 1; i >= 0; i--) {
-        for (j = i + 1; j < n; j++) b[i] -= LU[i * n + j] * b[j];
-        b[i] /= LU[i * n + i];
-    }
-}
-
 static int mbs_lj_col(const mbs_lj_work *w, int k) { return (int)w->part[1 + k]; }
 static int mbs_lj_row(const mbs_lj_work *w, int k) { return (int)w->part[1 + MBS_NV + k]; }
 
@@ -145,7 +114,7 @@ static void mbs_lj_dependent(const mbs_lj_work *w, const double *h, double *vec)
 {
     int k;
     for (k = 0; k < w->r; k++) w->u[k] = h[mbs_lj_row(w, k)];
-    mbs_lj_solve(w->r, w->S, w->pivS, w->u);
+    mbs_lu_solve(w->r, w->S, w->pivS, w->u);
     for (k = 0; k < w->r; k++) vec[mbs_lj_col(w, k)] -= w->u[k];
 }
 
@@ -155,7 +124,7 @@ static int mbs_lj_factors(mbs_lj_work *w, const double *G, int stride)
     int i, j, k, l, r = w->r, d = w->d;
     for (k = 0; k < r; k++)
         for (l = 0; l < r; l++) w->S[k * r + l] = G[mbs_lj_row(w, k) * stride + mbs_lj_col(w, l)];
-    if (mbs_lj_factor(r, w->S, w->pivS)) return 1;
+    if (mbs_lu_factor(r, w->S, w->pivS)) return 1;
     memset(w->T, 0, MBS_NV * MBS_NV * sizeof(double));
     for (k = 0; k < d; k++) {  /* T e_k = e_I - E_D S^-1 G e_I, I the k-th independent column */
         int c = mbs_lj_col(w, r + k);
@@ -174,7 +143,7 @@ static int mbs_lj_factors(mbs_lj_work *w, const double *G, int stride)
             }
             w->A[k * d + l] = sum;
         }
-    return mbs_lj_factor(d, w->A, w->pivA);
+    return mbs_lu_factor(d, w->A, w->pivA) != 0;
 }
 
 #ifdef MBS_LOOP_PARTIALS_BY_DIFFERENCES
@@ -341,7 +310,7 @@ static int mbs_lj_column(double t, const double *p, mbs_lj_work *w, int j, doubl
         for (i = 0; i < MBS_NV; i++) sum += w->T[i * d + k] * w->s[i];
         w->z[k] = sum;
     }
-    mbs_lj_solve(d, w->A, w->pivA, w->z);
+    mbs_lu_solve(d, w->A, w->pivA, w->z);
     for (i = 0; i < MBS_NV; i++) {
         double sum = w->c[i];
         for (k = 0; k < d; k++) sum += w->T[i * d + k] * w->z[k];
