@@ -64,27 +64,3 @@ def test_an_unstable_rest_is_left_to_the_kinetic_damping(tmp_path):
     result = E.static_equilibrium(compiled, data, data.x)
     assert math.cos(result.x[0]) == pytest.approx(1.0, abs=1e-9)  # hanging down
 
-
-def test_chord_steps_reach_full_newtons_rest_with_fewer_evaluations(monkeypatch):
-    """Keeping the Jacobian while the residual falls fast (CHORD_CONTRACTION) must land where Newton with a fresh
-    Jacobian at every step lands (CHORD_CONTRACTION = 0 recomputes it after every step), for fewer rhs calls: on
-    the Iltis vehicle (10 degrees of freedom, so 10 evaluations per Jacobian) from its assembled start."""
-    from mbs.runtime import equilibrium_newton as N
-    system = mbs.load("library/iltis/vehicle.mbs")  # the build cache the other Iltis tests share
-    found = {}
-    for label, contraction in (("chord", N.CHORD_CONTRACTION), ("full", 0.0)):
-        compiled, data = start(system, "bump_5")
-        calls = []
-        rhs = data.function("rhs")
-        monkeypatch.setitem(data._functions, "rhs", lambda t, x, rhs=rhs: calls.append(t) or rhs(t, x))
-        monkeypatch.setattr(N, "CHORD_CONTRACTION", contraction)
-        x = newton_equilibrium(compiled, data, data.x)
-        assert x is not None
-        assert np.max(np.abs(rhs(0.0, x)[compiled.nq:])) < N.TOLERANCE
-        found[label] = (x, len(calls))
-    (chord, n_chord), (full, n_full) = found["chord"], found["full"]
-    # both stop within TOLERANCE = 1e-9 m/s^2 of rest: the stiff coordinates agree to that over the stiffness; the
-    # chassis' travel (x) and yaw have none (a least-squares step moves them by the differences' noise, either way)
-    stiff = [i for i, name in enumerate(compiled.q_names) if name not in ("floating.x", "floating.y", "floating.qz")]
-    assert np.max(np.abs(chord[stiff] - full[stiff])) < 1e-9
-    assert n_chord < 0.8 * n_full
