@@ -41,20 +41,20 @@ def drivable_inputs(model: M.Model) -> tuple[str, ...]:
 
 def with_driven_inputs(model: M.Model) -> M.Model:
     """The model whose every drivable input can be switched to a run-time parameter (module docstring)."""
-    if not drivable_inputs(model):
+    driven = set(drivable_inputs(model))
+    if not driven:
         return model
     extra = []
-    fixed = structural_inputs(model)
     for i in model.inputs:
-        if i.name in fixed:
+        if i.name not in driven:
             continue
         extra.append(M.Parameter(DRIVEN + i.name, X.ZERO, 0.0, None, f"1: input {i.name} is u.{i.name}",
                                  i.span, None))
         extra.append(M.Parameter(VALUE + i.name, X.ZERO, 0.0, i.dimension, f"value of input {i.name} when driven",
                                  i.span, _unit(i.dimension)))
-    inputs = tuple(i if i.name in fixed else dataclasses.replace(i, value=_switch(i.name, i.value))
+    inputs = tuple(dataclasses.replace(i, value=_switch(i.name, i.value)) if i.name in driven else i
                    for i in model.inputs)
-    scenes = tuple(dataclasses.replace(s, inputs=tuple((n, e if n in fixed else _switch(n, e)) for n, e in s.inputs))
+    scenes = tuple(dataclasses.replace(s, inputs=tuple((n, _switch(n, e) if n in driven else e) for n, e in s.inputs))
                    for s in model.scenes)
     return dataclasses.replace(model, parameters=model.parameters + tuple(extra), inputs=inputs, scenes=scenes)
 
@@ -105,6 +105,7 @@ def input_sources(model: M.Model, inputs: Mapping[str, object]) -> tuple[dict[st
     callable u(t) or u(t, x) -> value in SI (x: the state, for feedback), or a table (times, values)
     interpolated linearly and held at its ends."""
     declared = {i.name: i for i in model.inputs}
+    fixed = structural_inputs(model)
     constants, callables = {}, {}
     for name, given in inputs.items():
         if name not in declared:
@@ -112,7 +113,7 @@ def input_sources(model: M.Model, inputs: Mapping[str, object]) -> tuple[dict[st
             names = ", ".join(declared) or "none"
             raise MbsError([Diagnostic("error", f"model '{model.name}' has no input '{name}'"
                                                 f"{did_you_mean(name, declared)} (inputs: {names})", None)])
-        if name in structural_inputs(model):
+        if name in fixed:
             raise MbsError([Diagnostic("error", f"input '{name}' is a tyre's relaxation length: its value decides "
                                                 "the compiled code (a state per relaxed slip, or none), so it is set "
                                                 "in a scene (input NAME = VALUE), not given at run time", None)])
@@ -218,9 +219,9 @@ def linearization_system(system, scene: str | None, params, t: float):
     overrides.update(parameter_overrides(system.model, params))
     values = pipeline.parameter_values(system.model, overrides)
     params = dict(params or {})
-    fixed = structural_inputs(system.model)
+    driven = set(drivable_inputs(system.model))
     for name, value in input_values(system.model, system.scene(scene), values, t).items():
-        if name in fixed:  # a relaxation length: part of the compiled code, not an input of the linear model
+        if name not in driven:  # a relaxation length: part of the compiled code, not an input of the linear model
             continue
         params[DRIVEN + name] = 1.0
         params[VALUE + name] = value
