@@ -37,6 +37,7 @@ from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_def
                           loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
 from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form_functions, closed_form_routine
 from .ccode_loop_terms import LOOP_TERMS, loop_terms_checks, loop_terms_routine
+from .ccode_parts import names_in, plan_parts
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -62,7 +63,7 @@ from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 GENERATOR = "mbs.compiler.ccode"
 #: OUTPUTS_MARKER: the first line of a file's outputs part (generate_c_outputs), which runtime/translation_units.py
 #: builds as a unit of its own, so that a scene asking for other outputs recompiles only that unit.
-from mbs.runtime.translation_units import OUTPUTS_MARKER  # noqa: E402
+from mbs.runtime.translation_units import OUTPUTS_MARKER, PART_SUFFIX  # noqa: E402
 
 
 class NotSeparable(CodegenError):
@@ -334,60 +335,127 @@ class CEmitter:
             return 0
         return self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
 
-    def _run_time_prologue(self, r: Routine) -> list[str]:
-        """Lines that evaluate the accelerations (and multipliers) the function reads, before it reads them."""
+    def _run_time_prologue(self, r: Routine) -> tuple[list[str], list[str]]:
+        """Lines that evaluate the accelerations (and multipliers) the function reads, before it reads them: the
+        pointers to them in work, and the call that fills work with its status test (both empty or neither)."""
         arrays = {array for _, _, array, _ in r.reads}
         if not arrays & {ACCELERATION_ARRAY, MULTIPLIER_ARRAY}:
-            return []
+            return [], []
         scratch = self._output_scratch()
-        lines = ["    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */"]
+        pointers = []
         if ACCELERATION_ARRAY in arrays:  # (a function that reads only multipliers, friction's events, has none)
-            lines.append(f"    const double *const {ACCELERATION_ARRAY} = work + MBS_NQ;")
+            pointers.append(f"    const double *const {ACCELERATION_ARRAY} = work + MBS_NQ;")
         if self.constraints is None:
-            lines += [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
+            call = [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
         else:
-            lines += [f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;",
-                      f"    const int mbs_status = mbs_loop_rates(t, x, p, work, work + {scratch});"]
-        return lines + ["    if (mbs_status != 0)", "        return mbs_status;"]
+            pointers.append(f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;")
+            call = [f"    const int mbs_status = mbs_loop_rates(t, x, p, work, work + {scratch});"]
+        return pointers, [*call, "    if (mbs_status != 0)", "        return mbs_status;"]
 
     def _function(self, r: Routine) -> str:
-        out, size = r.out, _SIZE_MACROS.get(r.out) or str(math.prod(r.shape))
+        out = r.out
         if r.check_positive and self.constraints is not None:
             return unchecked_mass_matrix(self._function(replace(r, name=f"{r.name}_unchecked",
                                                                check_positive=False)), r.name, out)
-        lines = [f"/* {_comment(r.doc)} */",
-                 f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{"]
-        prologue = self._run_time_prologue(r)
-        lines += prologue
-        for s, cname, array, index in r.reads:
-            lines.append(f"    const double {cname} = {array}[{index}];   /* {_comment(s.name)} */")
-        reads = {a for *_, a, _ in r.reads}
-        unused = [arg for arg, present in (("t", r.uses_t), ("x", "x" in reads), ("p", "p" in reads),
-                                           ("work", r.check_positive)) if not (present or prologue)]
-        if unused:
-            lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
-        section = None
-        for step in r.steps:
-            if step.section != section:
-                section = step.section
-                lines.append(f"    /* {_comment(section)} */")
-            if step.guard is not None:
-                lines.append(f"    MBS_PIVOT({step.guard});")
-            lines.append(f"    const double {step.name} = {step.text};")
-        lines.append("    /* outputs */")
-        for k, value in r.results:
-            lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
-        if r.name != CLOSED_FORM:  # (the closed form's callers test what they give: runtime/c/loops.c hooks)
-            lines += [f"    if (!mbs_all_finite({out}, {size}))", "        return 2;"]
-        if r.check_positive:
-            lines.append(f"    return mbs_positive_definite({out}, MBS_NV, work) ? 0 : 1;")
+        pointers, call = self._run_time_prologue(r)
+        plan = plan_parts(r.steps, r.results) if r.name != CLOSED_FORM else None
+        if plan is None:
+            lines = [f"/* {_comment(r.doc)} */",
+                     f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
+                     *([_PROLOGUE_COMMENT] if call else []), *pointers, *call]
+            lines += [_read_line(read) for read in r.reads]
+            reads = {a for *_, a, _ in r.reads}
+            unused = [arg for arg, present in (("t", r.uses_t), ("x", "x" in reads), ("p", "p" in reads),
+                                               ("work", r.check_positive)) if not (present or pointers)]
+            if unused:
+                lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
+            lines += _statements(r.steps, r.results, out)
+            text = "\n".join(lines + self._epilogue(r))
         else:
-            lines.append("    return 0;")
-        lines.append("}\n")
-        text = "\n".join(lines)
+            text = self._parted_function(r, plan, pointers, call)
         if r.name == LOOP_TERMS:
             return loop_terms_checks(text)
         return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
+
+    def _epilogue(self, r: Routine) -> list[str]:
+        """The end of a function once its outputs are written: the test for finite values, the status."""
+        size = _SIZE_MACROS.get(r.out) or str(math.prod(r.shape))
+        lines = []
+        if r.name != CLOSED_FORM:  # (the closed form's callers test what they give: runtime/c/loops.c hooks)
+            lines += [f"    if (!mbs_all_finite({r.out}, {size}))", "        return 2;"]
+        if r.check_positive:
+            lines.append(f"    return mbs_positive_definite({r.out}, MBS_NV, work) ? 0 : 1;")
+        else:
+            lines.append("    return 0;")
+        return lines + ["}\n"]
+
+    def _parted_function(self, r: Routine, plan, pointers: list[str], call: list[str]) -> str:
+        """`r` as its parts (compiler/ccode_parts.py), each a function, and the function that calls them."""
+        parts, slots, copies = plan
+        out, n = r.out, len(parts)
+        texts = []
+        for k, part in enumerate(parts, 1):
+            used = set().union(*map(names_in, _part_texts(part)))
+            reads = [read for read in r.reads if read[1] in used]
+            arrays = {array for *_, array, _ in reads}
+            mine = [line for line in pointers if line.split(" = ")[0].split()[-1] in arrays]
+            lines = [f"/* {r.name}, part {k} of {n}: temporaries {part.steps[0].name} to {part.steps[-1].name} "
+                     "(compiler/ccode_parts.py) */",
+                     f"int {r.name}{PART_SUFFIX}{k}(double t, const double *x, const double *p, double *{out}, "
+                     "double *work, double *carry)", "{", *mine]
+            lines += [_read_line(read) for read in reads]
+            lines += [f"    const double {name} = carry[{slots[name]}];" for name in part.imports]
+            unused = [arg for arg, present in (("t", "t" in used), ("x", "x" in arrays), ("p", "p" in arrays),
+                                               (out, bool(part.results)), ("work", bool(mine)),
+                                               ("carry", bool(part.imports or part.exports))) if not present]
+            if unused:
+                lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
+            lines += _statements(part.steps, part.results, out)
+            if part.exports:
+                lines.append("    /* for the parts after this one */")
+                lines += [f"    carry[{slots[name]}] = {name};" for name in part.exports]
+            texts.append("\n".join(lines + ["    return 0;", "}\n"]))
+        lines = [f"/* {_comment(r.doc)} (in {n} parts) */",
+                 f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
+                 *([_PROLOGUE_COMMENT] if call else []), *call, f"    double carry[{max(len(slots), 1)}];   /* temporaries one part leaves to a later one */",
+                 "    int status;"]
+        for k in range(1, n + 1):
+            lines += [f"    if ((status = {r.name}{PART_SUFFIX}{k}(t, x, p, {out}, work, carry)) != 0)",
+                      "        return status;"]
+        if copies:
+            lines.append("    /* the entries equal to others */")
+            lines += [f"    {out}[{k}] = {out}[{j}];" for k, j in copies]
+        texts.append("\n".join(lines + self._epilogue(r)))
+        return "\n".join(texts)
+
+
+_PROLOGUE_COMMENT = "    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */"
+
+
+def _read_line(read) -> str:
+    s, cname, array, index = read
+    return f"    const double {cname} = {array}[{index}];   /* {_comment(s.name)} */"
+
+
+def _statements(steps, results, out: str) -> list[str]:
+    """The temporaries under their sections' comments (each after its pivot test), then the outputs."""
+    lines, section = [], None
+    for step in steps:
+        if step.section != section:
+            section = step.section
+            lines.append(f"    /* {_comment(section)} */")
+        if step.guard is not None:
+            lines.append(f"    MBS_PIVOT({step.guard});")
+        lines.append(f"    const double {step.name} = {step.text};")
+    lines.append("    /* outputs */")
+    for k, value in results:
+        lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
+    return lines
+
+
+def _part_texts(part) -> list[str]:
+    return ([s.text for s in part.steps] + [s.guard for s in part.steps if s.guard]
+            + [v for _, v in part.results])
 
 
 #: The length of each contract function's output, as the file's size macros.

@@ -41,10 +41,19 @@ COLD_PREFIX = "cold_"
 COLD_FUNCTIONS = frozenset({"mbs_mass_matrix_unchecked", "mbs_mass_matrix", "mbs_forces", "mbs_inverse_dynamics",
                             "mbs_bias_forces", "mbs_gravity_forces", "mbs_frame_positions", "mbs_frame_velocities",
                             "mbs_frame_jacobians"})
+#: With the one-pass loop terms (compiler/ccode_loop_terms.py) the loop solver's right-hand side calls neither the
+#: mass matrix, nor the forces, nor the constraint acceleration (only the loop Jacobian of the implicit integrators,
+#: the equilibrium and a singular position do): they are cold there too.
+COLD_WITH_LOOP_TERMS = COLD_FUNCTIONS | {"mbs_constraint_acceleration"}
 _LOOPS = re.compile(r"^#define MBS_NC ", re.M)
+_LOOP_TERMS = re.compile(r"^#define MBS_LOOP_TERMS\b", re.M)
 #: The first line of a generated file's outputs part (written by compiler/ccode.py, read here).
 OUTPUTS_MARKER = "/* ==== The outputs (MBS_NY, mbs_outputs, mbs_output_name): a part of their own ==== */"
 
+#: A long function is printed as parts `<name>_part<k>` and a function `<name>` that calls them (written by
+#: compiler/ccode_parts.py, read here): the parts of a cold function are cold too.
+PART_SUFFIX = "_part"
+_PART_NAME = re.compile(rf"^(mbs_\w+?){PART_SUFFIX}\d+$")
 _DEFINITION = re.compile(r"^(?:int|double|void|const char \*)\s*(mbs_\w+)\(([^;{}]*)\)$")
 _STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
 
@@ -154,9 +163,9 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
                          f"{prototypes}\n")}
-    cold = set() if _LOOPS.search(layout.header) else COLD_FUNCTIONS
-    hot = tuple(b for b in layout.functions if b.name not in cold)
-    colder = tuple(b for b in layout.functions if b.name in cold)
+    cold = cold_functions(layout.header)
+    hot = tuple(b for b in layout.functions if part_of(b.name) not in cold)
+    colder = tuple(b for b in layout.functions if part_of(b.name) in cold)
     for prefix, functions in (("model_", hot), (COLD_PREFIX, colder)):
         for k, group in enumerate(_balanced(functions) if functions else [], start=1):
             texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */",
@@ -175,6 +184,19 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
                   "const int mbs_ny = MBS_NY;"]
         files[OUTPUTS_UNIT] = "\n".join(texts) + "\n"
     return files
+
+
+def part_of(function: str) -> str:
+    """The function a part belongs to (`mbs_forces_part2` -> `mbs_forces`); any other name unchanged."""
+    m = _PART_NAME.match(function)
+    return m.group(1) if m else function
+
+
+def cold_functions(header: str) -> frozenset[str]:
+    """The functions of a generated file (by its shared header) that no right-hand side calls."""
+    if not _LOOPS.search(header):
+        return COLD_FUNCTIONS
+    return COLD_WITH_LOOP_TERMS if _LOOP_TERMS.search(header) else frozenset()
 
 
 def _balanced(functions: tuple[Block, ...]) -> list[list[Block]]:

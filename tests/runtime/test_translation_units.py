@@ -57,7 +57,7 @@ def test_every_function_lands_in_one_unit_with_the_helpers_it_calls(generated, m
     monkeypatch.setattr(units, "UNIT_CHARS", 2_000)
     files = units.split_sources(generated["slider_crank"], "slider_crank.c")
     layout = units.read_layout(generated["slider_crank"])
-    bodies = {name: text for name, text in files.items() if name.startswith("model_")}
+    bodies = {name: text for name, text in files.items() if name.startswith(("model_", units.COLD_PREFIX))}
     assert len(bodies) > 2
     for block in layout.functions:
         assert sum(block.text in text for text in bodies.values()) == 1
@@ -69,9 +69,10 @@ def test_every_function_lands_in_one_unit_with_the_helpers_it_calls(generated, m
             assert defined == called, helper.name
 
 
-def test_the_functions_no_integrator_calls_go_to_cold_units_of_a_tree_only(generated, monkeypatch):
+def test_the_functions_no_integrator_calls_go_to_cold_units(generated, monkeypatch):
     """An open tree's mass matrix and forces (its rhs is the articulated-body algorithm) are compiled apart, at
-    build.COLD_UNIT_FLAGS; a model with loops, whose loop solver calls them at every rhs, has no cold unit."""
+    build.COLD_UNIT_FLAGS; so are a closed-loop model's when its loop solver takes M, f, G and the bias from the
+    one-pass mbs_loop_terms (with the constraint acceleration); without that function it calls them at every rhs."""
     monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
     tree = units.split_sources(generated["quarter_car"], "quarter_car.c")
     cold = {name: text for name, text in tree.items() if name.startswith(units.COLD_PREFIX)}
@@ -79,8 +80,16 @@ def test_the_functions_no_integrator_calls_go_to_cold_units_of_a_tree_only(gener
     assert not any(re.search(r"^int mbs_(mass_matrix|forces)\(", text, re.M)
                    for name, text in tree.items() if name.startswith("model_"))
     assert any("int mbs_rhs(" in text for name, text in tree.items() if name.startswith("model_"))
+    assert "#define MBS_LOOP_TERMS" in generated["slider_crank"]
     loops = units.split_sources(generated["slider_crank"], "slider_crank.c")
-    assert not any(name.startswith(units.COLD_PREFIX) for name in loops)
+    cold = "\n".join(text for name, text in loops.items() if name.startswith(units.COLD_PREFIX))
+    hot = "\n".join(text for name, text in loops.items() if name.startswith("model_"))
+    for name in ("mbs_mass_matrix_unchecked", "mbs_mass_matrix", "mbs_forces", "mbs_constraint_acceleration"):
+        assert re.search(rf"^int {name}\(", cold, re.M) and not re.search(rf"^int {name}\(", hot, re.M), name
+    assert re.search(r"^int mbs_loop_terms\(", hot, re.M) and re.search(r"^int mbs_constraints\(", hot, re.M)
+    header = units.read_layout(generated["slider_crank"]).header
+    assert units.cold_functions(header.replace("#define MBS_LOOP_TERMS", "#define MBS_NO_LOOP_TERMS")) == set()
+    assert units.part_of("mbs_forces_part12") == "mbs_forces" and units.part_of("mbs_forces") == "mbs_forces"
     model_flags = ("-fmodel",)
     assert build.unit_flags("cold_1.c", model_flags, ()) == (*model_flags, *build.COLD_UNIT_FLAGS)
     assert build.unit_flags("model_1.c", model_flags, ("-fout",)) == model_flags
