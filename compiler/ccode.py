@@ -36,7 +36,8 @@ from .c_text import c_string, name_table  # noqa: F401 (c_string: part of this m
 from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_definitions, loop_functions, loop_routines,
                           loop_work_size, state_rates_routine, unchecked_constraint_matrix, unchecked_mass_matrix)
 from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form_functions, closed_form_routine
-from .ccode_loop_terms import LOOP_TERMS, loop_terms_checks, loop_terms_routine
+from .ccode_loop_terms import (LOOP_TERMS, LOOP_TERMS_READ, loop_terms_checks, loop_terms_readers, loop_terms_routine,
+                               loop_terms_size)
 from .ccode_parts import names_in, plan_parts
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
@@ -190,6 +191,8 @@ class CEmitter:
             functions.append(loop_functions(self.constraints))
         if self.closed_form is not None:
             functions.append(closed_form_functions())
+        if self._loop_terms():
+            functions.append(loop_terms_readers())
         return "\n".join([self._header(), *self._helpers(printer.used, printer.hook_calls), *functions])
 
     def _routines(self) -> list:
@@ -199,10 +202,17 @@ class CEmitter:
             return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
-        return ([r for r in routines if r[0] != "mbs_rhs"] + loops
+        terms = loop_terms_routine(self.eqs, self.constraints, self.constraint_matrix)
+        read_off = set(LOOP_TERMS_READ) if terms else set()  # read off the loop terms (loop_terms_readers)
+        return ([r for r in routines + loops if r[0] != "mbs_rhs" and r[0] not in read_off]
                 + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine,
-                               loop_terms_routine(self.eqs, self.constraints, self.constraint_matrix)) if r]
+                               terms) if r]
                 + (list(self.friction[0]) if self.friction else []))
+
+    def _loop_terms(self) -> bool:
+        """Whether the file has mbs_loop_terms, and mbs_mass_matrix, mbs_forces, mbs_constraint_acceleration
+        read off it."""
+        return self.constraints is not None and self.constraint_matrix is not None
 
     def write(self, path: str | Path) -> Path:
         path = Path(path)
@@ -219,6 +229,8 @@ class CEmitter:
         lines = [*comment, " */",
                  "#include <math.h>",
                  "#include <stddef.h>",
+                 *(["#include <string.h>   /* memcpy: the functions read off the loop terms */"]
+                   if self._loop_terms() else []),
                  "",
                  f"#define MBS_NQ {nq}   /* free position coordinates */",
                  f"#define MBS_NV {nv}   /* free velocity coordinates */",
@@ -243,7 +255,7 @@ class CEmitter:
         if self.parameter_jacobian:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
-            lines += [f"#define MBS_TREE_NWORK {nv * nv}   /* of the tree functions */",
+            lines += [f"#define MBS_TREE_NWORK {self._tree_work()}   /* of the tree functions */",
                       loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
             if self.closed_form is not None:
                 lines.append(closed_form_definitions(self.closed_form, nv, self.constraints.nc))
@@ -322,7 +334,13 @@ class CEmitter:
         loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
-        return tree.nv * tree.nv + loops + self._output_scratch()
+        return self._tree_work() + loops + self._output_scratch()
+
+    def _tree_work(self) -> int:
+        """Doubles of work the generated functions use: the mass matrix's Cholesky test, or all the loop terms
+        that mbs_mass_matrix, mbs_forces and mbs_constraint_acceleration are read off."""
+        nv = self.eqs.tree.nv
+        return max(nv * nv, loop_terms_size(nv, self.constraints.nc) if self._loop_terms() else 0)
 
     def _friction_work(self) -> int:
         """Doubles at the end of the loop solver's work for bearing friction in the loops (MBS_FRICTION_NWORK)."""

@@ -11,14 +11,23 @@ four print 3301 temporaries with 156 sines and cosines, the one function of this
 
 f and gddot0 are tested for finite values (as mbs_forces and mbs_constraint_acceleration test theirs), M and G are
 not (as mbs_mass_matrix_unchecked and mbs_constraint_matrix, compiler/ccode_loops.py: the loop solver tests its
-results and G's entries).  The four functions stay: the contract's, and callers that need one of them.  The
-function exists when G is printed from the tape (ccode_loops.constraint_matrix_routine), whose fork it uses.
+results and G's entries).  The function exists when G is printed from the tape
+(ccode_loops.constraint_matrix_routine), whose fork it uses.
+
+The contract's mbs_mass_matrix and mbs_forces, and mbs_constraint_acceleration, are then read off this function
+(loop_terms_readers) instead of being printed again: no right-hand side calls them (the loop Jacobian of the
+implicit integrators, the equilibrium, linearisation and the user do), and printed on their own they were a
+quarter of the Iltis's C (350 kB of 1.3 MB) and of its compile.  Each evaluates the terms into the tree functions'
+work (MBS_TREE_NWORK, at least MBS_LOOP_TERMS_SIZE doubles then) and copies its part.  A status of the terms
+is theirs: the mass matrix of a state whose forces are not finite says 2, not only the forces.
 """
 
 from __future__ import annotations
 
 #: The generated function's name; runtime/c/loops.c calls it when the file defines MBS_LOOP_TERMS.
 LOOP_TERMS = "mbs_loop_terms"
+#: The functions read off it (loop_terms_readers) instead of printed on their own.
+LOOP_TERMS_READ = ("mbs_mass_matrix", "mbs_forces", "mbs_constraint_acceleration")
 
 
 def loop_terms_routine(equations, constraints, constraint_matrix) -> tuple | None:
@@ -48,3 +57,29 @@ def loop_terms_checks(body: str) -> str:
     narrowed = ("    if (!mbs_all_finite(out + MBS_NV*MBS_NV, MBS_NV)\n"
                 "        || !mbs_all_finite(out + MBS_NV*MBS_NV + MBS_NV + MBS_NC*MBS_NV, MBS_NC))\n")
     return body[:start] + narrowed + body[body.find("\n", start) + 1:]
+
+
+def loop_terms_size(nv: int, nc: int) -> int:
+    """Doubles mbs_loop_terms writes: M, f, G, gddot0."""
+    return nv * nv + nv + nc * nv + nc
+
+
+def loop_terms_readers() -> str:
+    """mbs_mass_matrix, mbs_forces and mbs_constraint_acceleration as parts of mbs_loop_terms' results."""
+    call = ("    const int status = mbs_loop_terms(t, x, p, work, NULL);   /* (the terms use no work of their own) */\n"
+            "    if (status != 0)\n        return status;")
+    return "\n".join([
+        "/* M (nv x nv, row-major) from the loop terms (compiler/ccode_loop_terms.py), evaluated into work: status 1",
+        " * unless M is positive definite, 2 if a term is not finite. */",
+        "int mbs_mass_matrix(double t, const double *x, const double *p, double *M, double *work)", "{", call,
+        "    memcpy(M, work, MBS_NV*MBS_NV * sizeof(double));",
+        "    if (!mbs_all_finite(M, MBS_NV*MBS_NV))", "        return 2;",
+        "    return mbs_positive_definite(M, MBS_NV, work) ? 0 : 1;", "}", "",
+        "/* f = q - k (nv) from the loop terms, evaluated into work. */",
+        "int mbs_forces(double t, const double *x, const double *p, double *f, double *work)", "{", call,
+        "    memcpy(f, work + MBS_NV*MBS_NV, MBS_NV * sizeof(double));", "    return 0;", "}", "",
+        "/* gddot with vdot = 0 (nc) from the loop terms, evaluated into work. */",
+        "int mbs_constraint_acceleration(double t, const double *x, const double *p, double *out, double *work)",
+        "{", call,
+        "    memcpy(out, work + MBS_NV*MBS_NV + MBS_NV + MBS_NC*MBS_NV, MBS_NC * sizeof(double));",
+        "    return 0;", "}", ""])
