@@ -21,6 +21,7 @@ bit: every expression is printed and evaluated exactly as before, only where its
 
 from __future__ import annotations
 
+import itertools
 import re
 from dataclasses import dataclass
 
@@ -35,6 +36,11 @@ def names_in(text: str) -> set[str]:
     """The identifiers a C expression's text mentions (numbers' exponents like the e of 1e-5 included: harmless,
     no temporary is called e)."""
     return set(_IDENTIFIER.findall(text))
+
+
+#: A cut may move this fraction of a part's length away from where the length alone would put it, to where the
+#: fewest temporaries are live (computed before, read after): each of those is a store and a load at run time.
+CUT_WINDOW = 0.4
 
 
 @dataclass(frozen=True)
@@ -57,13 +63,8 @@ def plan_parts(steps, results, part_chars: int | None = None, split_chars: int |
     length = sum(len(s.text) for s in steps) + sum(len(v) for _, v in results if not isinstance(v, int))
     if length <= split_chars or len(steps) < 2:
         return None
-    chunks, size = [[]], 0
-    for step in steps:
-        if size >= part_chars:
-            chunks.append([])
-            size = 0
-        chunks[-1].append(step)
-        size += len(step.text) + (len(step.guard) if step.guard else 0)
+    cuts = _cuts(steps, results, part_chars)
+    chunks = [list(steps[a:b]) for a, b in zip((0, *cuts), (*cuts, len(steps)))]
     if len(chunks) < 2:  # long outputs of few temporaries: nothing to gain
         return None
     home = {s.name: k for k, chunk in enumerate(chunks) for s in chunk}
@@ -89,3 +90,39 @@ def plan_parts(steps, results, part_chars: int | None = None, split_chars: int |
         imports = tuple(n for n in slots if n in needs[k])
         parts.append(Part(tuple(chunk), tuple(placed[k]), imports, exports))
     return tuple(parts), slots, tuple(copies)
+
+
+def _cuts(steps, results, part_chars: int) -> list[int]:
+    """Indices of the steps that start a new part: about every part_chars characters of temporaries, each moved
+    within CUT_WINDOW of that to where the fewest temporaries cross it (an output counts as read at the last
+    temporary it reads, where it will be written)."""
+    index = {s.name: k for k, s in enumerate(steps)}
+    last = list(range(len(steps)))  # the last step (or output) that reads each step
+    for k, step in enumerate(steps):
+        for texts in (step.text, step.guard or ""):
+            for n in names_in(texts):
+                if n in index:
+                    last[index[n]] = max(last[index[n]], k)
+    for _, value in results:
+        if not isinstance(value, int):
+            reads = [index[n] for n in names_in(value) if n in index]
+            for r in reads:
+                last[r] = max(last[r], max(reads))
+    change = [0] * (len(steps) + 2)  # crossing[c]: steps before c read at or after c (from its differences)
+    for k, end in enumerate(last):
+        change[k + 1] += 1
+        change[end + 1] -= 1
+    crossing = list(itertools.accumulate(change))
+    start = [0]
+    for step in steps:
+        start.append(start[-1] + len(step.text) + (len(step.guard) if step.guard else 0))
+    cuts, begin = [], 0
+    while start[-1] - start[begin] > part_chars * (1 + CUT_WINDOW):
+        low, high = start[begin] + part_chars * (1 - CUT_WINDOW), start[begin] + part_chars * (1 + CUT_WINDOW)
+        target = start[begin] + part_chars
+        window = ([c for c in range(begin + 1, len(steps)) if low <= start[c] <= high]
+                  or [next(c for c in range(begin + 1, len(steps)) if start[c] >= low)])
+        cut = min(window, key=lambda c: (crossing[c], abs(start[c] - target)))
+        cuts.append(cut)
+        begin = cut
+    return cuts

@@ -31,7 +31,8 @@ def test_a_short_function_stays_whole():
     assert ccode_parts.plan_parts(steps, [(0, "b")], part_chars=10, split_chars=100) is None
 
 
-def test_the_plan_carries_what_later_parts_read_and_places_each_output_after_its_inputs():
+def test_the_plan_carries_what_later_parts_read_and_places_each_output_after_its_inputs(monkeypatch):
+    monkeypatch.setattr(ccode_parts, "CUT_WINDOW", 0.0)  # cuts by length alone
     steps = _steps(("a", "x0*2.0"), ("b", "a + 1.0"), ("c", "sin(x1)"), ("d", "c*a"), ("e", "d + c"), ("f", "e*e"))
     results = [(0, "a"), (1, "f + b"), (2, "3.0"), (3, 1), (4, "c")]
     parts, slots, copies = ccode_parts.plan_parts(steps, results, part_chars=10, split_chars=1)
@@ -47,6 +48,18 @@ def test_the_plan_carries_what_later_parts_read_and_places_each_output_after_its
                              + [v for _, v in part.results]))
         assert set(part.imports) == {n for n in read if home.get(n, k) < k}
         assert set(part.exports) == {s.name for s in part.steps if s.name in slots}
+
+
+def test_a_cut_moves_to_where_the_fewest_temporaries_are_live():
+    # ten steps of 10 characters, parts of 40: by length alone the cut falls before e (step 4); the window
+    # (24..56 characters) allows c, d or e... before step 3, 4 or 5. a and b are read at the end; the chain c, d, e
+    # ends in an output written at e: before f only a and b cross, before d or e also the chain's last link
+    steps = _steps(("a", "x0*1.00000"), ("b", "x1*1.00000"), ("c", "x2*1.00000"), ("d", "c*1.000000"),
+                   ("e", "d*1.000000"), ("f", "x3*1.00000"), ("g", "f*1.000000"), ("h", "g*1.000000"),
+                   ("i", "h*1.000000"), ("j", "i + a + b"))
+    parts, slots, _ = ccode_parts.plan_parts(steps, [(0, "j"), (1, "e")], part_chars=40, split_chars=1)
+    assert [[s.name for s in p.steps] for p in parts] == [list("abcde"), list("fghij")]
+    assert set(slots) == {"a", "b"}
 
 
 def test_a_chain_in_parts_compiles_cleanly_and_gives_the_same_bits(tmp_path, monkeypatch):
