@@ -7,8 +7,15 @@ loop-closure constraints. The Jacobian (the reduced stiffness over the reduced m
 differences, one column per independent velocity, moving the positions along that velocity (q += qdot(q, e_j) h,
 which handles quaternions) and projecting, afresh at every step (chord steps, keeping it while the residual falls
 fast, saved a third of the evaluations on the Iltis but moved the steady run of tests/mbs/models/flat_car.mbs so
-that its modes no longer separated: left out). Directions without stiffness (a wheel's spin, the chassis' position on
-level ground) have zero columns: the least-squares step leaves them where they are, as the kinetic damping did.
+that its modes no longer separated: left out). Directions without stiffness (a wheel's spin, the chassis' position and
+heading on level ground) span the null space of J: the step holds as many coordinates exactly where they are, those
+that null space moves most (subset selection: QR with column pivoting of its basis, Golub and Van Loan, Matrix
+Computations, section 5.5), and solves for the others, as the kinetic damping leaves them where they are. The
+minimum-norm step does not: where a free direction's column is not zero but lies in the span of the stiff ones (the
+Iltis' heading, its front wheels at the start of the bump: yaw moves one contact onto it, the other off), the null
+vector is that direction plus a little of the stiff ones, and the minimum-norm step moves the free direction by that
+little times the step, noise included: the heading by 9e-10 rad, at 10 m/s a slip angle whose lateral forces rolled
+the car over the in-phase bump by 5e-9 rad (its mirror-symmetric start rolls by 1e-15 rad).
 
 Newton finds any stationary point; a solution is accepted only if it is stable (no eigenvalue of the reduced
 Jacobian d a / d q_I with a positive real part), so a start near an unstable position falls back to the kinetic
@@ -18,6 +25,7 @@ damping of runtime/equilibrium.py, which slides into the nearest minimum.
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg
 
 #: Newton iterations before giving up (a converging run takes 3-6).
 MAX_ITERATIONS = 30
@@ -71,9 +79,8 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
                 dv = np.zeros(nv)
                 dv[j] = DIFFERENCE_STEP
                 J[:, k] = (accelerations(move(x, dv)) - acc) / DIFFERENCE_STEP
-            step = np.linalg.lstsq(J, -acc, rcond=RCOND)[0]
             dv = np.zeros(nv)
-            dv[free] = step
+            dv[free] = _step(J, acc)
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
                 trial = move(x, dv)
                 trial_acc = accelerations(trial)
@@ -86,6 +93,20 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
     except Exception:  # a failing evaluation far from the start: leave it to the kinetic damping
         return None
     return None
+
+
+def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
+    """The least-squares Newton step in the independent coordinates (columns of J), exactly zero in those the null
+    space of J (singular values below RCOND times the largest) moves most: one held per null direction."""
+    step = np.zeros(J.shape[1])
+    if not J.size or not np.any(J):
+        return step
+    _, s, vt = np.linalg.svd(J, full_matrices=False)
+    rank = int(np.count_nonzero(s > RCOND * s[0]))
+    held = scipy.linalg.qr(vt[rank:], pivoting=True)[2][:J.shape[1] - rank] if rank < J.shape[1] else []
+    kept = np.setdiff1d(np.arange(J.shape[1]), held)
+    step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
+    return step
 
 
 def _stable(J: np.ndarray, free: np.ndarray) -> bool:

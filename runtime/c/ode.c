@@ -198,7 +198,7 @@ static int mbs_ode_set_events(mbs_ode *o, mbs_fn events, int nev, const int *dir
     o->directions = calloc((size_t)nev + 1, sizeof(int));
     o->g_old = calloc((size_t)nev + 1, sizeof(double));
     o->g_new = calloc((size_t)nev + 1, sizeof(double));
-    o->g_try = calloc((size_t)nev + 1, sizeof(double));
+    o->g_try = calloc(2 * (size_t)nev + 1, sizeof(double));  /* and the located times (mbs_ode_located) */
     o->y_try = calloc((size_t)o->n + 1, sizeof(double));
     if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->y_try) return -1;
     for (k = 0; k < nev; k++) o->directions[k] = directions[k];
@@ -282,27 +282,43 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
     }
 }
 
+/* The located crossing time of each indicator in the step (NaN: none): the upper half of g_try, which
+ * mbs_ode_set_events makes 2 nev long (the events fill its lower half). */
+static double *mbs_ode_located(const mbs_ode *o)
+{
+    return o->g_try + o->nev;
+}
+
 /* After an accepted step: stop at the earliest located crossing (status MBS_ODE_EVENT, t and y at it; g_old
- * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old. */
+ * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old.
+ * Crossings within MBS_ODE_DEPARTURE_STEP of the earliest are one event, at the latest of them, where each has
+ * crossed: the mirror-image wheels of a symmetric vehicle over one bump cross 1e-14 s apart, by the round-off of
+ * their states.  Stopped at the first alone, the second would lie within the departure step of the restart: its
+ * switch taken over by mbs_ode_settle without an event, and the short step to its crossing (1e-14 s) would meet
+ * it again on the other side by the projection's round-off, again and again (chattering). */
 static void mbs_ode_find_event(mbs_ode *o)
 {
     int k, s, found = 0;
-    double t_event = o->t, t_next = HUGE_VAL, *swap;
+    double t_event = o->t, t_next = HUGE_VAL, t_first = HUGE_VAL, together, *swap, *located = mbs_ode_located(o);
     mbs_ode_restarts *r = o->restarts;
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
     for (k = 0; k < o->nev; k++) {
+        located[k] = NAN;
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
-            double tk = mbs_ode_locate(o, k, o->t_old, o->t, o->g_old[k], o->g_new[k]);
-            if (!found || tk < t_event) {
-                if (found) t_next = t_event;
-                t_event = tk;
-            } else if (tk > t_event && tk < t_next) {
-                t_next = tk;
-            }
+            located[k] = mbs_ode_locate(o, k, o->t_old, o->t, o->g_old[k], o->g_new[k]);
+            if (located[k] < t_first) t_first = located[k];
             found = 1;
         }
+    }
+    if (found) {  /* the event: the latest crossing within the departure step of the first; then the next after it */
+        together = t_first + MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(t_first));
+        t_event = t_first;
+        for (k = 0; k < o->nev; k++)
+            if (located[k] <= together && located[k] > t_event) t_event = located[k];
+        for (k = 0; k < o->nev; k++)
+            if (located[k] > t_event && located[k] < t_next) t_next = located[k];
     }
     if (!found) {
         swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;

@@ -37,6 +37,25 @@ def test_static_tyre_forces_add_up_to_the_weight(vehicle):
     assert total == pytest.approx(total_weight(vehicle), rel=1e-6)
 
 
+def test_the_start_is_the_mirror_image_of_itself(vehicle):
+    """The model is symmetric about the car's xz plane, so its rest is: no roll, no heading, no lateral offset, and
+    each right coordinate the mirror image of its left twin, to round-off. Heading and lateral position feel no
+    force at rest, so the equilibrium must leave them where they start (0); it moved the heading by 9e-10 rad by
+    the noise of its Jacobian, which rolled the car over the in-phase bump at 10 m/s by 5e-9 rad."""
+    result, outputs = vehicle.equilibrium("bump_5")
+    for name in ("roll", "yaw", "lateral"):
+        assert abs(outputs[name]) < 1e-12, name
+    compiled = vehicle.compile("bump_5")
+    names = list(compiled.q_names) + list(compiled.v_names)
+    mirrored = ("lower_ball.qx", "lower_ball.qz", "lower_ball.wx", "lower_ball.wz")  # components that change sign
+    for i, name in enumerate(names):
+        for left, right in (("fl.", "fr."), ("rl.", "rr.")):
+            if left in name:
+                sign = -1.0 if name.endswith(mirrored) else 1.0
+                twin = result.x[names.index(name.replace(left, right))]
+                assert result.x[i] == pytest.approx(sign * twin, abs=1e-12), name
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scene, lifts_off", [("bump_5", False), ("bump_10", True)])
 def test_in_phase_bump_stays_symmetric_and_tyres_never_pull(vehicle, scene, lifts_off):

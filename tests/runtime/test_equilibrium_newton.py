@@ -14,7 +14,7 @@ import mbs
 from mbs import pipeline
 from mbs.runtime import build
 from mbs.runtime import equilibrium as E
-from mbs.runtime.equilibrium_newton import newton_equilibrium
+from mbs.runtime.equilibrium_newton import _step, newton_equilibrium
 
 pytestmark = pytest.mark.skipif(not build.have_c_compiler(), reason="needs a C compiler")
 
@@ -64,3 +64,18 @@ def test_an_unstable_rest_is_left_to_the_kinetic_damping(tmp_path):
     result = E.static_equilibrium(compiled, data, data.x)
     assert math.cos(result.x[0]) == pytest.approx(1.0, abs=1e-9)  # hanging down
 
+
+
+def test_a_direction_without_stiffness_is_held_exactly_where_its_column_is_not_zero():
+    """Coordinates (z, pitch, yaw): yaw feels no force (its row of accelerations is zero) but moves the z
+    acceleration a little (its column is 1 % of z's: the Iltis' heading with its front wheels at the start of the
+    bump). The rest it finds must keep yaw where it was and solve the other two by hand: z = 1/100, pitch = 2/50.
+    The minimum-norm step would move yaw by about 1e-4 (the test's teeth)."""
+    J = np.array([[-100.0, 0.0, -1.0],
+                  [0.0, -50.0, 0.0],
+                  [0.0, 0.0, 0.0]])
+    acc = np.array([1.0, 2.0, 0.0])
+    step = _step(J, acc)
+    assert step[2] == 0.0
+    assert step[:2] == pytest.approx([0.01, 0.04], rel=1e-14)
+    assert abs(np.linalg.lstsq(J, -acc, rcond=None)[0][2]) > 1e-5
