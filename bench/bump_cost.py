@@ -1,9 +1,11 @@
 """Where the time of the Iltis bump scenes goes, and the tree-speed bound: what is reachable at their tolerance.
 
-    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5]
+    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR]
 
 Per scene, the whole `System.simulate(scene)` (equilibrium included, results with every output; DOPRI5 in C, the
-scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs:
+scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs.  All times are
+CPU seconds of this process (single-threaded, so a quiet machine's wall time): on a shared machine the wall times
+of one run wander by a factor of two and more with the others' load.  The parts:
 
 * equilibrium: `static_equilibrium` (Newton on the reduced equations);
 * integration in C (`Solver.sample`: every step, projection, event location and restart that C does itself), and
