@@ -35,6 +35,10 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
   real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
   and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
+  and the tree-speed bound: the run's rhs count times the open chain's rhs (the wall time if the closed-loop rhs
+  were as cheap as an open tree and nothing else cost anything) as a real-time factor, and the factor with the
+  rhs at tree speed and the other parts as measured (the rhs estimated as rhs count x `loop_rhs` at the
+  equilibrium, a lower bound: bench/bump_cost.py times the parts inside the run);
   with --rk45 also scipy's RK45 on the same compiled model, as a ratio;
 * per scene, both forms of the model's kinks (unless --no-switches): the smooth form (`switches = false`: the
   tyre contact, leaf stop and damper kinks as min/max inside the rhs, which the step size control meets as
@@ -220,6 +224,11 @@ def main() -> None:
                 base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
                 line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
             print(line + ("" if res.success else f"  ({res.message})"))
+            bound = stats.get("nfev", 0) * open_rhs  # the rhs as cheap as the open tree, nothing else costing
+            print(f"{'':8s} tree-speed bound: {stats.get('nfev', 0)} rhs x {open_rhs * 1e6:.2f} us (open chain) = "
+                  f"{bound * 1e3:.0f} ms, real-time factor {t_end / bound:.0f}; with the rest as measured "
+                  f"{t_end / (wall - min(stats.get('nfev', 0) * direct, integ) + bound):.1f} (bench/bump_cost.py "
+                  f"splits the parts)")
         print(f"(RTF = simulated / wall time, from the start of simulate to the results with every output; "
               f"target >= {TARGET_RTF:g})")
         if not args.no_switches:

@@ -1,0 +1,192 @@
+"""Where the time of the Iltis bump scenes goes, and the tree-speed bound: what is reachable at their tolerance.
+
+    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR]
+
+Per scene, the whole `System.simulate(scene)` (equilibrium included, results with every output; DOPRI5 in C, the
+scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs.  All times are
+CPU seconds of this process (single-threaded, so a quiet machine's wall time): on a shared machine the wall times
+of one run wander by a factor of two and more with the others' load.  The parts:
+
+* equilibrium: `static_equilibrium` (Newton on the reduced equations);
+* integration in C (`Solver.sample`: every step, projection, event location and restart that C does itself), and
+  of it the right-hand side calls (the run's rhs count times the cost per call of `loop_rhs`, timed inside C at
+  states of the run) and the rest, the per-step overhead (stages' arithmetic, error norm, the projection of each
+  accepted step, the dense output, the event indicators and their root finding, the restarts' bookkeeping);
+* the events C handled, booked in Python (`event_loop.replay`: records, run-time values, rows);
+* outputs: the rows of the results (each projected onto the loop constraints, then its outputs with the
+  reaction forces: `Function.rows`), per row;
+* the Python driver: the rest (the workspace, the switches' start, the results' assembly).
+
+The tree-speed bound is the run's rhs count times the rhs cost of bench/chain.py's open chain with as many joint
+velocities as the vehicle (articulated-body recursion): the wall time of the integration if the closed-loop rhs cost
+what an open tree costs and nothing else cost anything; printed as a real-time factor beside the one measured, and
+the real-time factor with every other part as measured and the rhs at tree speed.  Issue 12's target is 100.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mbs
+import mbs.system
+from mbs.runtime import event_loop
+from mbs.runtime.guard import RunGuard
+from mbs.runtime.workspace import Workspace
+
+sys.path.insert(0, str(Path(__file__).parent))
+from chain import chain_text  # noqa: E402
+
+simulate_module = importlib.import_module("mbs.runtime.simulate")  # the package exports its function
+
+MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
+TARGET_RTF = 100.0
+#: rounds over the run's rows that time the rhs, and calls that time the open chain's (at one state)
+RHS_ROUNDS = 5
+RHS_CALLS = 300
+#: CPU seconds of this process: on a shared machine wall times wander with the other processes' load (this bench
+#: is single-threaded: the CPU time is the wall time of a quiet machine)
+clock = time.process_time
+
+
+class PartTimer:
+    """Wraps functions (module or class attributes) so that the seconds spent inside each are summed per part;
+    nested parts are not double counted because the wrapped parts do not call one another."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+        self.saved: list = []
+
+    def wrap(self, owner, name: str, part: str) -> None:
+        real = getattr(owner, name)
+        self.saved.append((owner, name, real))
+        seconds = self.seconds
+
+        def timed(*args, **kwargs):
+            start = clock()
+            try:
+                return real(*args, **kwargs)
+            finally:
+                seconds[part] = seconds.get(part, 0.0) + clock() - start
+        setattr(owner, name, timed)
+
+    def restore(self) -> None:
+        for owner, name, real in reversed(self.saved):
+            setattr(owner, name, real)
+
+
+def timed_run(system, scene: str):
+    """One whole simulate(): (wall, seconds per part, results)."""
+    parts = PartTimer()
+    parts.wrap(mbs.system, "static_equilibrium", "equilibrium")
+    real_watch = RunGuard.watch
+
+    def watch(guard, solver):  # the guard gives each solver a sample of its own (C budgets): time that one
+        real_watch(guard, solver)
+        parts.wrap(solver, "sample", "integration")
+    RunGuard.watch = watch
+    parts.wrap(event_loop, "replay", "events booked")
+    parts.wrap(simulate_module, "project_and_evaluate_rows", "outputs")
+    parts.wrap(simulate_module, "evaluate_rows", "outputs")
+    try:
+        start = clock()
+        res = system.simulate(scene)
+        wall = clock() - start
+    finally:
+        RunGuard.watch = real_watch
+        parts.restore()
+    return wall, parts.seconds, res
+
+
+def rhs_cost(system, scene: str, res) -> float:
+    """CPU seconds per call of the rhs DOPRI5 calls (`loop_rhs`, no projection) inside C, over the states of the
+    run one after another (its rows, in one `Function.rows` call: no Python between them), the run-time values of
+    the scene's start (a switch's branch changes which side of a kink is evaluated, not the cost).  One state
+    called again and again (`time_call`) finds the caches warm and costs about two thirds of this."""
+    compiled = system.compile(scene)
+    from mbs import pipeline
+    values = pipeline.parameter_values(system.model, pipeline.scene_overrides(system.scene(scene)))
+    data = system._workspace(compiled, system.generate(scene), values)
+    f = data.function("loop_rhs")
+    xs = np.column_stack([res[name] for name in compiled.x_names])
+    distinct = np.r_[True, np.any(xs[1:] != xs[:-1], axis=1)]  # the rows at an event's two sides: once (rows
+    ts = np.ascontiguousarray(res["time"][distinct], dtype=float)  # copies a repeated row instead of calling f)
+    xs = np.ascontiguousarray(xs[distinct])
+    out, ps, which = np.empty_like(xs), data.p.copy()[None, :], np.zeros(len(ts), dtype=np.intp)
+    costs = []
+    for _ in range(RHS_ROUNDS):
+        start = clock()
+        done = f.rows(ts, xs, out, ps, which)
+        costs.append((clock() - start) / max(1, done))
+    return statistics.median(costs)
+
+
+def cpu_per_call(compiled, f, x, calls: int) -> float:
+    """CPU seconds per call of f at x, called `calls` times inside C (no Python between the calls)."""
+    x = np.ascontiguousarray(x, dtype=float)
+    compiled.backend.time_call(f, x, 5, 0.0)  # warm
+    start = clock()
+    compiled.backend.time_call(f, x, calls, 0.0)
+    return (clock() - start) / calls
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--cache-dir", default=None)
+    args = ap.parse_args(argv)
+    system = mbs.load(MODEL, cache_dir=args.cache_dir)
+    compiled = system.compile(args.scenes[0])
+    chain = mbs.loads(chain_text(compiled.nv), cache_dir=args.cache_dir).compile()
+    chain_data = Workspace(chain)
+    chain_rhs = statistics.median(cpu_per_call(chain, chain_data.function("rhs"), chain.x0, 10 * RHS_CALLS)
+                                  for _ in range(5))
+    print(f"Iltis bump scenes, DOPRI5 in C, whole simulate() (equilibrium to results with every output), CPU time, "
+          f"medians of {args.repeat}; open chain of {compiled.nv} links: rhs {chain_rhs * 1e6:.2f} us per call")
+    for scene in args.scenes:
+        t_end = system.scene(scene).t_end
+        system.simulate(scene)  # compile and warm up
+        runs = [timed_run(system, scene) for _ in range(args.repeat)]
+        res = runs[-1][2]
+        stats = res.metadata["stats"]
+        nfev, rows = stats["nfev"], len(res["time"])
+        med = statistics.median
+        wall = med(r[0] for r in runs)
+        part = {name: med(r[1].get(name, 0.0) for r in runs)
+                for name in ("equilibrium", "integration", "events booked", "outputs")}
+        rhs = rhs_cost(system, scene, res)
+        rhs_total = min(nfev * rhs, part["integration"])
+        driver = max(0.0, wall - sum(part.values()))
+        bound = nfev * chain_rhs
+        rest_at_tree = wall - rhs_total + bound
+
+        def line(name, seconds, note=""):
+            print(f"  {name:34s} {seconds * 1e3:8.1f} ms {100 * seconds / wall:5.1f} %  {note}")
+        print(f"\n{scene}: {t_end:g} s simulated in {wall * 1e3:.0f} ms, real-time factor {t_end / wall:.1f} (target "
+              f"{TARGET_RTF:g}); {stats['nsteps']} steps, {stats.get('nreject', 0)} rejected, {nfev} rhs, "
+              f"{stats.get('nevents', 0)} events, {rows} rows")
+        line("equilibrium", part["equilibrium"])
+        line("integration in C", part["integration"])
+        line("  of it rhs calls", rhs_total, f"{nfev} x {rhs * 1e6:.2f} us (loop_rhs over the run's rows)")
+        line("  of it per-step overhead", part["integration"] - rhs_total,
+             f"{(part['integration'] - rhs_total) / max(1, stats['nsteps']) * 1e6:.1f} us per step (projection, "
+             f"dense output, indicators, root finding, restarts)")
+        line("events booked in Python", part["events booked"])
+        line("outputs", part["outputs"], f"{rows} rows, {part['outputs'] / max(1, rows) * 1e6:.1f} us per row "
+             f"({part['outputs'] / max(1, rows) / rhs:.1f} rhs)")
+        line("Python driver (the rest)", driver)
+        print(f"  tree-speed bound: {nfev} rhs x {chain_rhs * 1e6:.2f} us (open chain) = {bound * 1e3:.1f} ms: "
+              f"real-time factor {t_end / bound:.0f} with nothing else costing; {t_end / rest_at_tree:.1f} with the "
+              f"other parts as measured (now {t_end / wall:.1f})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
