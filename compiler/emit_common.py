@@ -118,8 +118,20 @@ def _minus_sign(term) -> bool:
     it with term (which only an infinite factor makes equal), a tenth of the time of printing a large model."""
     if term.is_Mul:
         first = term.args[0]
-        return first.is_Number and bool(first.is_extended_negative)
+        return first.is_Number and negative_number(first, extended=True)
     return bool(term.could_extract_minus_sign())
+
+
+def negative_number(number, extended: bool = False) -> bool:
+    """number.is_negative (extended: .is_extended_negative, true for -oo too) of a sympy Number, by plain
+    comparison for a rational or a float: sympy asks its assumptions system, and a fresh Float or Rational (every
+    coefficient the derivation makes) deduces all its facts at the first question, a quarter of the printing."""
+    p = getattr(number, "p", None)  # Integer, Rational
+    if p is not None:
+        return p < 0
+    if number.is_Float:
+        return float(number) < 0  # NaN: False, as sympy's None
+    return bool(number.is_extended_negative if extended else number.is_negative)
 
 
 class ExprPrinter:
@@ -256,11 +268,11 @@ class ExprPrinter:
     def _print_Mul(self, expr):
         coeff, rest = expr.as_coeff_Mul()
         sign = ""
-        if coeff.is_negative:
+        if negative_number(coeff):
             sign, coeff = "-", -coeff
         num, den = [], []
         for factor in sp.Mul.make_args(rest):
-            if factor.is_Pow and factor.exp.is_Rational and factor.exp.is_negative:
+            if factor.is_Pow and factor.exp.is_Rational and factor.exp.p < 0:
                 den.append(factor.base if factor.exp == -1 else sp.Pow(factor.base, -factor.exp))
             else:
                 num.append(factor)
@@ -275,7 +287,7 @@ class ExprPrinter:
         base, exp = expr.args
         if exp == sp.S.Half:
             return self._call("sqrt", [base])
-        if exp.is_Rational and exp.is_negative:
+        if exp.is_Rational and exp.p < 0:
             return "1.0/" + self._paren(sp.Pow(base, -exp), PREC_ATOM), PREC_MUL
         if exp in (2, 3) and base.is_Atom:
             return "*".join([self._paren(base, PREC_MUL)] * int(exp)), PREC_MUL
