@@ -17,6 +17,7 @@ from importlib import metadata
 import sympy as sp
 
 from .hooks import is_helper as is_hook_helper
+from .tape import symbols_of
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -163,7 +164,7 @@ class ExprPrinter:
         """expr.free_symbols, remembered (the functions of a file read many of the same temporaries)."""
         found = self._free.get(expr)
         if found is None:
-            found = self._free[expr] = expr.free_symbols
+            found = self._free[expr] = symbols_of(expr)
         return found
 
     def doprint(self, expr) -> str:

@@ -12,6 +12,7 @@ sum times a number, which sympy distributes, an infinity, a float coefficient) g
 
 from __future__ import annotations
 
+import math
 from functools import cmp_to_key
 
 import sympy as sp
@@ -28,26 +29,55 @@ def _symbol(x) -> bool:
 
 
 def _rational(x) -> bool:
-    """An exact number other than 0 and 1 (a float coefficient is left to sympy)."""
-    return isinstance(x, sp.Rational) and x.p != 0 and x is not _ONE
+    """An exact number other than 0 (a float coefficient is left to sympy)."""
+    return isinstance(x, sp.Rational) and x.p != 0
 
 
 def _mul_of(args: tuple):
     return _Mul._exec_constructor_postprocessors(_Mul._from_args(args, True))
 
 
+def _factors(x):
+    """(coefficient, factors) of a product's operand whose factors are symbols and sums (each its own base, to the
+    power 1, so that sympy's Mul.flatten only collects and sorts them), or None."""
+    if _symbol(x) or (type(x) is _Add and x.is_commutative):
+        return _ONE, (x,)
+    if _rational(x):
+        return x, ()
+    if type(x) is _Mul and x.is_commutative:
+        args = x.args
+        coeff = _ONE
+        if args[0].is_Number:
+            if not _rational(args[0]):
+                return None
+            coeff, args = args[0], args[1:]
+        for f in args:
+            if not (_symbol(f) or type(f) is _Add):
+                return None
+        return coeff, args
+    return None
+
+
 def product(a, b):
     """a*b (sympy expressions or ints), as sympy gives it."""
-    if _symbol(a):
-        if _symbol(b):
-            order = a.compare(b)
-            if order:  # (equal symbols make a power)
-                return _mul_of((a, b) if order < 0 else (b, a))
-        elif _rational(b):
-            return _mul_of((b, a))
-    elif _rational(a) and _symbol(b):
-        return _mul_of((a, b))
-    return a * b
+    fa = _factors(a) if isinstance(a, Basic) else None
+    fb = _factors(b) if fa is not None and isinstance(b, Basic) else None
+    if fb is None or not (fa[1] or fb[1]):
+        return a * b
+    (ca, xa), (cb, xb) = fa, fb
+    factors = [*xa, *xb]
+    if len(set(factors)) < len(factors):  # a common base: a power
+        return a * b
+    coeff = ca * cb if cb is not _ONE else ca
+    if coeff is not _ONE:
+        if len(factors) == 1 and factors[0].is_Add:  # sympy distributes a number over a sum
+            return a * b
+        factors.sort(key=_ORDER)
+        return _mul_of((coeff, *factors))
+    if len(factors) == 1:
+        return factors[0]
+    factors.sort(key=_ORDER)
+    return _mul_of(tuple(factors))
 
 
 def negative(a):
@@ -57,30 +87,34 @@ def negative(a):
     return -a
 
 
-def _split(term):
-    """(coefficient, rest) of a term of a sum, as Add.flatten splits it (term.as_coeff_Mul()), or None when the
-    term is not a symbol or a product with an exact, finite coefficient."""
-    if _symbol(term):
-        return _ONE, term
-    if type(term) is _Mul and term.is_commutative:
-        args = term.args
-        first = args[0]
-        if not first.is_Number:
-            return _ONE, term
-        if not isinstance(first, sp.Rational):
-            return None
-        return first, (args[1] if len(args) == 2 else term._new_rawargs(*args[1:]))
-    return None
-
-
 def total(terms):
-    """sp.Add(*terms) of two or more terms, none of them 0, as sympy gives it."""
+    """sp.Add(*terms) of two or more terms, none of them 0, as sympy gives it: Add.flatten's steps for symbols,
+    functions, powers of non-numbers, products with an exact coefficient, sums and exact or finite numbers."""
+    seq = list(terms)
     collected: dict = {}
-    for term in terms:
-        split = _split(term)
-        if split is None:
+    coeff = _ZERO
+    for term in seq:  # (grows with the terms of a sum, at its end, as in Add.flatten)
+        if not isinstance(term, Basic):
             return _Add(*terms)
-        c, rest = split
+        if _symbol(term) or term.is_Function or (term.is_Pow and not term.args[0].is_Number):
+            c, rest = _ONE, term
+        elif type(term) is _Mul and term.is_commutative:
+            args = term.args
+            first = args[0]
+            if not first.is_Number:
+                c, rest = _ONE, term
+            elif isinstance(first, sp.Rational):
+                c, rest = first, (args[1] if len(args) == 2 else term._new_rawargs(*args[1:]))
+            else:
+                return _Add(*terms)
+        elif type(term) is _Add:
+            seq.extend(term.args)
+            continue
+        elif isinstance(term, sp.Rational) or (type(term) is sp.Float and math.isfinite(term)):
+            coeff += term
+            continue
+        else:
+            return _Add(*terms)
         known = collected.get(rest)
         collected[rest] = c if known is None else known + c
     args = []
@@ -91,11 +125,15 @@ def total(terms):
             args.append(rest)
         elif rest.is_Mul:
             args.append(rest._new_rawargs(c, *rest.args))
+        elif rest.is_Add:
+            args.append(_Mul(c, rest, evaluate=False))
         else:
-            args.append(product(c, rest))
+            args.append(_Mul(c, rest))
+    args.sort(key=_ORDER)
+    if coeff is not _ZERO:
+        args.insert(0, coeff)
     if not args:
         return _ZERO
     if len(args) == 1:
         return args[0]
-    args.sort(key=_ORDER)
     return _Add._exec_constructor_postprocessors(_Add._from_args(args, True))
