@@ -21,7 +21,8 @@ from sympy.core.basic import Basic
 _PLAIN = (sp.Symbol, sp.Dummy)  # the exact types: a subclass may evaluate products its own way
 _ONE, _ZERO, _MINUS_ONE = sp.S.One, sp.S.Zero, sp.S.NegativeOne
 _ORDER = cmp_to_key(Basic.compare)  # sympy's canonical order of a product's and a sum's arguments
-_Mul, _Add = sp.Mul, sp.Add
+_Mul, _Add, _Pow = sp.Mul, sp.Add, sp.Pow
+_AS_BASE_EXP = sp.Expr.as_base_exp  # (self, 1): the base of an expression that is no power
 
 
 def _symbol(x) -> bool:
@@ -37,11 +38,23 @@ def _mul_of(args: tuple):
     return _Mul._exec_constructor_postprocessors(_Mul._from_args(args, True))
 
 
+def _base(f):
+    """The base of a factor to a power that sympy's Mul.flatten only collects (a symbol, a sum or a function, each
+    to the power 1; a power of a non-number), or None for anything it treats otherwise (a number, exp(x) which is
+    E**x, a non-commutative factor, ...)."""
+    if _symbol(f):
+        return f
+    kind = type(f)
+    if kind is _Pow:
+        base = f.args[0]
+        return None if base.is_Number or not f.is_commutative else base
+    if (kind is _Add or f.is_Function) and f.is_commutative and kind.as_base_exp is _AS_BASE_EXP:
+        return f
+    return None
+
+
 def _factors(x):
-    """(coefficient, factors) of a product's operand whose factors are symbols and sums (each its own base, to the
-    power 1, so that sympy's Mul.flatten only collects and sorts them), or None."""
-    if _symbol(x) or (type(x) is _Add and x.is_commutative):
-        return _ONE, (x,)
+    """(coefficient, factors) of a product's operand whose factors all have a _base, or None."""
     if _rational(x):
         return x, ()
     if type(x) is _Mul and x.is_commutative:
@@ -52,10 +65,10 @@ def _factors(x):
                 return None
             coeff, args = args[0], args[1:]
         for f in args:
-            if not (_symbol(f) or type(f) is _Add):
+            if _base(f) is None:
                 return None
         return coeff, args
-    return None
+    return (_ONE, (x,)) if _base(x) is not None else None
 
 
 def product(a, b):
@@ -66,7 +79,7 @@ def product(a, b):
         return a * b
     (ca, xa), (cb, xb) = fa, fb
     factors = [*xa, *xb]
-    if len(set(factors)) < len(factors):  # a common base: a power
+    if len(set(map(_base, factors))) < len(factors):  # a common base: powers combine
         return a * b
     coeff = ca * cb if cb is not _ONE else ca
     if coeff is not _ONE:

@@ -21,10 +21,16 @@ def random_expr(rng: random.Random, depth: int = 0):
         return rng.choice(SYMBOLS)
     if r < 0.45:
         return rng.choice(NUMBERS)
-    if r < 0.6:
+    if r < 0.5:
         return sp.sin(rng.choice(SYMBOLS))
+    if r < 0.53:
+        return sp.exp(rng.choice(SYMBOLS))  # E**x to sympy's products
+    if r < 0.56:
+        return sp.sqrt(2) * rng.choice(SYMBOLS)
+    if r < 0.6:
+        return rng.choice(SYMBOLS) ** rng.choice([2, -1, sp.Rational(1, 2)])
     if r < 0.65:
-        return rng.choice(SYMBOLS) ** 2
+        return 1 / (random_expr(rng, depth + 1) + rng.choice(SYMBOLS))
     if r < 0.8:
         return random_expr(rng, depth + 1) * random_expr(rng, depth + 1)
     return random_expr(rng, depth + 1) + random_expr(rng, depth + 1)
@@ -32,7 +38,7 @@ def random_expr(rng: random.Random, depth: int = 0):
 
 def test_products_sums_and_negatives_are_sympys_node_for_node():
     rng = random.Random(12)
-    for _ in range(3000):
+    for _ in range(4000):
         a, b = random_expr(rng), random_expr(rng)
         assert sp.srepr(fast_arith.product(a, b)) == sp.srepr(a * b)
         assert sp.srepr(fast_arith.negative(a)) == sp.srepr(-a)
