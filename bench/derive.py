@@ -8,8 +8,9 @@ tree, the NumPy module), its CPU seconds (this process; the machine is shared an
 time), each run in a process of its own (as a fresh compile: sympy's caches empty; the imports are not timed),
 the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`): sympy's own `a*b`, `a + b` and `-a` in the
 spatial algebra (compiler/fast_arith.py builds the common cases directly), sympy's assumptions for a
-number's sign in the printer (emit_common.negative_number), and sympy's free_symbols where the tape is sliced
-and printed (tape.symbols_of walks an expression once). Both must give the same text: the bench says so.
+number's sign in the printer (emit_common.negative_number), sympy's free_symbols where the tape is sliced
+and printed (tape.symbols_of walks an expression once), and sympy's xreplace where the printer writes a
+temporary into its reader (fast_arith.replaced rebuilds the changed sums and products). Both must give the same text: the bench says so.
 
 Issue 12's targets (a fresh compile, derivation and C compiler together): the Iltis under 5 s, the 40-link chain
 under 10 s; bench/compile_time.py measures the whole compile.
@@ -54,17 +55,18 @@ def _former_negative_number(number, extended: bool = False) -> bool:
 def former_derivation():
     """The code path before issue 12's second derivation pass: the baseline."""
     saved = (fast_arith.product, fast_arith.total, fast_arith.negative, emit_common.negative_number,
-             tape.symbols_of, emit_common.symbols_of)
+             tape.symbols_of, emit_common.symbols_of, emit_common.replaced)
     fast_arith.product = lambda a, b: a * b
     fast_arith.total = lambda terms: emit_common.sp.Add(*terms)
     fast_arith.negative = lambda a: -a
     emit_common.negative_number = _former_negative_number
     tape.symbols_of = emit_common.symbols_of = lambda expr: expr.free_symbols
+    emit_common.replaced = lambda expr, rule: expr.xreplace(rule)
     try:
         yield
     finally:
         (fast_arith.product, fast_arith.total, fast_arith.negative, emit_common.negative_number,
-         tape.symbols_of, emit_common.symbols_of) = saved
+         tape.symbols_of, emit_common.symbols_of, emit_common.replaced) = saved
 
 
 def derive(name: str) -> tuple[float, str]:

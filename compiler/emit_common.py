@@ -16,6 +16,7 @@ from importlib import metadata
 
 import sympy as sp
 
+from .fast_arith import replaced
 from .hooks import is_helper as is_hook_helper
 from .tape import symbols_of
 from .tree import t
@@ -120,6 +121,8 @@ def _minus_sign(term) -> bool:
     if term.is_Mul:
         first = term.args[0]
         return first.is_Number and negative_number(first, extended=True)
+    if term.is_Number:
+        return negative_number(term, extended=True)
     return bool(term.could_extract_minus_sign())
 
 
@@ -408,19 +411,19 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
     for entry in entries:
         expr = entry.expr
         if any(d in inlined for d in tape.dependencies(entry)):
-            expr = expr.xreplace(inlined)
+            expr = replaced(expr, inlined)
         text = printer.doprint(expr)
         if counts[entry.symbol] == 1 and entry.guard is None and len(text) <= inline_max_chars:
             inlined[entry.symbol] = expr
             continue
-        guard = None if entry.guard is None else entry.guard.xreplace(inlined)
+        guard = None if entry.guard is None else replaced(entry.guard, inlined)
         written += [expr] if guard is None else [expr, guard]
         steps.append(Step(naming.names[entry.symbol], text, entry.section,
                           None if guard is None else printer.doprint(guard)))
     printed = []
     for k, e in results:
         if not isinstance(e, int):
-            e = sp.sympify(e).xreplace(inlined)
+            e = replaced(sp.sympify(e), inlined)
             written.append(e)
         printed.append((k, e if isinstance(e, int) else printer.doprint(e)))
     used = set().union(*map(printer.free_symbols, written))

@@ -73,24 +73,62 @@ def _factors(x):
 
 def product(a, b):
     """a*b (sympy expressions or ints), as sympy gives it."""
-    fa = _factors(a) if isinstance(a, Basic) else None
-    fb = _factors(b) if fa is not None and isinstance(b, Basic) else None
-    if fb is None or not (fa[1] or fb[1]):
-        return a * b
-    (ca, xa), (cb, xb) = fa, fb
-    factors = [*xa, *xb]
-    if len(set(map(_base, factors))) < len(factors):  # a common base: powers combine
-        return a * b
-    coeff = ca * cb if cb is not _ONE else ca
+    if isinstance(a, Basic) and isinstance(b, Basic):
+        return product_of((a, b))
+    return a * b
+
+
+def product_of(operands):
+    """Mul(*operands) of two or more sympy expressions, as sympy gives it."""
+    coeff, factors = _ONE, []
+    for x in operands:
+        split = _factors(x)
+        if split is None:
+            return _Mul(*operands)
+        if split[0] is not _ONE:
+            coeff = coeff * split[0]
+        factors.extend(split[1])
+    if not factors or len(set(map(_base, factors))) < len(factors):  # numbers alone; a common base: powers
+        return _Mul(*operands)
     if coeff is not _ONE:
         if len(factors) == 1 and factors[0].is_Add:  # sympy distributes a number over a sum
-            return a * b
+            return _Mul(*operands)
         factors.sort(key=_ORDER)
         return _mul_of((coeff, *factors))
     if len(factors) == 1:
         return factors[0]
     factors.sort(key=_ORDER)
     return _mul_of(tuple(factors))
+
+
+def replaced(expr, rule: dict):
+    """expr.xreplace(rule), its changed sums and products rebuilt by `total` and `product_of` (sympy rebuilds
+    every changed node with its full evaluation: the inlining of the printed temporaries spent half its time
+    there)."""
+    return _replaced(expr, rule)[0] if rule else expr
+
+
+def _replaced(node, rule: dict) -> tuple:
+    hit = rule.get(node)
+    if hit is not None:
+        return hit, True
+    args = node.args
+    if not args:
+        return node, False
+    new, changed = [], False
+    for a in args:
+        if isinstance(a, Basic):
+            a, c = _replaced(a, rule)
+            changed |= c
+        new.append(a)
+    if not changed:
+        return node, False
+    kind = type(node)
+    if kind is _Add:
+        return total(new), True
+    if kind is _Mul:
+        return product_of(new), True
+    return node.func(*new), True
 
 
 def negative(a):

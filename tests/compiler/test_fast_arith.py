@@ -1,7 +1,8 @@
-"""compiler/fast_arith.py builds products, sums and negatives the way sympy does: checked against sympy's own
-`a*b`, `Add(*terms)` and `-a` node for node (srepr: the classes, the arguments and their order), on random
-expressions of the kinds the derivation makes (symbols and temporaries, exact and float numbers, functions,
-powers, products and sums of them). The printed C follows the arguments' order, so any difference would show."""
+"""compiler/fast_arith.py builds products, sums, negatives and substitutions the way sympy does: checked against
+sympy's own `a*b`, `Mul(*factors)`, `Add(*terms)`, `-a` and `xreplace` node for node (srepr: the classes, the
+arguments and their order), on random expressions of the kinds the derivation makes (symbols and temporaries,
+exact and float numbers, functions, powers, products and sums of them). The printed C follows the arguments'
+order, so any difference would show."""
 
 import random
 
@@ -38,13 +39,24 @@ def random_expr(rng: random.Random, depth: int = 0):
 
 def test_products_sums_and_negatives_are_sympys_node_for_node():
     rng = random.Random(12)
-    for _ in range(4000):
+    for _ in range(1500):
         a, b = random_expr(rng), random_expr(rng)
         assert sp.srepr(fast_arith.product(a, b)) == sp.srepr(a * b)
         assert sp.srepr(fast_arith.negative(a)) == sp.srepr(-a)
         terms = [e for e in (random_expr(rng) for _ in range(rng.randint(2, 4))) if e != 0]
         if len(terms) >= 2:
             assert sp.srepr(fast_arith.total(terms)) == sp.srepr(sp.Add(*terms))
+
+
+def test_replaced_is_xreplace_node_for_node():
+    rng = random.Random(7)
+    for _ in range(500):
+        expr = random_expr(rng) + random_expr(rng) * random_expr(rng)
+        rule = {s: random_expr(rng) for s in rng.sample(SYMBOLS, 3)}
+        assert sp.srepr(fast_arith.replaced(expr, rule)) == sp.srepr(expr.xreplace(rule))
+        n = rng.randint(3, 5)
+        operands = [random_expr(rng) for _ in range(n)]
+        assert sp.srepr(fast_arith.product_of(operands)) == sp.srepr(sp.Mul(*operands))
 
 
 def test_the_cases_sympy_evaluates_further_are_sympys():
