@@ -179,7 +179,7 @@ def total(terms):
         elif rest.is_Add:
             args.append(_Mul(c, rest, evaluate=False))
         else:
-            args.append(_Mul(c, rest))
+            args.append(product_of((c, rest)))
     args.sort(key=_ORDER)
     if coeff is not _ZERO:
         args.insert(0, coeff)
