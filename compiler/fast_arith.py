@@ -16,11 +16,13 @@ import math
 from functools import cmp_to_key
 
 import sympy as sp
-from sympy.core.basic import Basic
+from sympy.core.basic import Basic, ordering_of_classes
 
 _PLAIN = (sp.Symbol, sp.Dummy)  # the exact types: a subclass may evaluate products its own way
 _ONE, _ZERO, _MINUS_ONE = sp.S.One, sp.S.Zero, sp.S.NegativeOne
 _ORDER = cmp_to_key(Basic.compare)  # sympy's canonical order of a product's and a sum's arguments
+_CLASS_RANK = {name: k for k, name in enumerate(ordering_of_classes)}
+_UNKNOWN_CLASS = len(ordering_of_classes) + 1  # (as in sympy's _cmp_name)
 _Mul, _Add, _Pow = sp.Mul, sp.Add, sp.Pow
 _AS_BASE_EXP = sp.Expr.as_base_exp  # (self, 1): the base of an expression that is no power
 
@@ -32,6 +34,46 @@ def _symbol(x) -> bool:
 def _rational(x) -> bool:
     """An exact number other than 0 (a float coefficient is left to sympy)."""
     return isinstance(x, sp.Rational) and x.p != 0
+
+
+def _class_key(kind: type) -> tuple:
+    """The order of Basic.compare's first step (sympy's _cmp_name): a class listed in ordering_of_classes by its
+    place there, before the others, which go by name."""
+    name = kind.__name__
+    rank = _CLASS_RANK.get(name)
+    return (rank, "") if rank is not None else (_UNKNOWN_CLASS, name)
+
+
+def _atom_key(x) -> tuple:
+    content = x._hashable_content()
+    for c in content:
+        if isinstance(c, (Basic, frozenset)):
+            raise TypeError  # (not an atom as far as the key goes)
+    return _class_key(type(x)), len(content), content
+
+
+def _shallow_key(x) -> tuple:
+    """A key that orders as Basic.compare does (class, then the length of the hashable content, then its items
+    in turn) for an atom or a node of atoms: for them, one key per item instead of a compare per pair of items
+    (every sum and product the derivation builds sorts its arguments this way). TypeError for anything deeper or
+    with items that compare otherwise, which then sorts with Basic.compare itself."""
+    if not x.args:
+        return _atom_key(x)
+    content = x._hashable_content()
+    if content is not x.args:  # (a class with more than its arguments to compare)
+        raise TypeError
+    return _class_key(type(x)), len(content), tuple(map(_atom_key, content))
+
+
+def sort_canonically(items: list) -> None:
+    """items.sort(key=cmp_to_key(Basic.compare)), sympy's order of the arguments of a sum or a product."""
+    try:
+        keys = list(map(_shallow_key, items))
+    except TypeError:
+        items.sort(key=_ORDER)
+        return
+    order = sorted(range(len(items)), key=keys.__getitem__)
+    items[:] = [items[k] for k in order]
 
 
 def _mul_of(args: tuple):
@@ -93,11 +135,11 @@ def product_of(operands):
     if coeff is not _ONE:
         if len(factors) == 1 and factors[0].is_Add:  # sympy distributes a number over a sum
             return _Mul(*operands)
-        factors.sort(key=_ORDER)
+        sort_canonically(factors)
         return _mul_of((coeff, *factors))
     if len(factors) == 1:
         return factors[0]
-    factors.sort(key=_ORDER)
+    sort_canonically(factors)
     return _mul_of(tuple(factors))
 
 
@@ -180,7 +222,7 @@ def total(terms):
             args.append(_Mul(c, rest, evaluate=False))
         else:
             args.append(product_of((c, rest)))
-    args.sort(key=_ORDER)
+    sort_canonically(args)
     if coeff is not _ZERO:
         args.insert(0, coeff)
     if not args:

@@ -5,8 +5,10 @@ exact and float numbers, functions, powers, products and sums of them). The prin
 order, so any difference would show."""
 
 import random
+from functools import cmp_to_key
 
 import sympy as sp
+from sympy.core.basic import Basic
 
 from mbs.compiler import fast_arith
 from mbs.compiler.tape import symbols_of
@@ -39,7 +41,7 @@ def random_expr(rng: random.Random, depth: int = 0):
 
 def test_products_sums_and_negatives_are_sympys_node_for_node():
     rng = random.Random(12)
-    for _ in range(1500):
+    for _ in range(1000):
         a, b = random_expr(rng), random_expr(rng)
         assert sp.srepr(fast_arith.product(a, b)) == sp.srepr(a * b)
         assert sp.srepr(fast_arith.negative(a)) == sp.srepr(-a)
@@ -57,6 +59,15 @@ def test_replaced_is_xreplace_node_for_node():
         n = rng.randint(3, 5)
         operands = [random_expr(rng) for _ in range(n)]
         assert sp.srepr(fast_arith.product_of(operands)) == sp.srepr(sp.Mul(*operands))
+
+
+def test_sort_canonically_is_sympys_order():
+    rng = random.Random(3)
+    for _ in range(1000):
+        items = [random_expr(rng) for _ in range(rng.randint(2, 6))]
+        expected = sorted(items, key=cmp_to_key(Basic.compare))
+        fast_arith.sort_canonically(items)
+        assert [sp.srepr(e) for e in items] == [sp.srepr(e) for e in expected]
 
 
 def test_the_cases_sympy_evaluates_further_are_sympys():
