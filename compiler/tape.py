@@ -154,18 +154,20 @@ class Tape:
 
     def temp(self, expr, name: str) -> sp.Expr:
         """The value of `expr` as a temporary named like `name` (or `expr` itself when trivial)."""
-        expr = sp.sympify(expr)
+        if not isinstance(expr, sp.Basic):
+            expr = sp.sympify(expr)
         if is_trivial(expr):
             return expr
         hit = self._by_expr.get(expr)
         if hit is not None:
             return hit
         # x and -x share one temporary; a new one holds the value as asked, so that its name tells the truth.
-        if sign_key(expr) in self._sign_keys:
+        key = sign_key(expr)
+        if key in self._sign_keys:
             hit = self._by_expr.get(-expr)
             if hit is not None:
                 return -hit
-        return self._add(expr, name)
+        return self._add(expr, name, key)
 
     def vector(self, exprs, name: str) -> tuple:
         """Temporaries `name_0`, `name_1`, ... for the entries of a vector."""
@@ -184,13 +186,13 @@ class Tape:
         entry.guard, entry._deps, entry._symbols = expr, None, None
         return inv
 
-    def _add(self, expr: sp.Expr, name: str) -> sp.Dummy:
+    def _add(self, expr: sp.Expr, name: str, key: tuple | None = None) -> sp.Dummy:
         name = self._unique(name)
         symbol = sp.Dummy(name)
         entry = Entry(symbol, expr, name, self._section)
         self.entries.append(entry)
         self._by_expr[expr] = symbol
-        self._sign_keys.add(sign_key(expr))
+        self._sign_keys.add(sign_key(expr) if key is None else key)
         self._entry_of[symbol] = entry
         return symbol
 
