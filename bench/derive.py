@@ -6,11 +6,18 @@ against the former one, measured in the same run.
 Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C and, for a
 tree, the NumPy module), its CPU seconds (this process; the machine is shared and noisy, so CPU rather than wall
 time), each run in a process of its own (as a fresh compile: sympy's caches empty; the imports are not timed),
-the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`): sympy's own `a*b`, `a + b` and `-a` in the
-spatial algebra (compiler/fast_arith.py builds the common cases directly), sympy's assumptions for a
-number's sign in the printer (emit_common.negative_number), sympy's free_symbols where the tape is sliced
-and printed (tape.symbols_of walks an expression once), and sympy's xreplace where the printer writes a
-temporary into its reader (fast_arith.replaced rebuilds the changed sums and products). Both must give the same text: the bench says so.
+the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`):
+
+* sympy's own `a*b`, `Mul(...)`, `a + b` and `-a` in the spatial algebra, the forward derivatives and the
+  printer's substitution (compiler/fast_arith.py builds the common cases directly, sympy's expressions);
+* sympy's assumptions for a number's sign in the printer (emit_common.negative_number);
+* sympy's free_symbols where the tape is sliced, printed and differentiated (tape.symbols_of walks once);
+* sympy's xreplace where the printer writes a temporary into its reader (fast_arith.replaced);
+* the forward derivatives' |u|, max/min and step functions rewritten for every symbol a temporary reads (now
+  once per temporary).
+
+(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) Both code
+paths must give the same text: the bench says so.
 
 Issue 12's targets (a fresh compile, derivation and C compiler together): the Iltis under 5 s, the 40-link chain
 under 10 s; bench/compile_time.py measures the whole compile.
@@ -28,8 +35,10 @@ import tempfile
 import time
 from pathlib import Path
 
+import sympy as sp
+
 import mbs
-from mbs.compiler import emit_common, fast_arith, tape
+from mbs.compiler import differentiate, emit_common, fast_arith, tape
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
@@ -51,22 +60,44 @@ def _former_negative_number(number, extended: bool = False) -> bool:
     return bool(number.is_extended_negative if extended else number.is_negative)
 
 
+def _former_differentiate(expr, seeds: dict, derivative: dict) -> dict:
+    """differentiate._differentiate as it was: |u|, max/min and the steps rewritten for every symbol read."""
+    total: dict = {}
+    for a in expr.free_symbols:
+        if a in seeds:
+            inner = {seeds[a]: sp.S.One}
+        else:
+            inner = derivative.get(a)
+            if not inner:
+                continue
+        partial = differentiate.partial_derivative(expr, a)
+        if partial == 0:
+            continue
+        for k, d in inner.items():
+            total[k] = total.get(k, sp.S.Zero) + partial * d
+    return {k: total[k] for k in sorted(total) if total[k] != 0}
+
+
 @contextlib.contextmanager
 def former_derivation():
     """The code path before issue 12's second derivation pass: the baseline."""
-    saved = (fast_arith.product, fast_arith.total, fast_arith.negative, emit_common.negative_number,
-             tape.symbols_of, emit_common.symbols_of, emit_common.replaced)
+    saved = (fast_arith.product, fast_arith.product_of, fast_arith.total, fast_arith.negative,
+             emit_common.negative_number, tape.symbols_of, emit_common.symbols_of, emit_common.replaced,
+             differentiate._differentiate)
     fast_arith.product = lambda a, b: a * b
-    fast_arith.total = lambda terms: emit_common.sp.Add(*terms)
+    fast_arith.product_of = lambda operands: sp.Mul(*operands)
+    fast_arith.total = lambda terms: sp.Add(*terms)
     fast_arith.negative = lambda a: -a
     emit_common.negative_number = _former_negative_number
     tape.symbols_of = emit_common.symbols_of = lambda expr: expr.free_symbols
     emit_common.replaced = lambda expr, rule: expr.xreplace(rule)
+    differentiate._differentiate = _former_differentiate
     try:
         yield
     finally:
-        (fast_arith.product, fast_arith.total, fast_arith.negative, emit_common.negative_number,
-         tape.symbols_of, emit_common.symbols_of, emit_common.replaced) = saved
+        (fast_arith.product, fast_arith.product_of, fast_arith.total, fast_arith.negative,
+         emit_common.negative_number, tape.symbols_of, emit_common.symbols_of, emit_common.replaced,
+         differentiate._differentiate) = saved
 
 
 def derive(name: str) -> tuple[float, str]:
