@@ -1,5 +1,5 @@
-"""Products, sums and negatives of sympy expressions, built the way sympy builds them, without its machinery for
-the common cases of the derivation.
+"""Products, sums, negatives and substitutions of sympy expressions, built the way sympy builds them, without
+its machinery for the common cases of the derivation.
 
 Most of the arithmetic of the recursive algorithms (compiler/spatial.py) multiplies two temporaries, a coefficient
 and a temporary, or adds a few such products. sympy's `a*b` runs `Mul.flatten` (powers gathered, numbers
@@ -7,7 +7,10 @@ collected, the factors sorted, assumptions asked) for every one of them: about a
 the derivation of a 40-link chain. For these cases the result is known without that work, and here it is built
 directly: the same canonical arguments in the same order (`Basic.compare`, as sympy's `_mulsort`/`_addsort`),
 so the expressions, and every text printed from them, are the ones sympy would give. Anything else (a square, a
-sum times a number, which sympy distributes, an infinity, a float coefficient) goes to sympy as before.
+sum times a number, which sympy distributes, an infinity, a float coefficient) goes to sympy as before. The
+arguments are put in sympy's order by one key per argument where they are atoms or nodes of atoms
+(`sort_canonically`), and `replaced` is xreplace with the changed sums and products rebuilt here.
+tests/compiler/test_fast_arith.py compares every function with sympy's own, node for node.
 """
 
 from __future__ import annotations
