@@ -22,8 +22,9 @@ from collections.abc import Sequence
 
 import sympy as sp
 
+from . import fast_arith
 from .emit_common import CodegenError
-from .tape import Tape
+from .tape import Tape, symbols_of
 
 
 class NotDifferentiable(CodegenError):
@@ -57,18 +58,23 @@ def forward_derivatives(tape: Tape, results: Sequence, wrt: Sequence[sp.Symbol],
 def _differentiate(expr: sp.Expr, seeds: dict, derivative: dict) -> dict:
     """{k: d expr / d wrt[k]} by the chain rule through the symbols expr reads."""
     total: dict = {}
-    for a in expr.free_symbols:
+    prepared = None  # (expr made differentiable, once for all the symbols it reads)
+    for a in symbols_of(expr):
         if a in seeds:
             inner = {seeds[a]: sp.S.One}
         else:
             inner = derivative.get(a)
             if not inner:
                 continue
-        partial = partial_derivative(expr, a)
+        if prepared is None:
+            prepared = _differentiable(expr)
+        partial = _partial(prepared, a)
         if partial == 0:
             continue
         for k, d in inner.items():
-            total[k] = total.get(k, sp.S.Zero) + partial * d
+            term = fast_arith.product(partial, d)
+            known = total.get(k)
+            total[k] = term if known is None else fast_arith.total((known, term))
     # in the order of wrt, not of the set of free symbols (whose order changes with the hash seed), so that the
     # generated text, and with it the build cache key, is the same in every process
     return {k: total[k] for k in sorted(total) if total[k] != 0}
@@ -78,11 +84,22 @@ def partial_derivative(expr: sp.Expr, a: sp.Symbol) -> sp.Expr:
     """d expr / d a, with the generalised functions sympy produces for kinks and jumps replaced by what a
     Jacobian of a piecewise smooth function needs: the derivative of the piece in force (sign' = 0, |u|' =
     sign(u) u', max/min follow their active argument)."""
+    return _partial(_differentiable(expr), a)
+
+
+def _differentiable(expr: sp.Expr) -> tuple:
+    """(expr with |u| as u sign(u), max/min as conditionals and the piecewise constant functions as constants,
+    {constant: the function it stands for}): what partial_derivative differentiates, the same for every symbol."""
     expr = expr.replace(lambda e: isinstance(e, sp.Abs), lambda e: e.args[0] * sp.sign(e.args[0]))
     expr = expr.replace(lambda e: isinstance(e, (sp.Max, sp.Min)), _as_piecewise)
     # piecewise constant functions: constants for the differentiation, put back afterwards
     steps = {e: sp.Dummy("step") for e in expr.atoms(*_PIECEWISE_CONSTANT)}
-    d = sympy_diff(expr.xreplace(steps), a, {}).xreplace({v: k for k, v in steps.items()})
+    return expr.xreplace(steps), {v: k for k, v in steps.items()}
+
+
+def _partial(differentiable: tuple, a: sp.Symbol) -> sp.Expr:
+    expr, steps = differentiable
+    d = sympy_diff(expr, a, {}).xreplace(steps)
     bad = d.atoms(sp.Derivative, sp.Subs)
     if bad:
         raise NotDifferentiable(f"no derivative of {sorted(map(str, bad))[0]} for the generated Jacobian")
@@ -110,7 +127,7 @@ def sympy_diff(expr: sp.Expr, a: sp.Symbol, memo: dict) -> sp.Expr:
         d = sp.S.Zero
     elif expr.is_Add:
         terms = [sympy_diff(term, a, memo) for term in expr.args]
-        d = sp.S.Zero if all(term is sp.S.Zero for term in terms) else sp.Add(*terms)
+        d = sp.S.Zero if all(term is sp.S.Zero for term in terms) else fast_arith.total(terms)
     elif expr.is_Mul and expr.is_commutative:
         d = _product_rule(expr, a, memo)
     elif expr.is_Pow:
@@ -138,8 +155,8 @@ def _product_rule(expr: sp.Mul, a: sp.Symbol, memo: dict) -> sp.Expr:
         k = kvals.index(1)
         if derivatives[k] is sp.S.Zero and not any(arg in _NOT_FINITE for arg in args):
             continue
-        terms.append(c * sp.Mul(*[derivatives[i] if i == k else arg for i, arg in enumerate(args)]))
-    return sp.Add(*terms)
+        terms.append(c * fast_arith.product_of([derivatives[i] if i == k else arg for i, arg in enumerate(args)]))
+    return fast_arith.total(terms)
 
 
 def _as_piecewise(e):

@@ -16,7 +16,9 @@ from importlib import metadata
 
 import sympy as sp
 
+from .fast_arith import replaced
 from .hooks import is_helper as is_hook_helper
+from .tape import symbols_of
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -118,8 +120,22 @@ def _minus_sign(term) -> bool:
     it with term (which only an infinite factor makes equal), a tenth of the time of printing a large model."""
     if term.is_Mul:
         first = term.args[0]
-        return first.is_Number and bool(first.is_extended_negative)
+        return first.is_Number and negative_number(first, extended=True)
+    if term.is_Number:
+        return negative_number(term, extended=True)
     return bool(term.could_extract_minus_sign())
+
+
+def negative_number(number, extended: bool = False) -> bool:
+    """number.is_negative (extended: .is_extended_negative, true for -oo too) of a sympy Number, by plain
+    comparison for a rational or a float: sympy asks its assumptions system, and a fresh Float or Rational (every
+    coefficient the derivation makes) deduces all its facts at the first question, a quarter of the printing."""
+    p = getattr(number, "p", None)  # Integer, Rational
+    if p is not None:
+        return p < 0
+    if number.is_Float:
+        return float(number) < 0  # NaN: False, as sympy's None
+    return bool(number.is_extended_negative if extended else number.is_negative)
 
 
 class ExprPrinter:
@@ -151,7 +167,7 @@ class ExprPrinter:
         """expr.free_symbols, remembered (the functions of a file read many of the same temporaries)."""
         found = self._free.get(expr)
         if found is None:
-            found = self._free[expr] = expr.free_symbols
+            found = self._free[expr] = symbols_of(expr)
         return found
 
     def doprint(self, expr) -> str:
@@ -256,11 +272,11 @@ class ExprPrinter:
     def _print_Mul(self, expr):
         coeff, rest = expr.as_coeff_Mul()
         sign = ""
-        if coeff.is_negative:
+        if negative_number(coeff):
             sign, coeff = "-", -coeff
         num, den = [], []
         for factor in sp.Mul.make_args(rest):
-            if factor.is_Pow and factor.exp.is_Rational and factor.exp.is_negative:
+            if factor.is_Pow and factor.exp.is_Rational and factor.exp.p < 0:
                 den.append(factor.base if factor.exp == -1 else sp.Pow(factor.base, -factor.exp))
             else:
                 num.append(factor)
@@ -275,7 +291,7 @@ class ExprPrinter:
         base, exp = expr.args
         if exp == sp.S.Half:
             return self._call("sqrt", [base])
-        if exp.is_Rational and exp.is_negative:
+        if exp.is_Rational and exp.p < 0:
             return "1.0/" + self._paren(sp.Pow(base, -exp), PREC_ATOM), PREC_MUL
         if exp in (2, 3) and base.is_Atom:
             return "*".join([self._paren(base, PREC_MUL)] * int(exp)), PREC_MUL
@@ -395,19 +411,19 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
     for entry in entries:
         expr = entry.expr
         if any(d in inlined for d in tape.dependencies(entry)):
-            expr = expr.xreplace(inlined)
+            expr = replaced(expr, inlined)
         text = printer.doprint(expr)
         if counts[entry.symbol] == 1 and entry.guard is None and len(text) <= inline_max_chars:
             inlined[entry.symbol] = expr
             continue
-        guard = None if entry.guard is None else entry.guard.xreplace(inlined)
+        guard = None if entry.guard is None else replaced(entry.guard, inlined)
         written += [expr] if guard is None else [expr, guard]
         steps.append(Step(naming.names[entry.symbol], text, entry.section,
                           None if guard is None else printer.doprint(guard)))
     printed = []
     for k, e in results:
         if not isinstance(e, int):
-            e = sp.sympify(e).xreplace(inlined)
+            e = replaced(sp.sympify(e), inlined)
             written.append(e)
         printed.append((k, e if isinstance(e, int) else printer.doprint(e)))
     used = set().union(*map(printer.free_symbols, written))

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from . import fast_arith
 from .tape import ONE, ZERO, Tape
 
 IDENTITY = ((ONE, ZERO, ZERO), (ZERO, ONE, ZERO), (ZERO, ZERO, ONE))
@@ -34,14 +35,14 @@ def mul(a, b):
         return b
     if b is ONE:
         return a
-    return a * b
+    return fast_arith.product(a, b)
 
 
 def add(*terms):
     terms = [x for x in terms if x is not ZERO]
     if not terms:
         return ZERO
-    return terms[0] if len(terms) == 1 else sp.Add(*terms)
+    return terms[0] if len(terms) == 1 else fast_arith.total(terms)
 
 
 def dot(a, b):
@@ -49,9 +50,9 @@ def dot(a, b):
 
 
 def cross(a, b):
-    return (add(mul(a[1], b[2]), -mul(a[2], b[1])),
-            add(mul(a[2], b[0]), -mul(a[0], b[2])),
-            add(mul(a[0], b[1]), -mul(a[1], b[0])))
+    return (add(mul(a[1], b[2]), fast_arith.negative(mul(a[2], b[1]))),
+            add(mul(a[2], b[0]), fast_arith.negative(mul(a[0], b[2]))),
+            add(mul(a[0], b[1]), fast_arith.negative(mul(a[1], b[0]))))
 
 
 def transpose(M):

@@ -1,0 +1,148 @@
+"""The symbolic derivation alone (model text to generated C text, empty caches) with the current code path
+against the former one, measured in the same run.
+
+    python bench/derive.py [--models iltis chain40 quarter] [--repeat 5]
+
+Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C and, for a
+tree, the NumPy module), its CPU seconds (this process; the machine is shared and noisy, so CPU rather than wall
+time), each run in a process of its own (as a fresh compile: sympy's caches empty; the imports are not timed),
+the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`):
+
+* sympy's own `a*b`, `Mul(...)`, `a + b` and `-a` in the spatial algebra, the forward derivatives and the
+  printer's substitution (compiler/fast_arith.py builds the common cases directly, sympy's expressions);
+* sympy's assumptions for a number's sign in the printer (emit_common.negative_number);
+* sympy's free_symbols where the tape is sliced, printed and differentiated (tape.symbols_of walks once);
+* sympy's xreplace where the printer writes a temporary into its reader (fast_arith.replaced);
+* the forward derivatives' |u|, max/min and step functions rewritten for every symbol a temporary reads (now
+  once per temporary).
+
+(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) Both code
+paths must give the same text: the bench says so.
+
+Issue 12's targets (a fresh compile, derivation and C compiler together): the Iltis under 5 s, the 40-link chain
+under 10 s; bench/compile_time.py measures the whole compile.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import hashlib
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import sympy as sp
+
+import mbs
+from mbs.compiler import differentiate, emit_common, fast_arith, tape
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "bench"))
+from chain import chain_text  # noqa: E402
+
+
+def model_text(name: str) -> tuple[str, str, str | None]:
+    """(model text, its path, the scene to derive)."""
+    if name == "iltis":
+        path = ROOT / "library" / "iltis" / "vehicle.mbs"
+        return path.read_text(), str(path), "bump_5"
+    if name == "quarter":
+        path = ROOT / "library" / "iltis" / "quarter_car.mbs"
+        return path.read_text(), str(path), None
+    return chain_text(int(name.removeprefix("chain"))), "<chain>", None
+
+
+def _former_negative_number(number, extended: bool = False) -> bool:
+    return bool(number.is_extended_negative if extended else number.is_negative)
+
+
+def _former_differentiate(expr, seeds: dict, derivative: dict) -> dict:
+    """differentiate._differentiate as it was: |u|, max/min and the steps rewritten for every symbol read."""
+    total: dict = {}
+    for a in expr.free_symbols:
+        if a in seeds:
+            inner = {seeds[a]: sp.S.One}
+        else:
+            inner = derivative.get(a)
+            if not inner:
+                continue
+        partial = differentiate.partial_derivative(expr, a)
+        if partial == 0:
+            continue
+        for k, d in inner.items():
+            total[k] = total.get(k, sp.S.Zero) + partial * d
+    return {k: total[k] for k in sorted(total) if total[k] != 0}
+
+
+@contextlib.contextmanager
+def former_derivation():
+    """The code path before issue 12's second derivation pass: the baseline."""
+    saved = (fast_arith.product, fast_arith.product_of, fast_arith.total, fast_arith.negative,
+             emit_common.negative_number, tape.symbols_of, emit_common.symbols_of, emit_common.replaced,
+             differentiate._differentiate)
+    fast_arith.product = lambda a, b: a * b
+    fast_arith.product_of = lambda operands: sp.Mul(*operands)
+    fast_arith.total = lambda terms: sp.Add(*terms)
+    fast_arith.negative = lambda a: -a
+    emit_common.negative_number = _former_negative_number
+    tape.symbols_of = emit_common.symbols_of = lambda expr: expr.free_symbols
+    emit_common.replaced = lambda expr, rule: expr.xreplace(rule)
+    differentiate._differentiate = _former_differentiate
+    try:
+        yield
+    finally:
+        (fast_arith.product, fast_arith.product_of, fast_arith.total, fast_arith.negative,
+         emit_common.negative_number, tape.symbols_of, emit_common.symbols_of, emit_common.replaced,
+         differentiate._differentiate) = saved
+
+
+def derive(name: str) -> tuple[float, str]:
+    """(CPU seconds, C text) of one derivation of model `name` into an empty cache."""
+    text, path, scene = model_text(name)
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
+        start = time.process_time()
+        generated = mbs.loads(text, path=path, cache_dir=cache).generate(scene)
+        cpu = time.process_time() - start
+    return cpu, generated.c_source + generated.numpy_source
+
+
+def derive_fresh(name: str, former: bool) -> tuple[float, str]:
+    """derive in a process of its own (sympy's caches as a fresh compile finds them): (CPU seconds, SHA-256 of
+    the text)."""
+    command = [sys.executable, __file__, "--one", name] + (["--former"] if former else [])
+    out = subprocess.run(command, check=True, capture_output=True, text=True).stdout.split()
+    return float(out[0]), out[1]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--models", nargs="+", default=["iltis", "chain40"])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--one", help=argparse.SUPPRESS)  # the child: one derivation, prints seconds and digest
+    ap.add_argument("--former", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.one:
+        with former_derivation() if args.former else contextlib.nullcontext():
+            cpu, text = derive(args.one)
+        print(f"{cpu:.6f} {hashlib.sha256(text.encode()).hexdigest()}")
+        return
+    print(f"derivation CPU seconds (parse to C text, each in a fresh process), medians of {args.repeat}, the "
+          "current and the former code path interleaved")
+    print(f"  {'model':8s} {'current':>8s} {'former':>8s} {'former/current':>15s}  text")
+    for name in args.models:
+        runs: dict[bool, list] = {False: [], True: []}
+        for _ in range(args.repeat):
+            for former in runs:
+                runs[former].append(derive_fresh(name, former))
+        now, before = (statistics.median(c for c, _ in runs[f]) for f in (False, True))
+        same = len({digest for _, digest in runs[False] + runs[True]}) == 1
+        print(f"  {name:8s} {now:7.2f}s {before:7.2f}s {before / now:14.2f}x  "
+              f"{'the same with both' if same else 'THE TEXTS DIFFER'}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
