@@ -25,7 +25,6 @@ damping of runtime/equilibrium.py, which slides into the nearest minimum.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
 
 #: Newton iterations before giving up (a converging run takes 3-6).
 MAX_ITERATIONS = 30
@@ -103,10 +102,28 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
         return step
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     rank = int(np.count_nonzero(s > RCOND * s[0]))
-    held = scipy.linalg.qr(vt[rank:], pivoting=True)[2][:J.shape[1] - rank] if rank < J.shape[1] else []
+    held = _pivot_columns(vt[rank:], J.shape[1] - rank)
     kept = np.setdiff1d(np.arange(J.shape[1]), held)
     step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
     return step
+
+
+def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
+    """The first k column pivots of QR with column pivoting of A (Businger and Golub; Golub and Van Loan 5.4.2):
+    each time the column of largest remaining norm, the others then made orthogonal to it. In NumPy, so that the
+    equilibrium of a warm run imports no scipy (tests/mbs/test_model_cache.py)."""
+    R = np.array(A, dtype=float)
+    chosen: list[int] = []
+    for _ in range(k):
+        norms = np.einsum("ij,ij->j", R, R)
+        norms[chosen] = -1.0
+        j = int(np.argmax(norms))
+        if not norms[j] > 0.0:
+            break
+        chosen.append(j)
+        q = R[:, j] / np.sqrt(norms[j])
+        R -= np.outer(q, q @ R)
+    return chosen
 
 
 def _stable(J: np.ndarray, free: np.ndarray) -> bool:
