@@ -435,7 +435,8 @@ class CEmitter:
             texts.append("\n".join(lines + ["    return 0;", "}\n"]))
         lines = [f"/* {_comment(r.doc)} (in {n} parts) */",
                  f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
-                 *([_PROLOGUE_COMMENT] if call else []), *call, f"    double carry[{max(len(slots), 1)}];   /* temporaries one part leaves to a later one */",
+                 *([_PROLOGUE_COMMENT] if call else []), *call,
+                 f"    double carry[{max(len(slots), 1)}];   /* temporaries one part leaves to a later one */",
                  "    int status;"]
         for k in range(1, n + 1):
             lines += [f"    if ((status = {r.name}{PART_SUFFIX}{k}(t, x, p, {out}, work, carry)) != 0)",
