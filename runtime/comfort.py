@@ -59,10 +59,29 @@ def magnitude(name: str, f) -> np.ndarray:
     return np.abs(response(name, f))
 
 
+def sample_rows(t) -> np.ndarray:
+    """The rows of a record on its sample grid (a boolean mask): a scene with events has, besides its samples, a
+    row just before and just after each event between them, which a spectrum must not see. The grid's step is the
+    most common one; of rows at the same grid point the first is kept."""
+    t = np.asarray(t, dtype=float)
+    steps = np.diff(t)
+    if t.size < 2 or not np.any(steps > 0):
+        return np.ones(t.shape, dtype=bool)
+    values, counts = np.unique(np.round(steps[steps > 0], 12), return_counts=True)
+    dt = float(values[np.argmax(counts)])
+    k = np.round((t - t[0]) / dt)
+    keep = np.abs(t - t[0] - k * dt) <= 1e-9 * max(dt, abs(t[-1]))
+    rows = np.flatnonzero(keep)
+    keep[rows[1:][k[rows[1:]] == k[rows[:-1]]]] = False  # a grid point's later rows (an event on it)
+    return keep
+
+
 def _uniform(t, signal) -> tuple[np.ndarray, float]:
     t, signal = np.asarray(t, dtype=float), np.asarray(signal, dtype=float)
     if t.shape != signal.shape or t.size < 4:
         raise ValueError("time and signal need the same length, at least 4 samples")
+    keep = sample_rows(t)
+    t, signal = t[keep], signal[keep]
     dt = np.diff(t)
     if np.max(np.abs(dt - dt.mean())) > 1e-6 * dt.mean():
         raise ValueError("the record must be sampled uniformly (give the scene a 'sample' interval)")

@@ -5,9 +5,10 @@ from __future__ import annotations
 
 def ride_report(res, skip: float = 1.0) -> list[tuple[str, float, str]]:
     """(what, value, unit) for every '*acc_x/y/z' output (Wd horizontally, Wk vertically) and every tyre load
-    ('*.load'), from `skip` seconds on (the start transient left out)."""
+    ('*.load'), from `skip` seconds on (the start transient left out), on the samples alone (not the rows that a
+    scene with events adds at each event)."""
     from mbs.runtime import comfort
-    keep = res.t >= skip
+    keep = (res.t >= skip) & comfort.sample_rows(res.t)
     rows = []
     for name in res.names:
         if name.endswith(("acc_x", "acc_y", "acc_z")):

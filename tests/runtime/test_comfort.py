@@ -54,3 +54,14 @@ def test_load_fluctuation_and_bad_input():
         comfort.weighted_rms([0, 0.1, 0.3, 0.4], [0, 1, 0, 1])
     with pytest.raises(ValueError, match="unknown weighting"):
         comfort.magnitude("Wz", 1.0)
+
+
+def test_the_rows_of_events_are_left_out_of_a_record():
+    """A scene with events has a row before and after each event between its samples (and two more on a sample
+    that falls on an event): the spectrum sees the samples alone."""
+    t = np.arange(0, 2.0, 0.01)
+    with_events = np.sort(np.r_[t, 0.123, 0.123, 0.5, 0.5, 1.2345, 1.2345])
+    keep = comfort.sample_rows(with_events)
+    assert np.array_equal(with_events[keep], t)
+    a = np.sin(2 * np.pi * 5 * with_events)
+    assert comfort.weighted_rms(with_events, a) == comfort.weighted_rms(t, np.sin(2 * np.pi * 5 * t))
