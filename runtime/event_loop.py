@@ -126,6 +126,15 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             t_event, y_event = float(solver.t), np.asarray(solver.y, dtype=float)
             g_event = g(t_event, y_event)
             fired = crossings(solver.g_old, g_event, directions)
+            # a switch crossing within the departure step of this event is this event too (the mirror-image wheels
+            # of a symmetric vehicle cross 1e-14 s apart): else the restart's look-ahead (departing,
+            # settle_switches) would take its flag over without an event, as c/ode.c mbs_ode_find_event says
+            g_ahead = departing(data, g, t_event, y_event)
+            twins = [k for k in crossings(solver.g_old, g_ahead, directions)
+                     if k not in fired and not any(a == "x" for a, _, _ in model.events[k].assignments)]
+            if twins:
+                g_event[twins] = g_ahead[twins]
+                fired = np.union1d(fired, twins)
             segments.add([t_event], y_event[None, :], data.p)
             noise = against_motion(model, data, g, fired, t_event, y_event, solver.g_old)
             if noise:
