@@ -11,7 +11,8 @@ of the kinematic slip angle alpha, the relaxed one alpha_r, an extra differentia
 at speed it is |vx| (the textbook form, a distance constant sigma), and with alpha ~ vsy / V at low speed
 V * alpha ~ vsy: the deflection form, which stays finite and well damped at standstill, where the textbook
 form would freeze alpha_r. Without the arguments nothing changes: no state, the same code. The tyre
-sensor's alpha and kappa are then the relaxed values, the ones the laws see.
+sensor's alpha and kappa are then the relaxed values, the ones the laws see; its vsx, vsy and vx give the
+kinematic ones.
 
 A length that is the number 0 once the inputs are put in (`relax_y = relax` with `input relax = 0 m`) is
 off in the same way: no state, the same code. A scene that replaces the input (`input relax = 0.5 m`)

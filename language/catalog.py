@@ -98,8 +98,11 @@ TYRE_LOCALS = (("x", LENGTH), ("y", LENGTH), ("rho", LENGTH), ("rho_dot", U.VELO
                ("vsx", U.VELOCITY), ("vsy", U.VELOCITY), ("omega", U.ANGULAR_VELOCITY), ("fx", U.FORCE),
                ("fy", U.FORCE))
 # The tyre sensor's components and their dimensions.
+# The slip velocities and the spin rate come last (added later: the components before them keep their places);
+# with a relaxation length alpha and kappa are the relaxed slips, and vsx, vsy, vx give the kinematic ones.
 TYRE_OUTPUTS = {"fx": U.FORCE, "fy": U.FORCE, "fz": U.FORCE, "mz": U.TORQUE, "alpha": ANGLE,
-                "kappa": U.DIMENSIONLESS, "gamma": ANGLE, "rho": LENGTH, "vx": U.VELOCITY}
+                "kappa": U.DIMENSIONLESS, "gamma": ANGLE, "rho": LENGTH, "vx": U.VELOCITY,
+                "vsx": U.VELOCITY, "vsy": U.VELOCITY, "omega": U.ANGULAR_VELOCITY}
 
 # Dry friction (language/friction.py, compiler/friction.py). 'normal' may read the local 'reaction': the
 # magnitude of the force the joint carries (bearing friction that grows with the load).

@@ -6,7 +6,8 @@ import numpy as np
 
 
 def tyre_forces(system, **params) -> dict:
-    """The components of `tyre.radial.forces` (fx fy fz mz alpha kappa gamma rho vx) at the scene's start."""
+    """The components of `tyre.radial.forces` (fx fy fz mz alpha kappa gamma rho vx vsx vsy omega) at the scene's
+    start."""
     res = system.simulate("probe", params=params)
     return {name.rsplit(".", 1)[1]: res[name][0] for name in res.names if name.startswith("tyre.radial.forces")}
 
