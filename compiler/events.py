@@ -49,6 +49,7 @@ class Switch:
     inclusive: bool
     origin: str  # what the switch came from, for the event log ("max", "<", ...)
     continuous: bool = False  # every expression reading the flag is continuous where the indicator is zero
+    prescribed: bool = False  # a prescribed motion reads the flag: its speed may step at the event
 
 
 @dataclass
@@ -61,11 +62,21 @@ class SwitchRegistry:
     _open: dict = field(default_factory=dict)  # flag -> comparisons converted and not yet shown continuous
     _jumps: set = field(default_factory=set)  # flags read by an expression that may jump at the switch
     _indicators: dict = field(default_factory=dict)  # flag -> its indicator g
+    _prescribed: set = field(default_factory=set)  # flags a prescribed motion reads
 
     def final(self) -> tuple[Switch, ...]:
         """The switches with their continuity as far as the expressions converted so far tell."""
-        return tuple(replace(s, continuous=s.symbol not in self._jumps and self._open.get(s.symbol, 0) <= 0)
+        return tuple(replace(s, continuous=s.symbol not in self._jumps and self._open.get(s.symbol, 0) <= 0,
+                             prescribed=s.symbol in self._prescribed)
                      for s in self.switches)
+
+    def prescribed_motion(self, expr) -> None:
+        """Note the flags a prescribed motion reads: where one flips, the motion's position is continuous but its
+        speed may step (a ramp that starts), so the switch is not continuous, and on a model with loops the
+        run projects the speeds onto the constraints there (runtime/event_loop.py c_restart_tables)."""
+        flags = {f for f in sp.sympify(expr).free_symbols if f in self._indicators}
+        self._prescribed |= flags
+        self._jumps |= flags
 
     def depends_on_motion(self, *exprs) -> bool:
         return any(s.name not in self.parameters for e in exprs for s in sp.sympify(e).free_symbols)
@@ -245,5 +256,6 @@ def event_code(lowered_events, switches, state_names: tuple[str, ...], nq: int, 
     for s in switches:
         indicators.append((s.symbol.name, s.indicator))
         table.append(dict(name=f"{s.symbol.name} ({s.origin})", direction=0, terminal=False, assignments=(),
-                          switch=p_names.index(s.symbol.name), inclusive=s.inclusive, continuous=s.continuous))
+                          switch=p_names.index(s.symbol.name), inclusive=s.inclusive, continuous=s.continuous,
+                          prescribed=s.prescribed))
     return tuple(indicators), tuple(values), tuple(table)

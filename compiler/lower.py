@@ -64,6 +64,10 @@ class _Lowering:
         self.tables = TableRegistry()
         self.inputs = model_inputs(model, scene)
         self.geometry = ToSympy(self._no_state, self.tables)
+        # comparisons and kinks of min/max/abs/sign in the motion become switches in every model, unless it says
+        # `switches = false` (model.switches); those on time in a prescribed motion too (self.timed)
+        self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
+        self.timed = ToSympy(self._timed_symbol, self.tables, self.switches)
         self.topology = build_topology(model)
         self.body_of_part = {M.INERTIAL: -1}
         self.body_of_interaction: dict[str, int] = {}
@@ -75,9 +79,6 @@ class _Lowering:
         self.element_rates: dict[sp.Symbol, sp.Expr] = {}  # rates of states force elements add (tyre relaxation)
         self.kin = Kinematics(tree)
         self.cuts = tuple(self._cut_joint(inter) for inter in self.topology.cuts)
-        # comparisons and kinks of min/max/abs/sign in the motion become switches in every model, unless it says
-        # `switches = false` (model.switches)
-        self.switches = SwitchRegistry(frozenset(p.name for p in model.parameters)) if model.switches else None
         self.state = ToSympy(self._state_symbol, self.tables, self.switches)
         self.model_states = {s.name: s for s in model.states}
         self._sensor_cache: dict[str, sp.Expr] = {}
@@ -89,6 +90,11 @@ class _Lowering:
         if sym.kind == "input":
             return self.geometry(self.inputs[sym.name])
         raise _error(f"'{sym.name}' cannot appear in geometry or mass data", self.model.span)
+
+    def _timed_symbol(self, sym: X.Sym) -> sp.Expr:
+        if sym.kind == "input":
+            return self.timed(self.inputs[sym.name])
+        return self._no_state(sym)
 
     def _pose(self, ref: M.FrameRef):
         frame = self.model.part_map[ref.part].frame_map[ref.frame]
@@ -129,6 +135,13 @@ class _Lowering:
             raise _error(f"the prescribed motion of '{coordinate.name}' has a kink: its speed jumps at an instant, "
                          "which needs an infinite drive force; blend it, e.g. ramp * smoothstep(t, t0, t1)",
                          coordinate.span)
+        if self.switches is None:
+            return e
+        # an if() on time (a ramp that starts) is allowed, its speed stepping: a switch, so that the run locates
+        # the instant instead of stepping across it
+        self.switches.context = f"the prescribed motion of {coordinate.name}"
+        e = self.timed(coordinate.prescribed)
+        self.switches.prescribed_motion(e)
         return e
 
     def _cut_joint(self, inter: M.Interaction) -> CutJoint:

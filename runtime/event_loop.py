@@ -186,12 +186,16 @@ C_LOG_CAPACITY = 64
 def c_restart_tables(model):
     """Which events the C sampling loop may apply and restart from itself (c/ode.c, mbs_ode_restart): those whose
     actions are generated C that assigns run-time values only (switch branches, modes, parameters), not a jump
-    of the state and not the end of the run.  Returns (handled, flag, first, index, slot) as C wants them, or
-    None when no event qualifies."""
+    of the state and not the end of the run, and on a model with loops not a switch of a prescribed motion
+    (its speed steps there, and the loops' speeds with it: Python projects the state onto the constraints after
+    it, as the FMU does after an event it does not restart in C).  Returns (handled, flag, first, index, slot) as
+    C wants them, or None when no event qualifies."""
     handled, flag, first, index, slot = [], [], [0], [], []
+    loops = "project" in model.functions
     for spec in model.events:
         ok = (not spec.terminal and all(array == "p" for array, _, _ in spec.assignments)
-              and not is_friction_event(model, spec.name))  # Python checks the held forces after those
+              and not is_friction_event(model, spec.name)  # Python checks the held forces after those
+              and not (loops and spec.prescribed))
         handled.append(int(ok))
         flag.append(spec.switch)
         for _, target, value_slot in (spec.assignments if ok else ()):

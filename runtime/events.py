@@ -30,8 +30,9 @@ DIRECTION_NAMES = {1: "rising", -1: "falling", 0: "either"}
 class EventSpec:
     """One indicator of mbs_events: its name, direction (+1 rising, -1 falling, 0 either), whether it ends the
     run, what its actions assign ((array "x" or "p", index, slot of mbs_event_actions), ...), and for a switch
-    the p index of its branch flag (-1 otherwise), whether g = 0 counts as the true side, and whether the switch
-    is continuous (nothing jumps where it flips: compiler/events.py)."""
+    the p index of its branch flag (-1 otherwise), whether g = 0 counts as the true side, whether the switch
+    is continuous (nothing jumps where it flips: compiler/events.py), and whether a prescribed motion reads it
+    (its speed may step there)."""
 
     name: str
     direction: int
@@ -40,6 +41,7 @@ class EventSpec:
     switch: int = -1
     inclusive: bool = False
     continuous: bool = False
+    prescribed: bool = False   # a switch a prescribed motion reads: the speeds the constraints allow may step
 
     @classmethod
     def of(cls, value) -> "EventSpec":

@@ -9,6 +9,7 @@ import pytest
 
 import mbs
 from mbs.language.diagnostics import MbsError
+from mbs.runtime.event_loop import c_restart_tables
 
 MODELS = Path(__file__).parent / "models"
 
@@ -30,3 +31,43 @@ def test_the_blended_ramp_the_message_suggests_runs():
     tau = np.clip(res.t / 0.5, 0, 1)
     np.testing.assert_allclose(speed, 0.004 * 6 * tau * (1 - tau), rtol=0, atol=1e-15)
     assert np.ptp(res["spring.s"]) > 1e-6  # the spring lags behind the accelerated base
+
+
+RAMP_START = '''
+model ramp_start "a mass on a spring whose base starts moving at t0" {
+    param rate = 0.004 m/s
+    param t0 = 0.2 s
+    gravity = (0, 0, 0) m/s^2
+    part rack
+    rigid mass {
+        body {
+            mass = 1 kg
+            inertia = diag(1, 1, 1) kg*m^2
+        }
+    }
+    interact drive {
+        connect inertial -> rack
+        joint prismatic(axis = y) {
+            prescribe s = if(t < t0, 0 m, rate * (t - t0))
+        }
+    }
+    interact spring {
+        connect rack -> mass
+        joint prismatic(axis = y)
+        force k = spring(k = 100 N/m, along = y)
+    }
+}
+'''
+
+
+def test_a_ramp_that_starts_with_an_if_on_time_is_a_switch_of_the_prescribed_motion():
+    """An if on time is allowed (its speed steps: the comment in library/iltis/vehicle.mbs says why the Iltis
+    rack may), but not stepped across: a switch the run locates, not continuous (the speed steps), marked as a
+    prescribed motion's. On a tree C restarts at it (nothing is inconsistent: the coordinate is no state); on a
+    model with loops Python projects the loops' speeds there (tests/library/test_iltis_suspension_travel.py)."""
+    compiled = mbs.loads(RAMP_START).compile()
+    (event,) = compiled.events
+    assert event.prescribed and not event.continuous and "prescribed motion of drive.s" in event.name
+    assert c_restart_tables(compiled)[0].tolist() == [1]
+    res = mbs.loads(RAMP_START).simulate(t_end=0.5, sample=0.05)
+    assert [e["time"] for e in res.events] == [pytest.approx(0.2, abs=1e-12)]

@@ -14,7 +14,7 @@ import pytest
 from scipy.optimize import brentq
 
 import mbs
-from mbs.runtime import build
+from mbs.runtime import build, comfort
 from mbs.runtime.assembly import assemble
 from mbs.runtime.workspace import Workspace
 
@@ -225,6 +225,27 @@ def test_rack_ramp_steers_the_wheel_about_its_kingpin_and_keeps_the_rod_length(p
     assert angles[0] - angles[-1] > 0.1  # more than 5.7 degrees for 20 mm of rack
     if Z is None:  # rack centred at the design height: straight ahead (where the data sheet puts the rod)
         assert abs(angles[5]) < TOL
+
+
+def test_a_rack_that_starts_moving_is_located_and_the_run_converges_with_its_tolerance(probe):
+    """The rack at rest, then ramped at 50 mm/s from 0.1 s (an input's if on time): its speed steps there, and the
+    loops' speeds with it. The run locates the instant (a switch of the prescribed motion) and projects the speeds
+    onto the constraints there, so its error follows its tolerance; stepped across, the travel was off by 8 % of
+    its range at rtol 1e-6 and 42 % at 1e-5 against the rtol 1e-10 run."""
+    runs = {rtol: probe.system.simulate("ramp_start", params={"rack_rate": 0.05}, t_end=0.3, sample=0.01,
+                                        rtol=rtol, atol=rtol * 1e-2) for rtol in (1e-5, 1e-6, 1e-10)}
+    for res in runs.values():
+        assert res.success, res.message
+        assert [e["time"] for e in res.events if "prescribed motion of fl.rack" in e["event"]] == [
+            pytest.approx(0.1, abs=1e-12)]
+    reference = runs[1e-10]
+    for name in ("travel", "hub_y"):
+        exact = reference[name][comfort.sample_rows(reference.t)]
+        assert np.ptp(exact) > 1e-5  # the rack's ramp moves the wheel (m)
+        for rtol in (1e-5, 1e-6):
+            res = runs[rtol]
+            error = np.max(np.abs(res[name][comfort.sample_rows(res.t)] - exact))
+            assert error < 10 * rtol * np.ptp(exact), (name, rtol, error)
 
 
 def test_driven_through_its_travel_by_the_chassis_while_steering(probe):
