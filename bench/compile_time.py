@@ -15,7 +15,8 @@ and noisy, so CPU seconds are printed beside wall seconds):
   sympy's diff, a Derivative around every node, where now sympy_diff applies sympy's rules to sums, products and
   powers itself; every entry's and printed expression's free symbols computed anew) and the former flags (the
   outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
-  level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS). Printed: wall time, and of it the derivation (to the generated C)
+  level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS) and a tree's NumPy module printed with every
+  derivation (now only when the NumPy back end asks for it). Printed: wall time, and of it the derivation (to the generated C)
   and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
 * same text: the generated C of both settings is compared (the settings must not change it);
 * run time, 15 interleaved rounds inside C (`backend.time_call`, no Python; the fastest round of each): the
@@ -106,9 +107,14 @@ def _former_symbols_read(entry):
     return frozenset(symbols | entry.guard.free_symbols if entry.guard is not None else symbols)
 
 
+#: The former derivation printed a tree's NumPy module with its C (now printed only for the NumPy back end).
+_EAGER_NUMPY = [False]
+
+
 @contextlib.contextmanager
 def former_settings():
     """The printer, the derivation's helpers and the build flags as they were before: the baseline."""
+    _EAGER_NUMPY[0] = True
     printer, tape = emit_common.ExprPrinter, tape_module.Tape
     saved = (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.__dict__["symbols_read"],
              differentiate.sympy_diff, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS)
@@ -120,6 +126,7 @@ def former_settings():
     try:
         yield
     finally:
+        _EAGER_NUMPY[0] = False
         (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.symbols_read,
          differentiate.sympy_diff, build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS) = saved
 
@@ -139,6 +146,8 @@ def fresh_compile(name: str, cache: str) -> dict:
 
     def timed_generate(*a, **k):
         result = generate(*a, **k)
+        if _EAGER_NUMPY[0]:
+            assert isinstance(result.numpy_source, str)
         marks.setdefault("derived", time.perf_counter())
         marks.setdefault("derived cpu", time.process_time())
         return result

@@ -3,8 +3,8 @@ against the former one, measured in the same run.
 
     python bench/derive.py [--models iltis chain40 quarter] [--repeat 5]
 
-Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C and, for a
-tree, the NumPy module), its CPU seconds (this process; the machine is shared and noisy, so CPU rather than wall
+Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C; a tree's
+NumPy module is printed when first asked for, after the timing, and compared too), its CPU seconds (this process; the machine is shared and noisy, so CPU rather than wall
 time), each run in a process of its own (as a fresh compile: sympy's caches empty; the imports are not timed),
 the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`):
 

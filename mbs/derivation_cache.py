@@ -109,14 +109,15 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
     folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     eq_path, out_path = (folder / f"{_cache.DERIVED_PREFIX}{k[:32]}.json" for k in (eq_key, out_key))
     derive = functools.partial(_derive_symbolic, model, scene, options)
+    numpy = functools.partial(_print_numpy, model, scene, options)
     outputs = _read(out_path, out_key)
     if outputs is not None and outputs.get("kind", "whole") == "whole":
         _log.info("derivation of %s: cache hit (%s)", model.name, out_path.name)
-        return _from_payload(model, scene, outputs, derive)
+        return _from_payload(model, scene, outputs, derive, numpy)
     equations = _read(eq_path, eq_key)
     if outputs is not None and equations is not None:
         _log.info("derivation of %s: cache hit (equations %s, outputs %s)", model.name, eq_path.name, out_path.name)
-        return _joined(model, scene, equations, outputs, derive)
+        return _joined(model, scene, equations, outputs, derive, numpy)
     if equations is not None:
         from mbs.compiler.ccode import NotSeparable
         _log.info("derivation of %s: the equations from the cache (%s), the scene's outputs derived on them",
@@ -124,15 +125,16 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
         if equations_ready is not None:
             equations_ready(equations["c_source"])
         try:
-            c_outputs, numpy_source, y_names, symbolic = pipeline.generate_outputs(
+            c_outputs, print_numpy, y_names, symbolic = pipeline.generate_outputs(
                 model, scene, equations["c_source"], **options)
         except NotSeparable:
             pass
         else:
             outputs = {"key": out_key, "kind": "outputs", "equations": eq_key, "c_outputs": c_outputs,
-                       "numpy_source": numpy_source, "y_names": list(y_names)}
+                       "numpy_source": None, "y_names": list(y_names)}
             _write(out_path, outputs, model, scene)
-            return _joined(model, scene, equations, outputs, derive if symbolic is None else lambda: symbolic)
+            return _joined(model, scene, equations, outputs, derive if symbolic is None else lambda: symbolic,
+                           print_numpy)
     generated = pipeline.generate(model, scene, **options, equations_ready=equations_ready)
     payload = _payload(generated, out_key)
     if generated.outputs_at is not None:  # the equations apart, for scenes that ask for other outputs
@@ -141,7 +143,7 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, ja
         del equations["numpy_source"], equations["y_names"]
         _write(eq_path, equations, model, None)
         payload = {"key": out_key, "kind": "outputs", "equations": eq_key,
-                   "c_outputs": generated.c_source[generated.outputs_at:], "numpy_source": generated.numpy_source,
+                   "c_outputs": generated.c_source[generated.outputs_at:], "numpy_source": generated.numpy_text,
                    "y_names": list(generated.y_names)}
     _write(out_path, payload, model, scene)
     return generated
@@ -170,27 +172,34 @@ def _derive_symbolic(model, scene, options) -> pipeline.Symbolic:
     return pipeline.generate(model, scene, **options).symbolic
 
 
+def _print_numpy(model, scene, options) -> str:
+    """The NumPy module of a derivation taken from the cache without one (a run on the C back end never printed
+    it): derived again, for the rare caller on the NumPy back end."""
+    return pipeline.generate(model, scene, **options).numpy_source
+
+
 def _label(model: M.Model, scene: M.Scene | None) -> str:
     where = Path(model.span.source.path).name
     return f"{model.name} ({where}{', scene ' + scene.name if scene is not None else ', equations'})"
 
 
 def _payload(gen: pipeline.Generated, key: str) -> dict:
-    return {"key": key, "kind": "whole", "c_source": gen.c_source, "numpy_source": gen.numpy_source,
+    return {"key": key, "kind": "whole", "c_source": gen.c_source, "numpy_source": gen.numpy_text,
             "q_names": gen.q_names, "v_names": gen.v_names, "p_names": gen.p_names, "y_names": gen.y_names,
             "layout": dataclasses.asdict(gen.layout), "events": [dict(e) for e in gen.events]}
 
 
-def _joined(model, scene, equations: dict, outputs: dict, derive) -> pipeline.Generated:
+def _joined(model, scene, equations: dict, outputs: dict, derive, numpy) -> pipeline.Generated:
     """The Generated of an equations entry and an outputs entry: the code is the one text generate gives."""
     c_source = pipeline.join_parts(equations["c_source"], outputs["c_outputs"])
     payload = {**equations, "c_source": c_source, "numpy_source": outputs["numpy_source"],
                "y_names": outputs["y_names"]}
-    return dataclasses.replace(_from_payload(model, scene, payload, derive),
+    return dataclasses.replace(_from_payload(model, scene, payload, derive, numpy),
                                outputs_at=len(equations["c_source"]) + 1)
 
 
-def _from_payload(model, scene, payload: dict, derive) -> pipeline.Generated:
+def _from_payload(model, scene, payload: dict, derive, numpy) -> pipeline.Generated:
+    """numpy: prints the NumPy module when the entry has none (None: the C back end's run did not print it)."""
     layout = payload["layout"]
     rows = layout["constraint_rows"]
     state = pipeline.StateLayout(tuple(layout["q_symbols"]), tuple(layout["v_symbols"]),
@@ -198,6 +207,6 @@ def _from_payload(model, scene, payload: dict, derive) -> pipeline.Generated:
                                  tuple(layout["cuts"]), tuple(rows) if rows is not None else None,
                                  tuple(layout.get("z_symbols", ())))
     events = tuple({**e, "assignments": tuple(tuple(a) for a in e["assignments"])} for e in payload["events"])
-    return pipeline.Generated(model, scene, payload["c_source"], payload["numpy_source"],
+    return pipeline.Generated(model, scene, payload["c_source"], payload.get("numpy_source"),
                               tuple(payload["q_names"]), tuple(payload["v_names"]), tuple(payload["p_names"]),
-                              tuple(payload["y_names"]), state, events, derive)
+                              tuple(payload["y_names"]), state, events, derive, print_numpy=numpy)

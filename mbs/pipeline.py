@@ -71,12 +71,15 @@ class Generated:
     """The code generator's output and what the runtime needs to know about it.
 
     The symbolic stages (lowered, equations, constraints) come from `derive` when first asked for: code taken
-    from the derivation cache runs without them, and derives them again only for a caller that needs them."""
+    from the derivation cache runs without them, and derives them again only for a caller that needs them. The
+    NumPy module (a tree's functions for the NumPy back end) is printed when first asked for, by `print_numpy`:
+    a run on the C back end never needs it, and printing it took about a quarter of a 40-link chain's
+    derivation."""
 
     model: M.Model
     scene: M.Scene | None
     c_source: str
-    numpy_source: str   # the same functions for machines without a C compiler
+    numpy_text: str | None   # the NumPy module's text, None while not printed (numpy_source prints it)
     q_names: tuple[str, ...]
     v_names: tuple[str, ...]
     p_names: tuple[str, ...]
@@ -86,10 +89,16 @@ class Generated:
     derive: Callable[[], Symbolic] | None = field(default=None, compare=False, repr=False)
     #: where c_source's outputs part starts (compiler/ccode.py generate_c_outputs); None: written with the rest
     outputs_at: int | None = None
+    print_numpy: Callable[[], str] | None = field(default=None, compare=False, repr=False)
 
     @cached_property
     def symbolic(self) -> Symbolic:
         return self.derive()
+
+    @cached_property
+    def numpy_source(self) -> str:
+        """The same functions as c_source in NumPy, for machines without a C compiler ("" with loops)."""
+        return self.numpy_text if self.numpy_text is not None else self.print_numpy()
 
     @property
     def lowered(self) -> Lowered:
@@ -177,7 +186,7 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
                      jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
                      frames: tuple[str, ...] = (), closed_form: bool = True
                      ) -> tuple[str, str, tuple[str, ...], Symbolic]:
-    """(outputs part, NumPy source, output names, symbolic stages or None) of a scene whose equations part
+    """(outputs part, the NumPy module's printer, output names, symbolic stages or None) of a scene whose equations part
     (generate's c_source up to outputs_at, with the same options) is `equations_source`: the model is lowered
     again (the outputs are expressions on its tape); with loops the equations of motion are not derived
     (outputs_equations; symbolic stages None), a tree's are for its NumPy module, not written into the C; the
@@ -203,13 +212,14 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
                                    first_table, outputs=with_outputs.outputs, tables=with_outputs.tables,
                                    constraints=constraints, run_time_inputs=with_outputs.run_time_inputs,
                                    friction=friction)
-    numpy_source = ""
-    if equations is not None and constraints is None:
+    def print_numpy() -> str:
+        if equations is None or constraints is not None:
+            return ""
         options.update(outputs=with_outputs.outputs, tables=with_outputs.tables,
                        run_time_inputs=with_outputs.run_time_inputs)
-        numpy_source = generate_numpy(equations, parameters, model.name, **options)
+        return generate_numpy(equations, parameters, model.name, **options)
     clock("generated the outputs' C")
-    return c_outputs, numpy_source, tuple(name for name, _ in with_outputs.outputs), \
+    return c_outputs, print_numpy, tuple(name for name, _ in with_outputs.outputs), \
         Symbolic(with_outputs, equations, constraints) if equations is not None else None
 
 
@@ -370,16 +380,19 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
     else:
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
                               closed_form=form, **options)
-    # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
-    numpy_source = generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
-    clock("generated C and NumPy code")
+    clock("generated C")
+
+    def print_numpy() -> str:
+        # closed loops need the loop solver in C (runtime/c/loops.c): no NumPy module for them
+        return generate_numpy(equations, parameters, model.name, **options) if constraints is None else ""
     symbolic = Symbolic(lowered, equations, constraints)
     tree = lowered.tree
-    return Generated(model, scene, c_source, numpy_source,
+    return Generated(model, scene, c_source, None,
                      tuple(display_name(s.name) for s in tree.q_symbols),
                      tuple(display_name(s.name) for s in tree.v_symbols),
                      tuple(s.name for s in parameters), tuple(name for name, _ in lowered.outputs),
-                     StateLayout.of(tree, lowered.cuts, constraints), event_table, lambda: symbolic, outputs_at)
+                     StateLayout.of(tree, lowered.cuts, constraints), event_table, lambda: symbolic, outputs_at,
+                     print_numpy)
 
 
 def run_parameters(model: M.Model, lowered) -> list:
