@@ -60,13 +60,13 @@ def bound_body_problems(model: M.Model, values: Mapping[str, float], overridden:
     defaults = {p.name: p.value for p in model.parameters}
     for part in model.parts:
         if part.body is None or not any(name in overridden for quantity in ("mass", "inertia")
-                                        for name in _parameters_of(part.body, quantity, model)):
+                                        for name in _parameters_of(part, quantity, model)):
             continue  # nothing set here reaches this body: what it has, `mbs check` reported from the defaults
         problems = body_problems(part, values, massless_ok=True)
         if not problems or body_problems(part, defaults, massless_ok=True) == problems:
             continue  # none, or reported by `mbs check` already
         for quantity, message in problems:
-            culprits = [name for name in _parameters_of(part.body, quantity, model) if name in overridden]
+            culprits = [name for name in _parameters_of(part, quantity, model) if name in overridden]
             if not culprits:
                 continue
             notes = tuple((f"parameter '{name}' is {_shown(values[name], model.parameter_map[name])} here ({how})",
@@ -97,13 +97,14 @@ def _parameters_in(expression: X.E) -> tuple[str, ...]:
     return tuple(s.name for s in X.symbols(expression) if s.kind == "param")
 
 
-def _parameters_of(body: M.Body, quantity: str, model: M.Model) -> tuple[str, ...]:
-    """The parameters the body's mass or inertia depends on, directly or through other parameters' defaults
-    (an inertia given 'about' a frame depends on the mass and the centre of mass too); computed once per body."""
+def _parameters_of(part: M.Part, quantity: str, model: M.Model) -> tuple[str, ...]:
+    """The parameters the part's body's mass or inertia depends on, directly or through other parameters'
+    defaults (an inertia given 'about' a frame depends on the mass and the centre of mass too); computed once per
+    part, kept by its name (the table travels with a pickled model, whose objects are new ones)."""
     kept = _derived(model, "body_parameters", dict)
-    key = (id(body), quantity)
+    key = (part.name, quantity)
     if key not in kept:
-        kept[key] = tuple(_walk_parameters_of(body, quantity, model))
+        kept[key] = tuple(_walk_parameters_of(part.body, quantity, model))
     return kept[key]
 
 

@@ -117,8 +117,9 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
         return step
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     rank = int(np.count_nonzero(s > RCOND * s[0]))
-    kept = np.ones(J.shape[1], dtype=bool)  # (a mask, not np.setdiff1d: that imports numpy.ma, 30 ms of a warm
-    kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False  # command line; tests/mbs/test_model_cache.py)
+    # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
+    kept = np.ones(J.shape[1], dtype=bool)
+    kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
     kept = np.flatnonzero(kept)
     step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
     return step
