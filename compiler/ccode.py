@@ -88,6 +88,17 @@ class CPrinter(ExprPrinter):
 #: Static helpers, defined in the file only when the printed code calls them (an unused static function is a
 #: warning).
 HELPERS = {
+    "mbs_pow3": ["/* x^3 as the product x*x*x is printed for a symbol (the C library's pow costs ~20 times more). */",
+                 "static double mbs_pow3(double x)",
+                 "{",
+                 "    return x * x * x;",
+                 "}"],
+    "mbs_pow4": ["/* x^4 as two squarings. */",
+                 "static double mbs_pow4(double x)",
+                 "{",
+                 "    const double x2 = x * x;",
+                 "    return x2 * x2;",
+                 "}"],
     "mbs_sign": ["/* sign(x): -1, 0 or 1 (0 for NaN, like the model language's sign). */",
                  "static double mbs_sign(double x)",
                  "{",

@@ -295,7 +295,9 @@ class ExprPrinter:
             return "1.0/" + self._paren(sp.Pow(base, -exp), PREC_ATOM), PREC_MUL
         if exp in (2, 3) and base.is_Atom:
             return "*".join([self._paren(base, PREC_MUL)] * int(exp)), PREC_MUL
-        return self._call("pow", [base, exp])
+        if exp in (3, 4):  # the products as for an atom, in a helper (the base printed once): without -ffast-math
+            return self._call(f"mbs_pow{int(exp)}", [base])  # GCC keeps pow(x, 3) a library call of ~140
+        return self._call("pow", [base, exp])  # instructions (pow(x, 2) it makes x*x itself, exactly)
 
     # -- functions --
     def _print_Function(self, expr):

@@ -66,6 +66,13 @@ HELPERS = {
     "fmin": '''def fmin(a, b):
     """C99 fmin: the smaller of a and b; the other one when one is NaN."""
     return b if a != a or b < a else a''',
+    "mbs_pow3": '''def mbs_pow3(x):
+    """x^3 as the C code computes it: (x*x)*x."""
+    return x * x * x''',
+    "mbs_pow4": '''def mbs_pow4(x):
+    """x^4 as the C code computes it: two squarings."""
+    x2 = x * x
+    return x2 * x2''',
     "mbs_sign": '''def mbs_sign(x):
     """-1.0, 0.0 or 1.0 (0.0 for NaN, like the model language's sign)."""
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)''',

@@ -25,6 +25,8 @@ def parameter_values(model: M.Model, overrides: Mapping[str, float | X.E] | None
     if unknown:
         raise MbsError([Diagnostic("error", f"model '{model.name}' has no parameter '{unknown[0]}'", None)])
     values: dict[str, float] = {}
+    defaults_use = _derived(model, "defaults_use", lambda: {
+        p.name: _parameters_in(p.default) for p in model.parameters if not isinstance(p.default, (int, float))})
 
     def value(name: str, depth: int = 0) -> float:
         if name in values:
@@ -35,7 +37,10 @@ def parameter_values(model: M.Model, overrides: Mapping[str, float | X.E] | None
         if isinstance(given, (int, float)):
             result = float(given)
         else:
-            env = {s.name: value(s.name, depth + 1) for s in X.symbols(given) if s.kind == "param"}
+            uses = defaults_use.get(name) if name not in overrides else None
+            if uses is None:
+                uses = _parameters_in(given)
+            env = {used: value(used, depth + 1) for used in uses}
             result = X.evaluate(given, env)
         values[name] = result
         return result
@@ -55,13 +60,13 @@ def bound_body_problems(model: M.Model, values: Mapping[str, float], overridden:
     defaults = {p.name: p.value for p in model.parameters}
     for part in model.parts:
         if part.body is None or not any(name in overridden for quantity in ("mass", "inertia")
-                                        for name in _parameters_of(part.body, quantity, model)):
+                                        for name in _parameters_of(part, quantity, model)):
             continue  # nothing set here reaches this body: what it has, `mbs check` reported from the defaults
         problems = body_problems(part, values, massless_ok=True)
         if not problems or body_problems(part, defaults, massless_ok=True) == problems:
             continue  # none, or reported by `mbs check` already
         for quantity, message in problems:
-            culprits = [name for name in _parameters_of(part.body, quantity, model) if name in overridden]
+            culprits = [name for name in _parameters_of(part, quantity, model) if name in overridden]
             if not culprits:
                 continue
             notes = tuple((f"parameter '{name}' is {_shown(values[name], model.parameter_map[name])} here ({how})",
@@ -77,9 +82,33 @@ def check_bound_values(model: M.Model, values: Mapping[str, float], overridden: 
         raise MbsError(problems)
 
 
-def _parameters_of(body: M.Body, quantity: str, model: M.Model) -> list[str]:
-    """The parameters the body's mass or inertia depends on, directly or through other parameters' defaults
-    (an inertia given 'about' a frame depends on the mass and the centre of mass too)."""
+def _derived(model: M.Model, key: str, compute):
+    """What ``compute()`` derives from the (immutable) model, computed once per model object: kept in its
+    __dict__ as its cached_property values are (the model cache's snapshot holds the dataclass fields only).
+    Every run binds the parameters again; their expressions' symbols need not be walked again each time."""
+    kept = model.__dict__.get("_binding_" + key)
+    if kept is None:
+        kept = model.__dict__["_binding_" + key] = compute()
+    return kept
+
+
+def _parameters_in(expression: X.E) -> tuple[str, ...]:
+    """The parameters an expression reads, in the order X.symbols finds them."""
+    return tuple(s.name for s in X.symbols(expression) if s.kind == "param")
+
+
+def _parameters_of(part: M.Part, quantity: str, model: M.Model) -> tuple[str, ...]:
+    """The parameters the part's body's mass or inertia depends on, directly or through other parameters'
+    defaults (an inertia given 'about' a frame depends on the mass and the centre of mass too); computed once per
+    part, kept by its name (the table travels with a pickled model, whose objects are new ones)."""
+    kept = _derived(model, "body_parameters", dict)
+    key = (part.name, quantity)
+    if key not in kept:
+        kept[key] = tuple(_walk_parameters_of(part.body, quantity, model))
+    return kept[key]
+
+
+def _walk_parameters_of(body: M.Body, quantity: str, model: M.Model) -> list[str]:
     found: list[str] = []
     todo = [body.mass] if quantity == "mass" else [c for row in body.inertia for c in row]
     while todo:

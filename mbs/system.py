@@ -131,9 +131,12 @@ class System:
 
     def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
         """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
-        owners = {}
-        for name in compiled.q_names:
-            interaction = next((i for i in self.model.interactions if name.startswith(i.name + ".")), None)
+        owners, first = {}, {}
+        for k, i in enumerate(self.model.interactions):
+            first.setdefault(i.name, (k, i))
+        for name in compiled.q_names:  # of the interactions whose name is a prefix of it, the first declared
+            heads = [first[head] for head in _dotted_heads(name) if head in first]
+            interaction = min(heads, key=lambda found: found[0])[1] if heads else None
             if interaction is not None:
                 forces = ", ".join(f.name for f in interaction.forces)
                 owners[name] = f"interaction {interaction.name}" + (f": force {forces}" if forces else "")
@@ -256,6 +259,14 @@ class System:
         from mbs.runtime.mode_energy import part_groups
         lin = _linearize(compiled, data, t, x, groups=part_groups(self.model))
         return state_space_of(self, scene, compiled, data, lin)
+
+
+def _dotted_heads(name: str):
+    """'a.b.c' -> 'a', 'a.b': the prefixes before each dot."""
+    dot = name.find(".")
+    while dot >= 0:
+        yield name[:dot]
+        dot = name.find(".", dot + 1)
 
 
 def _numpy_module(gen: pipeline.Generated):

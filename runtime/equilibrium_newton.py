@@ -26,6 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .rows import evaluate_rows
+
 #: Newton iterations before giving up (a converging run takes 3-6).
 MAX_ITERATIONS = 30
 #: Forward-difference step along one independent velocity [m or rad].
@@ -69,15 +71,28 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
         def accelerations(state: np.ndarray) -> np.ndarray:
             return data.rhs(t, state)[nq:]
 
+        def jacobian(state: np.ndarray, acc: np.ndarray) -> np.ndarray:
+            """The forward differences of every independent column, as move and accelerations give them column
+            by column, in one pass per function over all the probes (qdot, project, rhs: on the C back end one
+            call each, runtime/rows.py) instead of three Python calls per column."""
+            n = free.size
+            probes = np.repeat(state[None, :], n, axis=0)
+            probes[:, nq:] = 0.0
+            probes[np.arange(n), nq + free] = DIFFERENCE_STEP
+            moved = np.repeat(state[None, :], n, axis=0)
+            moved[:, :nq] += _rows(data, "qdot", t, probes, nq)
+            moved[:, nq:] = 0.0
+            if loops:
+                moved = _rows(data, "project", t, moved, moved.shape[1])
+            return ((_rows(data, "rhs", t, moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
+
         acc = accelerations(x)
         J = np.zeros((nv, free.size))
         for _ in range(MAX_ITERATIONS):
             if np.max(np.abs(acc), initial=0.0) <= TOLERANCE:
                 return x if _stable(J, free) else None
-            for k, j in enumerate(free):
-                dv = np.zeros(nv)
-                dv[j] = DIFFERENCE_STEP
-                J[:, k] = (accelerations(move(x, dv)) - acc) / DIFFERENCE_STEP
+            if free.size:
+                J = jacobian(x, acc)
             dv = np.zeros(nv)
             dv[free] = _step(J, acc)
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
@@ -102,10 +117,22 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
         return step
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     rank = int(np.count_nonzero(s > RCOND * s[0]))
-    held = _pivot_columns(vt[rank:], J.shape[1] - rank)
-    kept = np.setdiff1d(np.arange(J.shape[1]), held)
+    # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
+    kept = np.ones(J.shape[1], dtype=bool)
+    kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
+    kept = np.flatnonzero(kept)
     step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
     return step
+
+
+def _rows(data, name: str, t: float, states: np.ndarray, size: int) -> np.ndarray:
+    """The model function ``name`` at each of ``states`` (rows) at time t (runtime/rows.py); raises its error."""
+    out = np.empty((len(states), size))
+    done, error = evaluate_rows(data, name, [data.p], np.full(len(states), t), states,
+                                np.zeros(len(states), dtype=np.intp), out)
+    if error is not None:
+        raise error
+    return out
 
 
 def _pivot_columns(A: np.ndarray, k: int) -> list[int]:

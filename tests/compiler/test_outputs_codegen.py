@@ -53,6 +53,9 @@ table0 = sp.Function("mbs_table_0")
     (a**sp.Rational(1, 3), "pow(a, 0.3333333333333333)"),
     (a**5, "pow(a, 5)"),
     ((a + b)**-2, "1.0/pow(a + b, 2)"),
+    ((a + b)**3, "mbs_pow3(a + b)"),                              # the C library's pow(x, 3) is a call
+    ((a + b)**-4, "1.0/mbs_pow4(a + b)"),
+    (a**4, "mbs_pow4(a)"),
     (2**a, "pow(2, a)"),
     (sp.Integer(2**40) * a, "1099511627776.0*a"),                 # beyond a C int
     (a - sp.Integer(2**40), "a - 1099511627776.0"),

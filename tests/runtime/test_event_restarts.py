@@ -105,3 +105,34 @@ def test_twin_contacts_closer_than_the_departure_step_are_one_event_in_the_pytho
     assert sorted(e["event"].split(" ")[-1] for e in closing) == ["drop_left.contact)", "drop_right.contact)"]
     assert closing[0]["time"] == closing[1]["time"]
     assert closing[0]["time"] == pytest.approx(np.sqrt(2 * h / g), abs=1e-6)  # scipy's event location, rtol 1e-10
+
+
+def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry():
+    """replay's numpy path for logs whose events only flip branches (event_loop._book_branches) against its
+    entry-by-entry loop (_book_each, which applies any action) on a log of random crossings of three switches:
+    the same records in the same order, the same values in force after every entry, the same twins."""
+    from types import SimpleNamespace
+
+    from mbs.runtime.events import EventSpec
+    rng = np.random.default_rng(7)
+    specs = (EventSpec("a", 0, switch=0, continuous=True), EventSpec("b", 1, switch=2),
+             EventSpec("c", -1, switch=1, continuous=True))
+    model = SimpleNamespace(events=specs, nx=1)
+    m, nev = 60, len(specs)
+    g_old = rng.choice([-1.0, 1.0], size=(m, nev))
+    g_event = np.where(rng.random((m, nev)) < 0.4, -0.5 * g_old, g_old)  # about 40 % of them cross
+    log = np.column_stack([np.sort(rng.random(m)), rng.random((m, 2)), g_old, g_event])
+    fired = event_loop.crossing_rows(g_old, g_event, np.array([s.direction for s in specs]))
+    assert fired.sum() > 20 and np.any(fired.sum(axis=1) > 1) and not np.all(fired.any(axis=1))
+    start = np.array([0.0, 1.0, 1.0, 7.5])
+    booked = []
+    for book in (lambda p, r, f: event_loop._book_each(model, None, log, fired, p, r, f),
+                 lambda p, r, f: event_loop._book_branches(model, fired, g_old, g_event, log[:, 0], p, r, f)):
+        p, records, fired_times = start.copy(), [], []
+        copies, twin = book(p, records, fired_times)
+        booked.append((copies, twin, p, [r.as_row() for r in records], fired_times))
+    for each, at_once in zip(*booked):
+        if isinstance(each, np.ndarray):
+            assert np.array_equal(each, at_once)
+        else:
+            assert each == at_once
