@@ -42,6 +42,7 @@ from .ccode_parts import names_in, plan_parts
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
+    PREC_MUL,
     PREC_UNARY,
     CodegenError,
     ExprPrinter,
@@ -84,10 +85,33 @@ class CPrinter(ExprPrinter):
     def _not(self, text):
         return f"!({text})", PREC_UNARY
 
+    def _print_Pow(self, expr):
+        """Cubes and fourth powers as products: GCC calls the library's pow for integer powers above 2 (unless
+        told to round less exactly), about 140 instructions each, 4 % of the Iltis's right-hand side (its tyres'
+        and dampers' polynomials). An atom's power is written out, another base's goes to mbs_cube or mbs_pow4
+        (its text once)."""
+        base, exp = expr.args
+        if exp in (3, 4):
+            if base.is_Atom:
+                return "*".join([self._paren(base, PREC_MUL)] * int(exp)), PREC_MUL
+            return self._call("mbs_cube" if exp == 3 else "mbs_pow4", [base])
+        return super()._print_Pow(expr)
+
 
 #: Static helpers, defined in the file only when the printed code calls them (an unused static function is a
 #: warning).
 HELPERS = {
+    "mbs_cube": ["/* x^3 by multiplication (CPrinter._print_Pow). */",
+                 "static double mbs_cube(double x)",
+                 "{",
+                 "    return x * x * x;",
+                 "}"],
+    "mbs_pow4": ["/* x^4 by multiplication (CPrinter._print_Pow). */",
+                 "static double mbs_pow4(double x)",
+                 "{",
+                 "    const double x2 = x * x;",
+                 "    return x2 * x2;",
+                 "}"],
     "mbs_sign": ["/* sign(x): -1, 0 or 1 (0 for NaN, like the model language's sign). */",
                  "static double mbs_sign(double x)",
                  "{",
@@ -256,7 +280,8 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {self._tree_work()}   /* of the tree functions */",
-                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work(),
+                                       len(self.parameters))]
             if self.closed_form is not None:
                 lines.append(closed_form_definitions(self.closed_form, nv, self.constraints.nc))
             if self.friction:
@@ -331,7 +356,8 @@ class CEmitter:
     def _work(self) -> int:
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
+        loops = (loop_work_size(tree.nq, tree.nv, nc, tree.nz, len(self.parameters)) + self._friction_work()
+                 if nc else 0)
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
         return self._tree_work() + loops + self._output_scratch()
@@ -411,6 +437,7 @@ class CEmitter:
         """`r` as its parts (compiler/ccode_parts.py), each a function, and the function that calls them."""
         parts, slots, copies = plan
         out, n = r.out, len(parts)
+        copies_in_part, copies = _copies_after_sources(parts, copies)
         texts = []
         for k, part in enumerate(parts, 1):
             used = set().union(*map(names_in, _part_texts(part)))
@@ -428,7 +455,7 @@ class CEmitter:
                                                ("carry", bool(part.imports or part.exports))) if not present]
             if unused:
                 lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
-            lines += _statements(part.steps, part.results, out)
+            lines += _statements(part.steps, copies_in_part[k - 1], out)
             if part.exports:
                 lines.append("    /* for the parts after this one */")
                 lines += [f"    carry[{slots[name]}] = {name};" for name in part.exports]
@@ -470,6 +497,24 @@ def _statements(steps, results, out: str) -> list[str]:
     for k, value in results:
         lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
     return lines
+
+
+def _copies_after_sources(parts, copies) -> tuple[list[list], list]:
+    """Each part's outputs with the entries copied from them (a symmetric mass matrix's lower triangle) right after
+    their source, where the value is still in a register: one store each, where the parent's copy after all parts
+    loads it back (1,100 of the Iltis's loop terms' instructions). The copies whose source no part writes stay
+    with the parent."""
+    home = {j: n for n, part in enumerate(parts) for j, _ in part.results}
+    after: dict[int, list[int]] = {}
+    left = []
+    for k, j in copies:
+        if j in home:
+            after.setdefault(j, []).append(k)
+        else:
+            left.append((k, j))
+    results = [[entry for j, value in part.results for entry in [(j, value), *((k, j) for k in after.get(j, ()))]]
+               for part in parts]
+    return results, left
 
 
 def _part_texts(part) -> list[str]:
@@ -572,7 +617,7 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     tree_work = re.search(r"#define MBS_NWORK (\d+)", header)
     if tree_work is None:
         raise CodegenError("the emitter's header has no '#define MBS_NWORK <n>' line")
-    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc)
+    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc, np=len(emitter.parameters))
     header = header.replace(tree_work.group(0), f"#define MBS_TREE_NWORK {tree_work.group(1)}   /* of the tree "
                                                 f"functions */\n#define MBS_NWORK {total}")
     names = [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
@@ -580,5 +625,5 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     if emitter.outputs:
         names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
     helpers = emitter._helpers(printer.used, printer.hook_calls)
-    return "\n".join([header, loop_definitions(constraints), *helpers, *functions, *names,
+    return "\n".join([header, loop_definitions(constraints, np=len(emitter.parameters)), *helpers, *functions, *names,
                       loop_functions(constraints)])
