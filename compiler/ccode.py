@@ -354,13 +354,18 @@ class CEmitter:
                           name_table("mbs_output_name", "output i", [name for name, _ in self.outputs])])
 
     def _work(self) -> int:
+        return self._tree_work() + self._loop_work() + self._output_scratch()
+
+    def _loop_work(self) -> int:
+        """Doubles of work after the tree functions': the loop solver's (its bearing friction's at its end), then
+        the loop Jacobian's."""
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
         loops = (loop_work_size(tree.nq, tree.nv, nc, tree.nz, len(self.parameters)) + self._friction_work()
                  if nc else 0)
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
-        return self._tree_work() + loops + self._output_scratch()
+        return loops
 
     def _tree_work(self) -> int:
         """Doubles of work the generated functions use: the mass matrix's Cholesky test, or all the loop terms
@@ -374,10 +379,19 @@ class CEmitter:
 
     def _output_scratch(self) -> int:
         """Doubles at the start of work in which the output function keeps x' and the multipliers (with the
-        outputs in a part of their own always: MBS_NWORK must not depend on which outputs a scene asks for)."""
+        outputs in a part of their own always: MBS_NWORK must not depend on which outputs a scene asks for).
+
+        With loops the outputs (and the events that read the multipliers) solve in work + this
+        (MBS_OUTPUTS_WORK, mbs_loop_rates; the rows' projection too, c/mbs_glue.c): a loop solver's work of its
+        own, which must not overlap the right-hand side's at work. The two keep a partition, its blocks' plan and
+        a stamp from call to call; overlapping by a few doubles, each overwrote the other's plan (found as a
+        crash in the blocks' null space of a plane contact beside a slider-crank once the stamp grew)."""
         if not self.run_time_inputs and not self.separate_outputs:
             return 0
-        return self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
+        rates = self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
+        if self.constraints is None:
+            return rates
+        return max(rates, self._tree_work() + self._loop_work())
 
     def _run_time_prologue(self, r: Routine) -> tuple[list[str], list[str]]:
         """Lines that evaluate the accelerations (and multipliers) the function reads, before it reads them: the
@@ -393,7 +407,9 @@ class CEmitter:
             call = [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
         else:
             pointers.append(f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;")
-            call = [f"    const int mbs_status = mbs_loop_rates(t, x, p, work, work + {scratch});"]
+            # the header's macro: the emitter of a separate outputs unit may count another tree work
+            solver = "work + MBS_OUTPUTS_WORK" if scratch else "work"
+            call = [f"    const int mbs_status = mbs_loop_rates(t, x, p, work, {solver});"]
         return pointers, [*call, "    if (mbs_status != 0)", "        return mbs_status;"]
 
     def _function(self, r: Routine) -> str:
