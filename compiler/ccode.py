@@ -267,7 +267,8 @@ class CEmitter:
             lines.append("#define MBS_PARAM_JACOBIAN 1   /* mbs_param_jacobian exists */")
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {self._tree_work()}   /* of the tree functions */",
-                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work())]
+                      loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work(),
+                                       len(self.parameters))]
             if self.closed_form is not None:
                 lines.append(closed_form_definitions(self.closed_form, nv, self.constraints.nc))
             if self.friction:
@@ -340,12 +341,18 @@ class CEmitter:
                           name_table("mbs_output_name", "output i", [name for name, _ in self.outputs])])
 
     def _work(self) -> int:
+        return self._tree_work() + self._loop_work() + self._output_scratch()
+
+    def _loop_work(self) -> int:
+        """Doubles of work after the tree functions': the loop solver's (its bearing friction's at its end), then
+        the loop Jacobian's."""
         tree = self.eqs.tree
         nc = self.constraints.nc if self.constraints is not None else 0
-        loops = loop_work_size(tree.nq, tree.nv, nc, tree.nz) + self._friction_work() if nc else 0
+        loops = (loop_work_size(tree.nq, tree.nv, nc, tree.nz, len(self.parameters)) + self._friction_work()
+                 if nc else 0)
         if self.loop_jacobian:
             loops += loop_jacobian_work_size(tree.nq, tree.nv, nc)
-        return self._tree_work() + loops + self._output_scratch()
+        return loops
 
     def _tree_work(self) -> int:
         """Doubles of work the generated functions use: the mass matrix's Cholesky test, or all the loop terms
@@ -359,10 +366,19 @@ class CEmitter:
 
     def _output_scratch(self) -> int:
         """Doubles at the start of work in which the output function keeps x' and the multipliers (with the
-        outputs in a part of their own always: MBS_NWORK must not depend on which outputs a scene asks for)."""
+        outputs in a part of their own always: MBS_NWORK must not depend on which outputs a scene asks for).
+
+        With loops the outputs (and the events that read the multipliers) solve in work + this
+        (MBS_OUTPUTS_WORK, mbs_loop_rates; the rows' projection too, c/mbs_glue.c): a loop solver's work of its
+        own, which must not overlap the right-hand side's at work. The two keep a partition, its blocks' plan and
+        a stamp from call to call; overlapping by a few doubles, each overwrote the other's plan (found as a
+        crash in the blocks' null space of a plane contact beside a slider-crank once the stamp grew)."""
         if not self.run_time_inputs and not self.separate_outputs:
             return 0
-        return self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
+        rates = self.eqs.tree.nx + (self.constraints.nc if self.constraints is not None else 0)
+        if self.constraints is None:
+            return rates
+        return max(rates, self._tree_work() + self._loop_work())
 
     def _run_time_prologue(self, r: Routine) -> tuple[list[str], list[str]]:
         """Lines that evaluate the accelerations (and multipliers) the function reads, before it reads them: the
@@ -378,7 +394,9 @@ class CEmitter:
             call = [f"    const int mbs_status = mbs_rhs(t, x, p, work, work + {scratch});"]
         else:
             pointers.append(f"    const double *const {MULTIPLIER_ARRAY} = work + MBS_NX;")
-            call = [f"    const int mbs_status = mbs_loop_rates(t, x, p, work, work + {scratch});"]
+            # the header's macro: the emitter of a separate outputs unit may count another tree work
+            solver = "work + MBS_OUTPUTS_WORK" if scratch else "work"
+            call = [f"    const int mbs_status = mbs_loop_rates(t, x, p, work, {solver});"]
         return pointers, [*call, "    if (mbs_status != 0)", "        return mbs_status;"]
 
     def _function(self, r: Routine) -> str:
@@ -422,6 +440,7 @@ class CEmitter:
         """`r` as its parts (compiler/ccode_parts.py), each a function, and the function that calls them."""
         parts, slots, copies = plan
         out, n = r.out, len(parts)
+        copies_in_part, copies = _copies_after_sources(parts, copies)
         texts = []
         for k, part in enumerate(parts, 1):
             used = set().union(*map(names_in, _part_texts(part)))
@@ -439,7 +458,7 @@ class CEmitter:
                                                ("carry", bool(part.imports or part.exports))) if not present]
             if unused:
                 lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
-            lines += _statements(part.steps, part.results, out)
+            lines += _statements(part.steps, copies_in_part[k - 1], out)
             if part.exports:
                 lines.append("    /* for the parts after this one */")
                 lines += [f"    carry[{slots[name]}] = {name};" for name in part.exports]
@@ -481,6 +500,24 @@ def _statements(steps, results, out: str) -> list[str]:
     for k, value in results:
         lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
     return lines
+
+
+def _copies_after_sources(parts, copies) -> tuple[list[list], list]:
+    """Each part's outputs with the entries copied from them (a symmetric mass matrix's lower triangle) right after
+    their source, where the value is still in a register: one store each, where the parent's copy after all parts
+    loads it back (1,100 of the Iltis's loop terms' instructions). The copies whose source no part writes stay
+    with the parent."""
+    home = {j: n for n, part in enumerate(parts) for j, _ in part.results}
+    after: dict[int, list[int]] = {}
+    left = []
+    for k, j in copies:
+        if j in home:
+            after.setdefault(j, []).append(k)
+        else:
+            left.append((k, j))
+    results = [[entry for j, value in part.results for entry in [(j, value), *((k, j) for k in after.get(j, ()))]]
+               for part in parts]
+    return results, left
 
 
 def _part_texts(part) -> list[str]:
@@ -583,7 +620,7 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     tree_work = re.search(r"#define MBS_NWORK (\d+)", header)
     if tree_work is None:
         raise CodegenError("the emitter's header has no '#define MBS_NWORK <n>' line")
-    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc)
+    total = int(tree_work.group(1)) + loop_work_size(tree.nq, tree.nv, constraints.nc, np=len(emitter.parameters))
     header = header.replace(tree_work.group(0), f"#define MBS_TREE_NWORK {tree_work.group(1)}   /* of the tree "
                                                 f"functions */\n#define MBS_NWORK {total}")
     names = [name_table("mbs_state_name", "state i", [s.name for s in tree.q_symbols + tree.v_symbols]),
@@ -591,5 +628,5 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     if emitter.outputs:
         names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
     helpers = emitter._helpers(printer.used, printer.hook_calls)
-    return "\n".join([header, loop_definitions(constraints), *helpers, *functions, *names,
+    return "\n".join([header, loop_definitions(constraints, np=len(emitter.parameters)), *helpers, *functions, *names,
                       loop_functions(constraints)])

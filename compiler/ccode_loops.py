@@ -41,12 +41,12 @@ CONSTRAINT_MATRIX = "mbs_constraint_matrix"
 LOOP_SCALARS = 16
 
 
-def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0) -> int:
+def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0, np: int = 0) -> int:
     """Doubles of work memory the loop solver needs beyond the tree functions' (the formula of
     MBS_LOOP_NWORK_NEEDED in runtime/c/loops.c, which checks it at compile time); nz extra states ride along
-    in its two state copies."""
+    in its two state copies, np parameters in its stamp."""
     nx = nq + nv + nz
-    stamp = nq + 4  # the state whose factors the solver keeps for the projection of an accepted step
+    stamp = nq + np + 4  # the state and parameters whose factors the solver keeps for an accepted step's projection
     plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
     return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp + plan
 
@@ -99,14 +99,16 @@ def constraint_matrix_routine(equations: Equations, constraints: Constraints) ->
     return dataclasses.replace(equations, kinematics=kinematics), routine
 
 
-def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0) -> str:
+def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0,
+                     np: int = 0) -> str:
     """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
     constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`) and mbs_loop_terms
     (compiler/ccode_loop_terms.py); extra_work: doubles
-    the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end)."""
+    the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end); np:
+    the model's parameters (MBS_NP)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
-    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz) + extra_work
+    work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz, np) + extra_work
     colours = constraint_colours(constraints)
     ncol = max(colours.ncolours, 1)
     table = [colours.column_of(i, c) for i in range(constraints.nc) for c in range(ncol)]

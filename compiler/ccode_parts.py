@@ -15,7 +15,8 @@ A temporary that a later part reads is stored in `carry` (the parent's stack, N 
 computes it, and read back as a `const double` of the same name by the part that needs it: each part reads the same
 names as the whole function did, so its text reads like the corresponding lines of the unsplit function. Each
 output is written by the part that computes the last temporary it reads; an entry copied from another (a
-symmetric mass matrix's lower triangle) is copied by the parent after all parts. The results are the same to the
+symmetric mass matrix's lower triangle) is copied right after its source, by the same part (ccode.py prints the
+copies of the plan there). The results are the same to the
 bit: every expression is printed and evaluated exactly as before, only where its value is kept changes.
 """
 

@@ -79,8 +79,8 @@
 /* Doubles of work beyond the tree functions' (compiler/ccode_loops.py: loop_work_size, the same formula). */
 #define MBS_LOOP_NWORK_NEEDED (4 * MBS_NV * MBS_NV + 3 * MBS_NC * MBS_NV + 7 * MBS_NC + 2 * MBS_NX \
                                + 10 * MBS_NV + MBS_NQ + 4 + 16 + MBS_LOOP_STAMP_SIZE + MBS_LOOP_PLAN_SIZE)
-/* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, hash of p, rank, q. */
-#define MBS_LOOP_STAMP_SIZE (MBS_NQ + 4)
+/* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
+#define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
  * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then 3 + 2 NC + 2 NV ints in as many doubles. */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV)
@@ -526,29 +526,46 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     int i, j, k, c, b, e;
     for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
     for (k = 0; k < r; k++) w->rp[k] = kp[4 + MBS_NV + k];
-    for (i = 0; i < MBS_NC; i++)
-        for (c = 0; c < MBS_NCOLOUR; c++) {
-            const int col = mbs_colour_column[i * MBS_NCOLOUR + c];
-            if (col >= 0) {
-                const double a = fabs(G0[i * MBS_NV + col]);
-                amax0 = a > amax0 ? a : amax0;
-                probe += 0.0 * G0[i * MBS_NV + col];
-            }
-        }
-    if (!(probe == 0.0)) return -1.0;
-    if (!(amax0 > 0.0)) return 0.0;
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
     }
+    /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
+     * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
+     * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-        for (k = k0; k < k1; k++) {  /* the block's rows: its dependent columns, then its independent ones */
+        for (k = k0; k < k1; k++) {
             const double *row = G0 + (int)w->rp[k] * MBS_NV;
             double *dst = A + k * MBS_NV;
-            for (c = k0; c < k1; c++) dst[c] = row[(int)w->cp[c]];
-            for (e = 0; e < nj; e++) dst[jl[e]] = row[(int)w->cp[jl[e]]];
+            for (c = k0; c < k1; c++) {
+                const double g = row[(int)w->cp[c]], a = fabs(g);
+                dst[c] = g;
+                amax0 = a > amax0 ? a : amax0;
+                probe += 0.0 * g;
+            }
+            for (e = 0; e < nj; e++) {
+                const double g = row[(int)w->cp[jl[e]]], a = fabs(g);
+                dst[jl[e]] = g;
+                amax0 = a > amax0 ? a : amax0;
+                probe += 0.0 * g;
+            }
         }
+    }
+    if (r < MBS_NC)
+        for (i = 0; i < MBS_NC; i++)
+            for (c = 0; c < MBS_NCOLOUR; c++) {
+                const int col = mbs_colour_column[i * MBS_NCOLOUR + c];
+                if (col >= 0) {
+                    const double a = fabs(G0[i * MBS_NV + col]);
+                    amax0 = a > amax0 ? a : amax0;
+                    probe += 0.0 * G0[i * MBS_NV + col];
+                }
+            }
+    if (!(probe == 0.0)) return -1.0;
+    if (!(amax0 > 0.0)) return 0.0;
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
         for (k = k0; k < k1; k++) {
             int pi = k;
             double amax = 0.0;
@@ -921,7 +938,7 @@ static void mbs_loop_row_lists(const mbs_loop_work *w, int r, mbs_loop_rows *row
 /* The null-space basis T (NV x m) by packed columns and c0 from the factors in w->G (rank r), whatever their
  * order: column j holds entries e = start[j] .. start[j + 1] - 1, the value T[e] at velocity Ti[e], for the
  * independent velocity cp[r + j] (1) and the dependent ones it moves, in velocity order; c0_D solves
- * G_D c0_D = -gddot0 (w->h) on the pivot rows, c0_I = 0.  Independent loops (blocks of G that share no column)
+ * G_D c0_D = -gddot0 (w->h) on the pivot rows, c0_I = 0 (c0_D also left in w->y, in pivot order).  Independent loops (blocks of G that share no column)
  * leave most of T zero: only its nonzeros are stored. */
 static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
 {
@@ -982,7 +999,7 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
 
 /* T, start and c0 as mbs_loop_null_space, from factors of the kept partition made block by block (w->blocked,
  * mbs_loop_factor_blocks): each independent column's dependent velocities are those of its block, from that
- * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise. */
+ * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order). */
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
 {
     const double *G = w->G;
@@ -1102,12 +1119,14 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
 static void mbs_loop_mass_times_column(const double *restrict M, const double *restrict tv, const int *ti, int n,
                                        double *restrict mt)
 {
+    const double c = tv[0];  /* n >= 1: a column of T holds its independent velocity's 1 */
+    const double *restrict row = M + ti[0] * MBS_NV;
     int i, e;
-    for (i = 0; i < MBS_NV; i++) mt[i] = 0.0;
-    for (e = 0; e < n; e++) {
-        const double c = tv[e];
-        const double *restrict row = M + ti[e] * MBS_NV;
-        for (i = 0; i < MBS_NV; i++) mt[i] += row[i] * c;
+    for (i = 0; i < MBS_NV; i++) mt[i] = row[i] * c;
+    for (e = 1; e < n; e++) {
+        const double ce = tv[e];
+        const double *restrict rowe = M + ti[e] * MBS_NV;
+        for (i = 0; i < MBS_NV; i++) mt[i] += rowe[i] * ce;
     }
 }
 
@@ -1163,7 +1182,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         int e, f;
         mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j], mt);
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
-        for (k = 0; k < r; k++) sum -= mt[cpi[k]] * w->c0[cpi[k]];
+        for (k = 0; k < r; k++) sum -= mt[cpi[k]] * w->y[k];  /* y: c0 in pivot order (the null space left it) */
         w->a[j] = sum;
         for (i = j; i < m; i++) {
             sum = 0.0;
@@ -1346,26 +1365,23 @@ int mbs_loop_rhs_direct(double t, const double *x, const double *p, double *xdot
 
 /* ---- the projection of an accepted step from the factors its last stage left (mbs_loop_project_step) ---- */
 
-/* A hash of the bits of p: the stamp's factors hold for the parameters they were computed with only.  Four
- * independent lanes (FNV-1a on 64-bit words, p[i] into lane i mod 4): one chain of multiplications would wait for
- * each one's latency.  Unrolled by the lanes (every rhs of DOPRI5 stores a stamp: with the lane picked per element
- * the loop took about nine instructions an element, 3 % of a row of the outputs). */
-static double mbs_loop_hash_p(const double *p)
+/* The stamp's factors hold for the parameters they were computed with only: the stamp keeps a copy of p after
+ * its q (MBS_LOOP_STAMP_SIZE), compared bit for bit.  Every rhs of DOPRI5 stores a stamp: the copy is a memcpy
+ * (about 120 instructions for the Iltis's 163 parameters), where a hash of the bits took 830 (1.3 % of its
+ * loop_rhs), and it cannot collide. */
+static inline double *mbs_loop_stamp_p(const mbs_loop_work *w)
 {
-    unsigned long long h0 = 1469598103934665603ULL, h1 = 1099511628211ULL, h2 = 14695981039346656037ULL, h3 = 7ULL;
-    unsigned long long b[4];
-    int i;
-    for (i = 0; i + 4 <= MBS_NP; i += 4) {
-        memcpy(b, p + i, sizeof b);
-        h0 = (h0 ^ b[0]) * 1099511628211ULL;
-        h1 = (h1 ^ b[1]) * 1099511628211ULL;
-        h2 = (h2 ^ b[2]) * 1099511628211ULL;
-        h3 = (h3 ^ b[3]) * 1099511628211ULL;
-    }
-    if (i < MBS_NP) { memcpy(b, p + i, sizeof b[0]); h0 = (h0 ^ b[0]) * 1099511628211ULL; }
-    if (i + 1 < MBS_NP) { memcpy(b + 1, p + i + 1, sizeof b[0]); h1 = (h1 ^ b[1]) * 1099511628211ULL; }
-    if (i + 2 < MBS_NP) { memcpy(b + 2, p + i + 2, sizeof b[0]); h2 = (h2 ^ b[2]) * 1099511628211ULL; }
-    return (double)((h0 ^ (h1 * 31ULL) ^ (h2 * 961ULL) ^ (h3 * 29791ULL)) >> 11);  /* 53 bits: exact */
+    return w->stamp + 4 + MBS_NQ;
+}
+
+static void mbs_loop_stamp_p_store(mbs_loop_work *w, const double *p)
+{
+    memcpy(mbs_loop_stamp_p(w), p, MBS_NP * sizeof(double));
+}
+
+static int mbs_loop_stamp_p_holds(const mbs_loop_work *w, const double *p)
+{
+    return memcmp(mbs_loop_stamp_p(w), p, MBS_NP * sizeof(double)) == 0;
 }
 
 /* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
@@ -1373,9 +1389,9 @@ static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs
 {
     w->stamp[0] = MBS_LOOP_KEEP_MARK;
     w->stamp[1] = t;
-    w->stamp[2] = mbs_loop_hash_p(p);
     w->stamp[3] = r;
     memcpy(w->stamp + 4, x, MBS_NQ * sizeof(double));
+    mbs_loop_stamp_p_store(w, p);
 }
 
 /* Does the stamp hold for (t, q of x, p), with the partition still the kept one? */
@@ -1383,7 +1399,7 @@ static int mbs_loop_stamp_holds(double t, const double *x, const double *p, cons
 {
     return w->stamp[0] == MBS_LOOP_KEEP_MARK && w->stamp[1] == t && w->keep[0] == MBS_LOOP_KEEP_MARK
            && w->stamp[3] == w->keep[1] && memcmp(w->stamp + 4, x, MBS_NQ * sizeof(double)) == 0
-           && w->stamp[2] == mbs_loop_hash_p(p);
+           && mbs_loop_stamp_p_holds(w, p);
 }
 
 /* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions:
@@ -1503,17 +1519,17 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 }
 
 /* The stamp mbs_project leaves (a marker apart from mbs_loop_stamp_store's): w->xc is the state it returned, G is
- * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors (packed:
- * the stamp holds NQ + 4 doubles, so a model with one position coordinate has no room and always projects). */
+ * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors (packed,
+ * in the room of q: a model with one position coordinate has no room and always projects). */
 #define MBS_LOOP_PROJECTED_MARK 2791.0
-#define MBS_LOOP_PROJECTED_STAMP (MBS_LOOP_STAMP_SIZE >= 6)
+#define MBS_LOOP_PROJECTED_STAMP (MBS_NQ >= 2)
 
 static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w, int r)
 {
     w->stamp[0] = MBS_LOOP_PROJECTED_MARK;
     w->stamp[1] = t;
-    w->stamp[2] = mbs_loop_hash_p(p);
     w->stamp[3] = r;
+    mbs_loop_stamp_p_store(w, p);
     if (!MBS_LOOP_PROJECTED_STAMP) {
         w->stamp[0] = 0.0;
         return;
@@ -1527,7 +1543,7 @@ static void mbs_loop_projected_store(double t, const double *p, mbs_loop_work *w
 static int mbs_loop_projected_holds(double t, const double *x, const double *p, mbs_loop_work *w, int *r)
 {
     if (!(w->stamp[0] == MBS_LOOP_PROJECTED_MARK && w->stamp[1] == t
-          && memcmp(w->xc, x, MBS_NX * sizeof(double)) == 0 && w->stamp[2] == mbs_loop_hash_p(p)))
+          && memcmp(w->xc, x, MBS_NX * sizeof(double)) == 0 && mbs_loop_stamp_p_holds(w, p)))
         return 0;
     *r = (int)w->stamp[3];
     w->fresh = (int)w->stamp[4] & 1;
