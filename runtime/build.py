@@ -449,7 +449,7 @@ GLUE_WEIGHT = 100_000
 
 def _weight(name: str, files: dict[str, str]) -> int:
     """A unit's expected compile time, in characters of model code."""
-    return GLUE_WEIGHT if name in (_units.GLUE_UNIT, RUNTIME_UNIT) else len(files[name])
+    return GLUE_WEIGHT if name in (_units.GLUE_UNIT, RUNTIME_UNIT) else _units.code_chars(files[name])
 
 
 def _run(command: tuple[str, ...], cwd: Path, filename: str) -> str:
