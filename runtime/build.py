@@ -442,6 +442,26 @@ def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> Non
         shutil.rmtree(tmp, ignore_errors=True)
 
 
+def runtime_object(*, cache_dir: str | os.PathLike | None = None, extra_flags: tuple[str, ...] = ()) -> Path:
+    """The runtime unit's object (the Python bindings and the integrators, shared by every model) in the cache,
+    compiled first when the cache has none or a damaged one: what the first build with these flags makes. Raises
+    BuildError."""
+    cc = tuple(compiler_command())
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    files = {RUNTIME_UNIT: _runtime_unit()}
+    (job,) = _unit_jobs(files, flags, (), cc, cache)
+    if not (job[2].exists() and _cache.problem(job[2]) is None):
+        try:
+            cache.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise BuildError(f"the build cache {cache} cannot be used ({exc.strerror or exc})") from None
+        _prebuild_one(job, files, cache, RUNTIME_UNIT)
+        if not job[2].exists():
+            raise BuildError(f"the build cache {cache} cannot be written: set {CACHE_ENV} to a writable folder")
+    return job[2]
+
+
 #: The glue unit's compile time in characters of model code (its text is short, what it includes is not): about
 #: the Iltis's 90-kB units. Started in its place among the model units, the two cores finish together.
 GLUE_WEIGHT = 100_000
