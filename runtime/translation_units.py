@@ -219,9 +219,14 @@ def part_of(function: str) -> str:
     return m.group(1) if m else function
 
 
+def has_loops(header: str) -> bool:
+    """Whether the shared header of a generated file is a model with closed loops (MBS_NC)."""
+    return _LOOPS.search(header) is not None
+
+
 def cold_functions(header: str) -> frozenset[str]:
     """The functions of a generated file (by its shared header) that no right-hand side calls."""
-    if not _LOOPS.search(header):
+    if not has_loops(header):
         return COLD_FUNCTIONS
     return COLD_WITH_LOOP_TERMS if _LOOP_TERMS.search(header) else frozenset()
 
