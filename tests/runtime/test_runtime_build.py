@@ -68,6 +68,7 @@ def test_two_processes_building_at_once(tmp_path):
     script = textwrap.dedent(f"""
         import sys
         from pathlib import Path
+        import numpy as np
         from mbs.runtime import build
         r = build.build_file(Path({str(PENDULUM)!r}), cache_dir={str(tmp_path)!r})
         m = build.load(r)
