@@ -263,7 +263,7 @@ def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
                        *includes, "-c", name, "-o", name[:-2] + ".o")
             cpu = _children_cpu()
             subprocess.run(command, cwd=tmp, check=True, capture_output=True)
-            out[name] = (len(text), _children_cpu() - cpu)
+            out[name] = (len(files[name]), _children_cpu() - cpu)
     build.COLD_UNIT_FLAGS = saved
     return out
 
