@@ -140,9 +140,9 @@ def _trailing_comment(lines: list[str]) -> int:
 
 
 def _own_arrays(lines: list[str], body: list[str]) -> int:
-    """How many of the last lines are the static const arrays that the helper `body` reads (one a line, compiler/ccode.py
-    _table_text), with the block comment above them: they go with the helper into the units that call it, not into
-    the shared header (the Iltis's road tables were 270 kB of every unit's header). 0: none."""
+    """How many of the last lines are the static const arrays that the helper `body` reads (one a line,
+    compiler/ccode.py _table_text), with the block comment above them: they go with the helper into the units that
+    call it, not into the shared header (the Iltis's road tables were 270 kB of every unit's header). 0: none."""
     text = "\n".join(body)
     k = len(lines)
     while k > 0:

@@ -259,7 +259,8 @@ static PyObject *function_rows(FunctionObject *self, PyObject *args)
             PyErr_SetString(PyExc_ValueError, "rows(..., projected): this model has no loops solved in its outputs");
             return NULL;
         }
-        if (e->fn != mbs_model->outputs || !is_carray(proj_obj, NPY_DOUBLE, 2, 1) || PyArray_DIM((PyArrayObject *)proj_obj, 0) != n
+        if (e->fn != mbs_model->outputs || !is_carray(proj_obj, NPY_DOUBLE, 2, 1)
+            || PyArray_DIM((PyArrayObject *)proj_obj, 0) != n
             || PyArray_DIM((PyArrayObject *)proj_obj, 1) != mbs_model->nx || proj_obj == x_obj) {
             PyErr_SetString(PyExc_ValueError, "rows(..., projected): the outputs' rows, projected a writable (n, nx) "
                             "array apart from x");
