@@ -7,7 +7,9 @@ Per model, all measured in this run, the two settings' runs interleaved (medians
 and noisy, so CPU seconds are printed beside wall seconds):
 
 * compile: ``mbs.load(text).compile(scene)`` into an empty cache: parse, derive, emit C, the C compiler (the
-  equations' units start while the outputs are derived, runtime/build.py prebuild), load. The baseline is the
+  equations' units start while the outputs are derived, runtime/build.py prebuild), load. The cache holds only the
+  runtime object every model shares (runtime/build.py RUNTIME_UNIT: the Python bindings and the integrators,
+  compiled once per compiler and flags), as after a user's first model; its own compile is printed apart. The baseline is the
   same with the former settings: the former C printer (every function of the file printed its temporaries anew,
   and sympy's could_extract_minus_sign, which builds -term for every term of a sum), the former derivation helpers
   (compiler/tape.py: -expr built for every new temporary to look its negative up, where now a cheap sign key says
@@ -32,8 +34,10 @@ Issue 12's targets: a fresh compile of the Iltis under 5 s, of the 40-link chain
 from __future__ import annotations
 
 import argparse
+import atexit
 import contextlib
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -48,6 +52,7 @@ import mbs
 from mbs.compiler import differentiate, emit_common
 from mbs.compiler import tape as tape_module
 from mbs.runtime import build
+from mbs.runtime import cache as build_cache
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
@@ -67,6 +72,9 @@ def model_text(name: str) -> tuple[str, str, str | None, float | None]:
     if name == "iltis":
         path = ROOT / "library" / "iltis" / "vehicle.mbs"
         return path.read_text(), str(path), "bump_5", None
+    if name == "pendulum":  # a small model, built as one unit
+        path = ROOT / "library" / "examples" / "pendulum.mbs"
+        return path.read_text(), str(path), "swing", None
     if name.startswith("fourbar"):
         return fourbar_chain(int(name.removeprefix("fourbar"))), "<fourbar>", None, 1.0
     return chain_text(int(name.removeprefix("chain"))), "<chain>", None, 1.0
@@ -136,8 +144,31 @@ def _children_cpu() -> float:
     return usage.ru_utime + usage.ru_stime
 
 
+_RUNTIME_CACHE: list[Path] = []
+
+
+def seed_runtime(cache: str | Path) -> None:
+    """Copy the runtime object every model shares (and its record) into the empty cache `cache`, made once per run."""
+    if not _RUNTIME_CACHE:
+        _RUNTIME_CACHE.append(Path(tempfile.mkdtemp(prefix="mbs-bench-runtime-")))
+        atexit.register(shutil.rmtree, _RUNTIME_CACHE[0], True)
+        build.runtime_object(cache_dir=_RUNTIME_CACHE[0])
+    for path in _RUNTIME_CACHE[0].glob(build_cache.OBJECT_PREFIX + "*"):
+        shutil.copy2(path, cache)
+
+
+def runtime_cpu() -> float:
+    """The compiler's CPU seconds for the runtime object alone (once per compiler and flags, not per model)."""
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
+        cpu = _children_cpu()
+        build.runtime_object(cache_dir=cache)
+        return _children_cpu() - cpu
+
+
 def fresh_compile(name: str, cache: str) -> dict:
-    """Seconds of a fresh compile of model `name` into the empty folder `cache`, split at the derivation's end."""
+    """Seconds of a fresh compile of model `name` into the folder `cache`, empty but for the runtime object
+    (seed_runtime), split at the derivation's end."""
+    seed_runtime(cache)
     text, path, scene, _ = model_text(name)
     marks = {}
     start, cpu, cc_cpu = time.perf_counter(), time.process_time(), _children_cpu()
@@ -222,7 +253,8 @@ def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int) 
 # ---- each unit alone ---------------------------------------------------------------------------------------------
 
 def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
-    """{unit: (characters, compiler CPU seconds)}, each unit compiled alone with the current or the former flags."""
+    """{unit: (characters, compiler CPU seconds)}, each unit compiled alone with the current or the former flags
+    (not the runtime unit, which every model shares: runtime_cpu)."""
     cc = tuple(build.compiler_command())
     files = build._build_files(code, "model.c")
     outputs_flags = FORMER_OUTPUTS_FLAGS if former else build.OUTPUTS_UNIT_FLAGS
@@ -234,13 +266,13 @@ def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
         for name, text in files.items():
             Path(tmp, name).write_text(text, encoding="utf-8")
         for name in files:
-            if not name.endswith(".c"):
+            if not name.endswith(".c") or name == build.RUNTIME_UNIT:
                 continue
             command = (*cc, *build._compile_flags(build.FLAGS), *build.unit_flags(name, model_flags, outputs_flags),
                        *includes, "-c", name, "-o", name[:-2] + ".o")
             cpu = _children_cpu()
             subprocess.run(command, cwd=tmp, check=True, capture_output=True)
-            out[name] = (len(text), _children_cpu() - cpu)
+            out[name] = (len(files[name]), _children_cpu() - cpu)
     build.COLD_UNIT_FLAGS = saved
     return out
 
@@ -256,6 +288,8 @@ def main() -> None:
           f"cold functions at {' '.join(FORMER_OUTPUTS_FLAGS) or same}; the current: the outputs' unit at "
           f"{' '.join(build.OUTPUTS_UNIT_FLAGS) or same}, the cold functions' units at "
           f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
+    print(f"the runtime object every model shares (the Python bindings, the integrators; in every fresh compile's "
+          f"cache): compiler cpu {runtime_cpu():.2f} s, once per compiler and flags")
     for name in args.models:
         current, former = compare_compiles(name, args.repeat)
         same = all(r["code"] == current[0]["code"] for r in current + former)

@@ -7,10 +7,10 @@ run time.
 Per model, measured in this run with the two settings interleaved (medians of --repeat; the machine is shared and
 noisy, so CPU seconds are printed beside wall seconds):
 
-* a fresh compile (text to loaded library, empty cache; bench/compile_time.py fresh_compile) with the current
-  settings against the former ones: every function printed whole, and in a model with loops the mass matrix, the
-  forces and the constraint acceleration compiled at the model units' level; printed: wall time, the derivation,
-  the C build after it, the C compiler's CPU seconds;
+* a fresh compile (text to loaded library, a cache empty but for the runtime object every model shares;
+  bench/compile_time.py fresh_compile) with the current settings against the former ones: every function printed
+  whole, and in a model with loops the mass matrix, the forces and the constraint acceleration compiled at the
+  model units' level; printed: wall time, the derivation, the C build after it, the C compiler's CPU seconds;
 * the right-hand side, the outputs and the mass matrix per call inside C (fastest of interleaved rounds) and a
   whole simulate (the vehicle's bump_5, a chain's 1 s), current against former;
 * the same results to the bit: the right-hand side and the outputs of both builds at the start state;

@@ -5,7 +5,8 @@ the static equilibrium, and each bump scene's wall time and real-time factor wit
 
 Printed, all measured in this run (medians of --repeat; the machine is shared and noisy):
 
-* compile: text to loaded library with a fresh build cache (parse, derive, emit C, C compiler, load), and of it
+* compile: text to loaded library with a fresh build cache (holding only the runtime object every model shares,
+  bench/compile_time.py seed_runtime: parse, derive, emit C, C compiler, load), and of it
   the derivation (to generated C) and the rest of the C build (split into units compiled in parallel,
   runtime/translation_units.py; the equations' units start while the outputs are derived, runtime/build.py
   prebuild), against the same with the former settings (bench/compile_time.py: the former C printer and the
@@ -71,7 +72,7 @@ from mbs.runtime.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).parent))
 from chain import chain_text  # noqa: E402
-from compile_time import former_settings, fresh_compile  # noqa: E402
+from compile_time import former_settings, fresh_compile, seed_runtime  # noqa: E402
 
 MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
 #: Issue 12's targets: the constrained rhs against the open chain, and each bump scene's real-time factor.
@@ -132,6 +133,7 @@ def main() -> None:
     ap.add_argument("--only-other", action="store_true", help="after the compile only the other outputs' times")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as cache:
+        seed_runtime(cache)
         start = time.perf_counter()
         system = mbs.load(MODEL, cache_dir=cache)
         marks = {}
@@ -271,6 +273,7 @@ def one_unit_build(code: str) -> float:
     translation_units.SPLIT_MIN_CHARS = 1 << 62
     try:
         with tempfile.TemporaryDirectory() as empty:
+            seed_runtime(empty)
             start = time.perf_counter()
             build.build(code, filename="vehicle.c", cache_dir=empty)
             return time.perf_counter() - start

@@ -4,7 +4,8 @@ A large model (the Iltis: 850 kB of C, seven big straight-line functions) compil
 on one core. The generated file (compiler/ccode.py) has a fixed layout, which this module reads:
 
     header comment, #include, #define sizes, static const arrays      -> model.h, shared by every unit
-    static helper functions (mbs_all_finite, mbs_lookup, tables ...)  -> copied into the units that call them
+    static helper functions (mbs_all_finite, mbs_lookup, tables ...)  -> copied into the units that call them,
+    with the static const arrays right above one that only it reads      (a lookup table's points)
     the contract's functions (int mbs_rhs(...) { ... }, name tables)  -> model_1.c .. model_n.c, by size
     those no integrator calls (COLD_FUNCTIONS, models without loops)  -> cold_1.c .., compiled cheaper
 
@@ -56,6 +57,9 @@ PART_SUFFIX = "_part"
 _PART_NAME = re.compile(rf"^(mbs_\w+?){PART_SUFFIX}\d+$")
 _DEFINITION = re.compile(r"^(?:int|double|void|const char \*)\s*(mbs_\w+)\(([^;{}]*)\)$")
 _STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
+#: A static const array on one line (compiler/ccode.py _array): a lookup table's points.
+_STATIC_ARRAY = re.compile(r"^static const (?:double|int) (mbs_\w+)\[\d+\] = \{[^;]*\};$")
+_STATIC_ARRAY_LINE = re.compile(_STATIC_ARRAY.pattern, re.M)
 
 
 @dataclass(frozen=True)
@@ -100,6 +104,8 @@ def read_layout(code: str) -> Layout | None:
         if end is None:
             return None
         comment = _trailing_comment(pending)
+        if line.startswith("static") and not functions and not comment:
+            comment = _own_arrays(pending, lines[i + 1:end + 1])
         rest = pending[:len(pending) - comment]
         if functions:  # between contract functions only macros may stand: they go to the shared header
             if any(text.strip() and not text.startswith("#define ") for text in rest):
@@ -131,6 +137,27 @@ def _trailing_comment(lines: list[str]) -> int:
         if not lines[k].startswith(" *"):
             return 0
     return 0
+
+
+def _own_arrays(lines: list[str], body: list[str]) -> int:
+    """How many of the last lines are the static const arrays that the helper `body` reads (one a line,
+    compiler/ccode.py _table_text), with the block comment above them: they go with the helper into the units that
+    call it, not into the shared header (the Iltis's road tables were 270 kB of every unit's header). 0: none."""
+    text = "\n".join(body)
+    k = len(lines)
+    while k > 0:
+        match = _STATIC_ARRAY.match(lines[k - 1])
+        if match is None or not re.search(rf"\b{match.group(1)}\b", text):
+            break
+        k -= 1
+    if k == len(lines):
+        return 0
+    return len(lines) - k + _trailing_comment(lines[:k])
+
+
+def code_chars(text: str) -> int:
+    """The characters of a unit's text that are code, not a table's numbers (what its compile time grows with)."""
+    return len(text) - sum(len(m.group(0)) for m in _STATIC_ARRAY_LINE.finditer(text))
 
 
 def _closing_brace(lines: list[str], i: int) -> int | None:
@@ -192,9 +219,14 @@ def part_of(function: str) -> str:
     return m.group(1) if m else function
 
 
+def has_loops(header: str) -> bool:
+    """Whether the shared header of a generated file is a model with closed loops (MBS_NC)."""
+    return _LOOPS.search(header) is not None
+
+
 def cold_functions(header: str) -> frozenset[str]:
     """The functions of a generated file (by its shared header) that no right-hand side calls."""
-    if not _LOOPS.search(header):
+    if not has_loops(header):
         return COLD_FUNCTIONS
     return COLD_WITH_LOOP_TERMS if _LOOP_TERMS.search(header) else frozenset()
 

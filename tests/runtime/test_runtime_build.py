@@ -8,6 +8,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mbs.language.diagnostics import MbsError
@@ -67,10 +68,10 @@ def test_two_processes_building_at_once(tmp_path):
     script = textwrap.dedent(f"""
         import sys
         from pathlib import Path
+        import numpy as np
         from mbs.runtime import build
         r = build.build_file(Path({str(PENDULUM)!r}), cache_dir={str(tmp_path)!r})
         m = build.load(r)
-        import numpy as np
         f = m.Function("rhs", np.array([1.0, 1.0, 9.81]), np.zeros(m.NWORK))
         print(r.cached, f(0.0, [0.5, 0.0])[1])
     """)
@@ -113,3 +114,63 @@ def test_load_twice_returns_the_same_module(cache_dir):
     result = build.build_file(PENDULUM, cache_dir=cache_dir)
     assert build.load(result) is build.load(result)
     assert result.module_name in sys.modules
+
+
+def _objects(folder: Path) -> list[Path]:
+    return sorted(folder.glob(cache.OBJECT_PREFIX + "*.o"))
+
+
+def test_the_runtime_object_is_compiled_once_and_linked_into_every_model(tmp_path):
+    """The bindings and the integrators (c/mbs_python.c) are one cached object: the first build compiles it, the
+    next model only its own unit; both modules integrate."""
+    first = build.build_file(PENDULUM, cache_dir=tmp_path)
+    second = build.build_file(FIXTURES / "quarter_car.c", cache_dir=tmp_path)
+    assert first.compiled == ("unit.c", build.RUNTIME_UNIT) and first.reused == ()
+    assert second.compiled == ("unit.c",) and second.reused == (build.RUNTIME_UNIT,)
+    (runtime,) = _objects(tmp_path)
+    assert cache.problem(runtime) is None and build.runtime_object(cache_dir=tmp_path) == runtime
+    assert "Python bindings" in cache.read_record(runtime)["model"]
+    for result in (first, second):
+        module = build.load(result)
+        assert module.METHODS == ("dopri5", "rodasp", "rodas5p")
+        p = np.ones(module.NP)  # unit masses, lengths, stiffnesses
+        f = module.Function("rhs", p, np.zeros(module.NWORK))
+        solver = module.Solver("dopri5", f, 0.0, np.zeros(module.NX), 0.1, 1e-8, 1e-10)
+        while solver.status == module.STATUS_RUNNING:
+            solver.step()
+        assert solver.status == 101 and solver.t == 0.1
+
+
+def test_a_damaged_runtime_object_is_compiled_again_never_linked(tmp_path):
+    build.build_file(PENDULUM, cache_dir=tmp_path)
+    (runtime,) = _objects(tmp_path)
+    size = runtime.stat().st_size
+    with open(runtime, "r+b") as f:
+        f.truncate(size // 2)
+    assert "size is" in cache.problem(runtime)
+    again = build.build(PENDULUM.read_text() + "\n/* another model */\n", filename="pendulum.c", cache_dir=tmp_path)
+    assert build.RUNTIME_UNIT in again.compiled and cache.problem(runtime) is None
+    assert runtime.stat().st_size == size and build.load(again).NX == 2
+
+
+def test_the_runtime_object_follows_its_c_files_and_the_flags_not_the_model(tmp_path, monkeypatch):
+    """Its key: the files it is made of (an edit of one compiles it again), the flags, the compiler; a model's
+    text, its header and the loop solver (compiled with the model) do not enter it."""
+    cc = tuple(build.compiler_command())
+
+    def key(files=None, flags=build.FLAGS):
+        files = {**(files or {}), build.RUNTIME_UNIT: build._runtime_unit()}
+        jobs = {name: path for name, _, path in build._unit_jobs(files, flags, (), cc, tmp_path)}
+        return jobs[build.RUNTIME_UNIT]
+
+    base = key()
+    assert key({"model.h": "#define MBS_NX 2\n", "glue.c": "/* x */"}) == base
+    assert key(flags=build.FLAGS + ("-DX",)) != base
+    copy = tmp_path / "c"
+    shutil.copytree(build.C_DIR, copy)
+    monkeypatch.setattr(build, "C_DIR", copy)
+    base = key()  # (the include folder is in the command)
+    (copy / "loops.c").write_text((copy / "loops.c").read_text() + "\n/* edited */\n")
+    assert key() == base
+    (copy / "ode.c").write_text((copy / "ode.c").read_text() + "\n/* edited */\n")
+    assert key() != base

@@ -19,6 +19,27 @@ SLIDER_CRANK = ROOT / "library" / "examples" / "slider_crank.mbs"
 TABLES = ROOT / "library" / "examples" / "two_mass_quarter_car.mbs"
 
 
+#: A slider whose spring and drive are tables, and an output that is another.
+TABLE_MODEL = """
+model tables {
+    param k = 100 N/m
+    rigid bob {
+        body {
+            mass = 1 kg
+            inertia = diag(1, 1, 1) kg*m^2
+        }
+    }
+    interact slide {
+        connect inertial -> bob
+        joint prismatic(axis = z) { init s = 0.3 m }
+        force spring = joint(s = -k * s * lookup(s, [[-1 m, 0.5], [0 m, 1], [1 m, 1.5]], "smooth"))
+        force drive = joint(s = lookup(der(s), [[-1 m/s, 2 N], [0 m/s, 0 N], [1 m/s, -3 N]], "smooth"))
+    }
+    output shape = lookup(slide.s, [[-1 m, 2], [0 m, 0], [1 m, 2.5]], "smooth")
+}
+"""
+
+
 @pytest.fixture(scope="module")
 def generated():
     """The generated C of a closed-loop model and of a tree with outputs."""
@@ -179,3 +200,24 @@ def test_a_forked_child_does_not_wait_for_the_parents_prebuilds(tmp_path, monkey
     assert os.waitstatus_to_exitcode(status) == 0
     build.build(gen.c_source, cache_dir=tmp_path / "parent")  # the parent's own jobs are still waited for
     assert not build._PREBUILDS
+
+
+def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, monkeypatch):
+    """The static const arrays of a table travel with its helper (the Iltis's road tables were 270 kB of every
+    unit's model.h): none in model.h, and in a unit exactly when the unit calls the table."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 1_000)
+    code = mbs.loads(TABLE_MODEL).generate().c_source
+    tables = re.findall(r"^static double (mbs_table_\d+)\(double x\)$", code, re.M)
+    assert len(tables) == 3  # the force's two, the output's one
+    files = units.split_sources(code, "tables.c")
+    assert len([name for name in files if name.endswith(".c")]) >= 3
+    for table in tables:
+        assert f"{table}_x[" not in files["model.h"] and f"{table}_y[" not in files["model.h"]
+        calling = {name for name, text in files.items()
+                   if re.search(rf"(?<!static double ){table}\((?!double x\))", text)}
+        holding = {name for name, text in files.items() if f"static const double {table}_x[" in text}
+        assert calling and calling == holding, table
+    layout = units.read_layout(code)
+    helper = next(h for h in layout.helpers if h.name == tables[0])
+    assert helper.text.startswith("/* Lookup table") and f"{tables[0]}_y[" in helper.text
