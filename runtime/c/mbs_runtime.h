@@ -78,6 +78,7 @@ struct mbs_ode {
     int nev;                /* number of indicators */
     int *directions;        /* [nev], owned: +1 rising, -1 falling, 0 either */
     double *g_old, *g_new, *g_try;  /* [nev] each, owned: at the step's start, end, and a trial time */
+    double *t_located;              /* [nev], owned: each indicator's crossing in the step (NaN: none) */
     double *y_try;          /* [n], owned: the dense output at a trial time */
     /* events whose actions are generated C (switch flags, `set` of modes and parameters) applied and the
      * integrator restarted inside mbs_ode_sample, logged for the caller; NULL: every event returns (ode.c) */

@@ -64,7 +64,7 @@ static void mbs_ode_free(mbs_ode *o)
     mbs_ode_free_restarts(o->restarts);
     if (o->release) o->release(o);
     free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl); free(o->yproj);
-    free(o->directions); free(o->g_old); free(o->g_new); free(o->g_try); free(o->y_try);
+    free(o->directions); free(o->g_old); free(o->g_new); free(o->g_try); free(o->t_located); free(o->y_try);
     memset(o, 0, sizeof *o);
 }
 
@@ -198,9 +198,10 @@ static int mbs_ode_set_events(mbs_ode *o, mbs_fn events, int nev, const int *dir
     o->directions = calloc((size_t)nev + 1, sizeof(int));
     o->g_old = calloc((size_t)nev + 1, sizeof(double));
     o->g_new = calloc((size_t)nev + 1, sizeof(double));
-    o->g_try = calloc(2 * (size_t)nev + 1, sizeof(double));  /* and the located times (mbs_ode_located) */
+    o->g_try = calloc((size_t)nev + 1, sizeof(double));
+    o->t_located = calloc((size_t)nev + 1, sizeof(double));
     o->y_try = calloc((size_t)o->n + 1, sizeof(double));
-    if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->y_try) return -1;
+    if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->t_located || !o->y_try) return -1;
     for (k = 0; k < nev; k++) o->directions[k] = directions[k];
     s = events(o->t, o->y, o->p, o->g_old, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; }
@@ -282,13 +283,6 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
     }
 }
 
-/* The located crossing time of each indicator in the step (NaN: none): the upper half of g_try, which
- * mbs_ode_set_events makes 2 nev long (the events fill its lower half). */
-static double *mbs_ode_located(const mbs_ode *o)
-{
-    return o->g_try + o->nev;
-}
-
 /* After an accepted step: stop at the earliest located crossing (status MBS_ODE_EVENT, t and y at it; g_old
  * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old.
  * Crossings within MBS_ODE_DEPARTURE_STEP of the earliest are one event, at the latest of them, where each has
@@ -299,7 +293,7 @@ static double *mbs_ode_located(const mbs_ode *o)
 static void mbs_ode_find_event(mbs_ode *o)
 {
     int k, s, found = 0;
-    double t_event = o->t, t_next = HUGE_VAL, t_first = HUGE_VAL, together, *swap, *located = mbs_ode_located(o);
+    double t_event = o->t, t_next = HUGE_VAL, t_first = HUGE_VAL, together, *swap, *located = o->t_located;
     mbs_ode_restarts *r = o->restarts;
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
