@@ -1,6 +1,6 @@
 """Where the time of the Iltis bump scenes goes, and the tree-speed bound: what is reachable at their tolerance.
 
-    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR]
+    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--no-former] [--instructions]
 
 Per scene, the whole `System.simulate(scene)` (equilibrium included, results with every output; DOPRI5 in C, the
 scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs.  All times are
@@ -21,14 +21,28 @@ The tree-speed bound is the run's rhs count times the rhs cost of bench/chain.py
 velocities as the vehicle (articulated-body recursion): the wall time of the integration if the closed-loop rhs cost
 what an open tree costs and nothing else cost anything; printed as a real-time factor beside the one measured, and
 the real-time factor with every other part as measured and the rhs at tree speed.  Issue 12's target is 100.
+
+Against the former path, measured in the same run (interleaved; --no-former skips it): the same model built with
+-DMBS_LOOP_ROWS_FRESH=1 (c/loops.c: every row of the results projected afresh, G evaluated and factored twice per
+row, instead of starting from the factors of the row before), printed as everything but the rhs calls and the
+outputs per row, current against former, with their ratio.  --instructions counts the outputs' rows instead of
+timing them (valgrind's callgrind, load-independent): one child process per build calls `Function.rows` over the
+run's rows (the arguments simulate passes, saved from a run) with callgrind collecting inside that call only.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import dataclasses
 import importlib
+import json
+import re
+import shutil
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -36,7 +50,8 @@ import numpy as np
 
 import mbs
 import mbs.system
-from mbs.runtime import event_loop
+from mbs.runtime import build, event_loop, rows as rows_module
+from mbs.runtime.backends import CBackend
 from mbs.runtime.guard import RunGuard
 from mbs.runtime.workspace import Workspace
 
@@ -53,6 +68,8 @@ RHS_CALLS = 300
 #: CPU seconds of this process: on a shared machine wall times wander with the other processes' load (this bench
 #: is single-threaded: the CPU time is the wall time of a quiet machine)
 clock = time.process_time
+#: The former path's build (c/loops.c): every row projected afresh.
+FORMER_FLAGS = ("-DMBS_LOOP_ROWS_FRESH=1",)
 
 
 class PartTimer:
@@ -104,6 +121,94 @@ def timed_run(system, scene: str):
     return wall, parts.seconds, res
 
 
+def former_model(system, scene: str, cache_dir=None):
+    """The scene's compiled model built with FORMER_FLAGS (cached like any build: slow the first time only)."""
+    compiled = system.compile(scene)
+    result = build.build(system.generate(scene).c_source, cache_dir=cache_dir, extra_flags=FORMER_FLAGS)
+    return dataclasses.replace(compiled, backend=CBackend(build.load(result)))
+
+
+@contextlib.contextmanager
+def using(system, scene: str, model):
+    """system.simulate(scene) runs `model` (None: the current build) inside the block."""
+    if model is None:
+        yield
+        return
+    compiled = system.compile(scene)
+    keys = [key for key, value in system._compiled.items() if value is compiled]
+    for key in keys:
+        system._compiled[key] = model
+    try:
+        yield
+    finally:
+        for key in keys:
+            system._compiled[key] = compiled
+
+
+#: The child of --instructions: the built library loaded by its path, Function.rows of the outputs over the rows
+#: saved (with `projected`), the call counted by callgrind (--toggle-collect=function_rows).
+INSTRUCTION_CHILD = """
+import importlib.util, sys
+import numpy as np
+library, saved = sys.argv[1], np.load(sys.argv[2])
+name = library.rsplit("/", 1)[-1].split(".")[0]
+spec = importlib.util.spec_from_file_location(name, library)
+module = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(module)
+f = module.Function("outputs", saved["ps"][0].copy(), np.zeros(module.NWORK))
+ts, xs, which, ps = saved["ts"], saved["xs"], saved["which"], saved["ps"]
+out, projected = np.empty((len(ts), int(saved["ny"]))), np.empty_like(xs)
+done = f.rows(ts, xs, out, ps, which, projected)
+assert done == len(ts), done
+"""
+
+
+def saved_rows(system, scene: str, path: Path) -> int:
+    """Saves the arguments simulate passes to the outputs' Function.rows for the scene (recorded from a run) into
+    path (npz); returns the number of rows."""
+    seen = {}
+    real = rows_module.project_and_evaluate_rows
+
+    def record(data, name, ps, ts, xs, which, projected, out):
+        seen.update(ts=np.array(ts, dtype=float), xs=np.array(xs, dtype=float), which=np.array(which, dtype=np.intp),
+                    ps=np.array(ps, dtype=float).reshape(len(ps), -1), ny=out.shape[1])
+        return real(data, name, ps, ts, xs, which, projected, out)
+    simulate_module.project_and_evaluate_rows = record
+    try:
+        system.simulate(scene)
+    finally:
+        simulate_module.project_and_evaluate_rows = real
+    np.savez(path, **seen)
+    return len(seen["ts"])
+
+
+def row_instructions(library: str, saved: Path, workdir: Path) -> int:
+    """Instructions callgrind counts inside the one Function.rows call of INSTRUCTION_CHILD."""
+    out = workdir / "callgrind.rows"
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=function_rows",
+                           f"--callgrind-out-file={out}", sys.executable, "-c", INSTRUCTION_CHILD, library,
+                           str(saved)], capture_output=True, text=True)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or not found:
+        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
+    return int(found.group(1))
+
+
+def print_instructions(system, scene: str, former) -> None:
+    """Instructions per row of the outputs' rows, current and former build."""
+    if shutil.which("valgrind") is None:
+        print("  valgrind is not on the PATH: no instruction counts")
+        return
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-rows-") as tmp:
+        saved = Path(tmp) / "rows.npz"
+        n = saved_rows(system, scene, saved)
+        counts = {label: row_instructions(str(model.backend.module.__file__), saved, Path(tmp))
+                  for label, model in (("current", system.compile(scene)), ("former", former))}
+    print(f"  outputs' rows in instructions (callgrind, one Function.rows over the run's {n} rows): current "
+          f"{counts['current'] / n:,.0f} per row, former {counts['former'] / n:,.0f}, ratio "
+          f"{counts['current'] / counts['former']:.2f}")
+
+
 def rhs_cost(system, scene: str, res) -> float:
     """CPU seconds per call of the rhs DOPRI5 calls (`loop_rhs`, no projection) inside C, over the states of the
     run one after another (its rows, in one `Function.rows` call: no Python between them), the run-time values of
@@ -141,6 +246,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cache-dir", default=None)
+    ap.add_argument("--no-former", action="store_true", help="without the former path's runs")
+    ap.add_argument("--instructions", action="store_true", help="also count the outputs' rows (callgrind)")
     args = ap.parse_args(argv)
     system = mbs.load(MODEL, cache_dir=args.cache_dir)
     compiled = system.compile(args.scenes[0])
@@ -153,7 +260,13 @@ def main(argv=None) -> int:
     for scene in args.scenes:
         t_end = system.scene(scene).t_end
         system.simulate(scene)  # compile and warm up
-        runs = [timed_run(system, scene) for _ in range(args.repeat)]
+        former = None if args.no_former else former_model(system, scene, args.cache_dir)
+        runs, former_runs = [], []
+        for _ in range(args.repeat):  # interleaved: the load drifts
+            runs.append(timed_run(system, scene))
+            if former is not None:
+                with using(system, scene, former):
+                    former_runs.append(timed_run(system, scene))
         res = runs[-1][2]
         stats = res.metadata["stats"]
         nfev, rows = stats["nfev"], len(res["time"])
@@ -185,6 +298,18 @@ def main(argv=None) -> int:
         print(f"  tree-speed bound: {nfev} rhs x {chain_rhs * 1e6:.2f} us (open chain) = {bound * 1e3:.1f} ms: "
               f"real-time factor {t_end / bound:.0f} with nothing else costing; {t_end / rest_at_tree:.1f} with the "
               f"other parts as measured (now {t_end / wall:.1f})")
+        if former is not None:
+            def rest(run):  # everything but the rhs calls (their count is the same in both builds)
+                return run[0] - rhs_total
+            now, before = med(rest(r) for r in runs), med(rest(r) for r in former_runs)
+            out_now, out_before = (med(r[1].get("outputs", 0.0) for r in rs) / max(1, rows) for rs in (runs, former_runs))
+            print(f"  against the former path (every row projected afresh; same run, interleaved): everything but "
+                  f"the rhs calls {now * 1e3:.1f} ms, former {before * 1e3:.1f} ms, ratio {now / before:.2f}; "
+                  f"outputs {out_now * 1e6:.1f} us per row, former {out_before * 1e6:.1f} us, ratio "
+                  f"{out_now / out_before:.2f}; whole simulate {wall * 1e3:.0f} ms, former "
+                  f"{med(r[0] for r in former_runs) * 1e3:.0f} ms")
+            if args.instructions:
+                print_instructions(system, scene, former)
     return 0
 
 

@@ -89,11 +89,12 @@ static mbs_entry MBS_TABLE[] = {
 #define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))
 
 /* The outputs of a model with loops solve in work + MBS_OUTPUTS_WORK (compiler/ccode.py): a row projected there
- * first (mbs_project) is not projected again by their mbs_loop_rates (c/loops.c). */
+ * first (mbs_loop_project_row: from the previous row's factors, else mbs_project) is not projected again by
+ * their mbs_loop_rates (c/loops.c). */
 #if defined(MBS_NC) && defined(MBS_OUTPUTS_WORK) && (defined(MBS_NY) || defined(MBS_OUTPUTS_UNIT))
 static int rows_project(double t, const double *x, const double *p, double *out, double *work)
 {
-    return mbs_project(t, x, p, out, work + MBS_OUTPUTS_WORK);
+    return mbs_loop_project_row(t, x, p, out, work + MBS_OUTPUTS_WORK);
 }
 #define MBS_ROWS_PROJECT rows_project
 #else
