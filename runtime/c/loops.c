@@ -1560,23 +1560,16 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
 /* The stamp mbs_loop_rates leaves after a row's solve: w->G holds the factors of the kept partition (its blocks) at
  * that row's projected state, rank stamp[3], for the parameters after q.  The next row starts from them. */
 #define MBS_LOOP_ROW_MARK 3307.0
-/* The stamp mbs_loop_project_row leaves: w->xc is the row it returned (positions by Newton, velocities by
- * refinement, both from the previous row's factors), for (t, p); G not evaluated there yet. */
-#define MBS_LOOP_ROW_PROJECTED_MARK 3571.0
 /* Newton steps with the previous row's factors before the row is projected afresh (mbs_project); each must
  * reduce the residual by MBS_LOOP_SLOW, as the simplified Newton of mbs_loop_positions_iterate. */
 #define MBS_LOOP_ROW_MAXIT 8
-/* The velocity refinement has converged when its correction is below this fraction of the largest speed (the
- * round-off of a solve with exact factors), or stops shrinking below MBS_LOOP_ROW_VFLOOR times it. */
-#define MBS_LOOP_ROW_VTOL 1e-15
-#define MBS_LOOP_ROW_VFLOOR 1e-12
-/* -DMBS_LOOP_ROWS_FRESH=1: every row projected afresh (the former path; bench/bump_cost.py --former). */
+/* -DMBS_LOOP_ROWS_FRESH=1: every row projected afresh (the former path; bench/bump_cost.py). */
 #ifndef MBS_LOOP_ROWS_FRESH
 #define MBS_LOOP_ROWS_FRESH 0
 #endif
 
 /* Do the factors of the previous row's solve hold for a row with the parameters p (any state: they only start
- * its Newton iterations and velocity refinement, whose convergence is checked)? */
+ * its Newton iterations, whose convergence is checked)? */
 static int mbs_loop_row_factors_hold(const double *p, const mbs_loop_work *w)
 {
 #ifdef MBS_CLOSED_FORM  /* its rows are projected in closed form first (mbs_project), whose scratch overlaps G */
@@ -1588,18 +1581,17 @@ static int mbs_loop_row_factors_hold(const double *p, const mbs_loop_work *w)
 #endif
 }
 
-/* x projected into w->xc from the previous row's factors (mbs_loop_row_factors_hold): the positions by simplified
- * Newton with them (the kept partition: the independent coordinates stay, as in mbs_project), polished as
- * mbs_loop_positions_iterate does; the velocities v_I kept and v_D refined, dv_D solving G~_D dv_D = -gdot(q_c, v),
- * until the correction reaches round-off: the fixed point is mbs_project's v_D (G_D v_D = -(G_I v_I + g_t) at q_c)
- * whatever the factors, they only set the rate.  A row 5 ms after the last one needs no G and no factorisation
- * (mbs_project: two of each); the outputs' solve evaluates G at q_c anyway (mbs_loop_terms).  -1 when the factors
- * do not converge fast (a large step between rows, a jump at an event): the caller projects afresh. */
+/* x projected into w->xc as mbs_project projects it, but for the positions' Newton iterations: simplified Newton
+ * with the previous row's factors (mbs_loop_row_factors_hold; the kept partition, so the independent coordinates
+ * stay as in mbs_project), polished as mbs_loop_positions_iterate does.  Then, as mbs_loop_project_state: G and g_t
+ * at the projected positions, factored with the partition (kept while it holds, else chosen afresh and kept), v_I
+ * kept and G_D v_D = -(G_I v_I + g_t) solved.  A row 5 ms after the last one needs no G for its Newton steps
+ * (mbs_project: G and its factors twice a row).  Returns the rank, or -1 when the factors do not converge fast (a
+ * large step between rows, a jump at an event) or anything fails: the caller projects afresh. */
 static int mbs_loop_project_from_row(double t, const double *x, const double *p, mbs_loop_work *w)
 {
-    double *q = w->xc, res, before, step, last = HUGE_VAL, vmax;
-    const int r = (int)w->stamp[3];
-    int i, k;
+    double *q = w->xc, res, before;
+    int i, k, r = (int)w->stamp[3];
     w->blocked = 1;
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     mbs_loop_normalize_q(q);
@@ -1623,71 +1615,41 @@ static int mbs_loop_project_from_row(double t, const double *x, const double *p,
         }
         if (res > 0.5 * before) break;
     }
-    for (k = 0;; k++) {
-        if (k >= MBS_LOOP_ROW_MAXIT) return -1;
-        if (mbs_constraint_velocity(t, w->xc, p, w->c3, w->tree) != 0) return -1;
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        mbs_loop_solve(w, r, w->c3, w->dv);
-        step = mbs_loop_maxabs(w->dv, MBS_NV, NULL);
-        if (!isfinite(step)) return -1;
-        for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
-        vmax = mbs_loop_maxabs(w->xc + MBS_NQ, MBS_NV, NULL);
-        if (step <= MBS_LOOP_ROW_VTOL * vmax) break;
-        if (!(step <= MBS_LOOP_SLOW * last))  /* no longer shrinking: converged at the floor, or diverging */
-            return step <= MBS_LOOP_ROW_VFLOOR * vmax ? 0 : -1;
-        last = step;
-    }
-    return isfinite(mbs_loop_maxabs(w->xc, MBS_NX, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    if (mbs_loop_jacobian_at(t, w->xc, p, w, 1) != 0) return -1;
+    if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
+    mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
+    return r;
 }
 
 /* mbs_project of a row of a run (Function.rows with `projected`, c/mbs_glue.c: the outputs' work): from the
  * factors the previous row's solve left when they hold and converge (mbs_loop_project_from_row), else mbs_project.
- * Its outputs' mbs_loop_rates then evaluates and factors G once at the projected state, with M, f and gddot0. */
+ * Either leaves the stamp of mbs_project, so the outputs' mbs_loop_rates solves from the factors at the row. */
 int mbs_loop_project_row(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout_keeping(work);
-    if (mbs_loop_row_factors_hold(p, &w) && mbs_loop_project_from_row(t, x, p, &w) == 0) {
-        w.stamp[0] = MBS_LOOP_ROW_PROJECTED_MARK;
-        w.stamp[1] = t;
+    int r;
+    if (mbs_loop_row_factors_hold(p, &w) && (r = mbs_loop_project_from_row(t, x, p, &w)) >= 0) {
         memcpy(out, w.xc, MBS_NX * sizeof(double));
+        mbs_loop_projected_store(t, p, &w, r);
         return 0;
     }
     w.stamp[0] = 0.0;
     return mbs_project(t, x, p, out, work);
 }
 
-/* Is x the row mbs_loop_project_row just returned in this work, for (t, p)? */
-static int mbs_loop_row_projected_holds(double t, const double *x, const double *p, const mbs_loop_work *w)
-{
-    return w->stamp[0] == MBS_LOOP_ROW_PROJECTED_MARK && w->stamp[1] == t
-           && memcmp(w->xc, x, MBS_NX * sizeof(double)) == 0 && mbs_loop_stamp_p_holds(w, p);
-}
-
 /* out = [x' (NX); lambda (NC)] at the projected state from one projection and one solve: what the outputs read
  * (accelerations and reactions), formerly mbs_loop_rhs and mbs_loop_multipliers, each projecting and solving.  A
- * state mbs_project just returned in this work (the rows of a run: Function.rows in c/mbs_glue.c projects each
- * row there first) is not projected again: the solve starts from the factors the projection left.  A row
- * mbs_loop_project_row projected from the previous row's factors is solved as mbs_loop_rhs_direct solves a state
- * (G with M, f and gddot0 from one pass, factored with the kept partition).  The factors of a solve with the kept
- * partition stay for the next row (MBS_LOOP_ROW_MARK). */
+ * state mbs_project (or mbs_loop_project_row) just returned in this work (the rows of a run: Function.rows in
+ * c/mbs_glue.c projects each row there first) is not projected again: the solve starts from the factors the
+ * projection left.  The factors of a solve with the kept partition stay for the next row (MBS_LOOP_ROW_MARK). */
 int mbs_loop_rates(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout_keeping(work);
-    mbs_loop_info info;
     int r, s;
-    memset(&info, 0, sizeof info);
-    info.worst = -1;
-    if (mbs_loop_row_projected_holds(t, x, p, &w)) {
-        w.stamp[0] = 0.0;
-        r = -1;
-#ifdef MBS_LOOP_TERMS  /* G with M, f and gddot0 from one pass over the kinematics */
-        s = mbs_loop_terms_at(t, p, &w);
-        w.terms = s == 0;
-#else
-        s = mbs_loop_jacobian_at(t, w.xc, p, &w, 0);
-#endif
-        if (s == 0) s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
-    } else if (mbs_loop_projected_holds(t, x, p, &w, &r)) {
+    if (mbs_loop_projected_holds(t, x, p, &w, &r)) {
+        mbs_loop_info info;
+        memset(&info, 0, sizeof info);
+        info.worst = -1;
         w.stamp[0] = 0.0;
         s = mbs_loop_solve_accelerations(t, p, &w, 1, &r, &info);
     } else {
@@ -1697,7 +1659,7 @@ int mbs_loop_rates(double t, const double *x, const double *p, double *out, doub
     if (s == 0) s = mbs_loop_rates_at_projection(t, p, out, &w);
     if (s == 0) s = mbs_loop_multipliers_of(&w, r, out + MBS_NX);
     if (s == 0 && w.blocked && !w.fresh && !w.singular && r == (int)w.keep[1] && w.keep[0] == MBS_LOOP_KEEP_MARK) {
-        w.stamp[0] = MBS_LOOP_ROW_MARK;
+        w.stamp[0] = MBS_LOOP_ROW_MARK;  /* the factors at this row start the next (mbs_loop_project_row) */
         w.stamp[3] = r;
         mbs_loop_stamp_p_store(&w, p);
     }
