@@ -753,6 +753,26 @@ static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_w
     return mbs_constraints(t, q, p, w->g, w->tree);
 }
 
+/* The polishing Newton steps with the factors at hand after a converged projection from factors kept from before
+ * (mbs_loop_project_stamped, mbs_loop_project_from_row): at most MBS_LOOP_POLISH_STEPS while the residual `res` is
+ * above MBS_LOOP_POLISH and each halves it; a step that does not reduce it is undone (the round-off floor). */
+static int mbs_loop_polish(double t, double *q, const double *p, mbs_loop_work *w, int r, double res)
+{
+    int i, k, s;
+    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
+        const double before = res;
+        if ((s = mbs_loop_newton_step(t, q, p, w, r)) != 0) return s;
+        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        if (!(res < before)) {  /* at the round-off floor: undo this step */
+            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
+            mbs_loop_normalize_q(q);
+            break;
+        }
+        if (res > 0.5 * before) break;
+    }
+    return 0;
+}
+
 /* Project the positions of w->xc onto g = 0 (velocities of w->xc untouched as a state, used as scratch). */
 static int mbs_loop_positions_iterate(double t, const double *p, mbs_loop_work *w, int adopt, mbs_loop_info *info)
 {
@@ -1413,23 +1433,13 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
 {
     double *q = w->xc, res;
     const int r = (int)w->stamp[3];
-    int i, k, s;
+    int i, s;
     w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
     res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
     if (!(res <= MBS_LOOP_TOL)) return -1;
-    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
-        double before = res;
-        if ((s = mbs_loop_newton_step(t, q, p, w, r)) != 0) return s;
-        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
-        if (!(res < before)) {  /* at the round-off floor: undo this step */
-            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
-            mbs_loop_normalize_q(q);
-            break;
-        }
-        if (res > 0.5 * before) break;
-    }
+    if ((s = mbs_loop_polish(t, q, p, w, r, res)) != 0) return s;
     /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, dv_I = 0 */
     if ((s = mbs_constraint_velocity(t, w->xc, p, w->c3, w->tree)) != 0) return s;
     memset(w->dv, 0, MBS_NV * sizeof(double));
@@ -1558,7 +1568,9 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
 /* ---- the rows of a run (Function.rows with `projected`: the outputs of the samples one after another) ------- */
 
 /* The stamp mbs_loop_rates leaves after a row's solve: w->G holds the factors of the kept partition (its blocks) at
- * that row's projected state, rank stamp[3], for the parameters after q.  The next row starts from them. */
+ * that row's projected state, rank stamp[3].  The next row starts from them, whatever its parameters (a row after
+ * an event: a switch's flag changed), since they only start its Newton iterations, whose convergence is checked on
+ * its own constraints. */
 #define MBS_LOOP_ROW_MARK 3307.0
 /* Newton steps with the previous row's factors before the row is projected afresh (mbs_project); each must
  * reduce the residual by MBS_LOOP_SLOW, as the simplified Newton of mbs_loop_positions_iterate. */
@@ -1568,16 +1580,15 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
 #define MBS_LOOP_ROWS_FRESH 0
 #endif
 
-/* Do the factors of the previous row's solve hold for a row with the parameters p (any state: they only start
- * its Newton iterations, whose convergence is checked)? */
-static int mbs_loop_row_factors_hold(const double *p, const mbs_loop_work *w)
+/* Are the factors of the previous row's solve in the work, with the partition still the kept one? */
+static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
 {
 #ifdef MBS_CLOSED_FORM  /* its rows are projected in closed form first (mbs_project), whose scratch overlaps G */
-    (void)p; (void)w;
+    (void)w;
     return 0;
 #else
     return !MBS_LOOP_ROWS_FRESH && w->stamp[0] == MBS_LOOP_ROW_MARK && w->keep[0] == MBS_LOOP_KEEP_MARK
-           && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w) && mbs_loop_stamp_p_holds(w, p);
+           && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
 #endif
 }
 
@@ -1591,7 +1602,7 @@ static int mbs_loop_row_factors_hold(const double *p, const mbs_loop_work *w)
 static int mbs_loop_project_from_row(double t, const double *x, const double *p, mbs_loop_work *w)
 {
     double *q = w->xc, res, before;
-    int i, k, r = (int)w->stamp[3];
+    int k, r = (int)w->stamp[3];
     w->blocked = 1;
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     mbs_loop_normalize_q(q);
@@ -1604,17 +1615,7 @@ static int mbs_loop_project_from_row(double t, const double *x, const double *p,
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res <= MBS_LOOP_SLOW * before)) return -1;
     }
-    for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {  /* as mbs_loop_positions_iterate */
-        before = res;
-        if (mbs_loop_newton_step(t, q, p, w, r) != 0) return -1;
-        res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
-        if (!(res < before)) {  /* at the round-off floor: undo this step */
-            for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
-            mbs_loop_normalize_q(q);
-            break;
-        }
-        if (res > 0.5 * before) break;
-    }
+    if (mbs_loop_polish(t, q, p, w, r, res) != 0) return -1;
     if (mbs_loop_jacobian_at(t, w->xc, p, w, 1) != 0) return -1;
     if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
     mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
@@ -1628,7 +1629,7 @@ int mbs_loop_project_row(double t, const double *x, const double *p, double *out
 {
     mbs_loop_work w = mbs_loop_layout_keeping(work);
     int r;
-    if (mbs_loop_row_factors_hold(p, &w) && (r = mbs_loop_project_from_row(t, x, p, &w)) >= 0) {
+    if (mbs_loop_row_factors_hold(&w) && (r = mbs_loop_project_from_row(t, x, p, &w)) >= 0) {
         memcpy(out, w.xc, MBS_NX * sizeof(double));
         mbs_loop_projected_store(t, p, &w, r);
         return 0;
@@ -1661,7 +1662,6 @@ int mbs_loop_rates(double t, const double *x, const double *p, double *out, doub
     if (s == 0 && w.blocked && !w.fresh && !w.singular && r == (int)w.keep[1] && w.keep[0] == MBS_LOOP_KEEP_MARK) {
         w.stamp[0] = MBS_LOOP_ROW_MARK;  /* the factors at this row start the next (mbs_loop_project_row) */
         w.stamp[3] = r;
-        mbs_loop_stamp_p_store(&w, p);
     }
     return s;
 }
