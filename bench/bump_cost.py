@@ -23,9 +23,10 @@ what an open tree costs and nothing else cost anything; printed as a real-time f
 the real-time factor with every other part as measured and the rhs at tree speed.  Issue 12's target is 100.
 
 Against the former path, measured in the same run (interleaved; --no-former skips it): the same model built with
--DMBS_LOOP_ROWS_FRESH=1 (c/loops.c: every row of the results projected afresh, G evaluated and factored twice per
-row, instead of starting from the factors of the row before), printed as everything but the rhs calls and the
-outputs per row, current against former, with their ratio.  --instructions counts the outputs' rows instead of
+-DMBS_LOOP_ROWS_FORMER=1 (c/loops.c: every row of the results projected afresh, G evaluated and factored twice for
+it, instead of its Newton steps starting from the factors of the row before; the multipliers solved over the whole
+factors instead of block by block), printed as everything but the rhs calls, everything outside the integration and
+the outputs per row, current against former, with their ratios.  --instructions counts the outputs' rows instead of
 timing them (valgrind's callgrind, load-independent): one child process per build calls `Function.rows` over the
 run's rows (the arguments simulate passes, saved from a run) with callgrind collecting inside that call only.
 """
@@ -69,7 +70,7 @@ RHS_CALLS = 300
 #: is single-threaded: the CPU time is the wall time of a quiet machine)
 clock = time.process_time
 #: The former path's build (c/loops.c): every row projected afresh.
-FORMER_FLAGS = ("-DMBS_LOOP_ROWS_FRESH=1",)
+FORMER_FLAGS = ("-DMBS_LOOP_ROWS_FORMER=1",)
 
 
 class PartTimer:

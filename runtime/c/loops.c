@@ -117,6 +117,11 @@
 #define MBS_LOOP_MASS_TOL 1e-12
 /* The rows a partition drops hold on its accelerations to this fraction of the size of their terms. */
 #define MBS_LOOP_ROWS_HOLD 1e-6
+/* -DMBS_LOOP_ROWS_FORMER=1: the former rows of a run (bench/bump_cost.py): each projected afresh by mbs_project,
+ * and the multipliers solved over the whole factors rather than block by block (mbs_loop_lambda). */
+#ifndef MBS_LOOP_ROWS_FORMER
+#define MBS_LOOP_ROWS_FORMER 0
+#endif
 
 #define MBS_LOOP_SINGULAR 1
 #define MBS_LOOP_NONFINITE 2
@@ -1490,17 +1495,26 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
 static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
 {
     const double *A = w->G;
-    int i, j, k;
-    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11 */
-    for (k = 0; k < r; k++) {
-        int c = (int)w->cp[k];
-        double sum = -w->f[c];
-        for (j = 0; j < MBS_NV; j++) sum += w->M[c * MBS_NV + j] * w->vd[j];
-        for (j = 0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
-        w->y[k] = sum / A[k * MBS_NV + k];
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    const int blocks = !MBS_LOOP_ROWS_FORMER && w->blocked && bl.k0[*bl.nb] == r;
+    int i, j, k, b, k0 = 0, k1 = r;
+    /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11; with the kept
+     * partition's factors block by block (the entries of L11 and U11 outside a block are exact zeros) */
+    for (b = 0; b < (blocks ? *bl.nb : 1); b++) {
+        if (blocks) {
+            k0 = bl.k0[b];
+            k1 = bl.k0[b + 1];
+        }
+        for (k = k0; k < k1; k++) {
+            int c = (int)w->cp[k];
+            double sum = -w->f[c];
+            for (j = 0; j < MBS_NV; j++) sum += w->M[c * MBS_NV + j] * w->vd[j];
+            for (j = k0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
+            w->y[k] = sum / A[k * MBS_NV + k];
+        }
+        for (k = k1 - 1; k >= k0; k--)  /* L11^T z = y */
+            for (i = k + 1; i < k1; i++) w->y[k] -= A[i * MBS_NV + k] * w->y[i];
     }
-    for (k = r - 1; k >= 0; k--)  /* L11^T z = y */
-        for (i = k + 1; i < r; i++) w->y[k] -= A[i * MBS_NV + k] * w->y[i];
     memset(lambda, 0, MBS_NC * sizeof(double));
     for (k = 0; k < r; k++) lambda[(int)w->rp[k]] = w->y[k];
     return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
@@ -1575,10 +1589,6 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
 /* Newton steps with the previous row's factors before the row is projected afresh (mbs_project); each must
  * reduce the residual by MBS_LOOP_SLOW, as the simplified Newton of mbs_loop_positions_iterate. */
 #define MBS_LOOP_ROW_MAXIT 8
-/* -DMBS_LOOP_ROWS_FRESH=1: every row projected afresh (the former path; bench/bump_cost.py). */
-#ifndef MBS_LOOP_ROWS_FRESH
-#define MBS_LOOP_ROWS_FRESH 0
-#endif
 
 /* Are the factors of the previous row's solve in the work, with the partition still the kept one? */
 static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
@@ -1587,7 +1597,7 @@ static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
     (void)w;
     return 0;
 #else
-    return !MBS_LOOP_ROWS_FRESH && w->stamp[0] == MBS_LOOP_ROW_MARK && w->keep[0] == MBS_LOOP_KEEP_MARK
+    return !MBS_LOOP_ROWS_FORMER && w->stamp[0] == MBS_LOOP_ROW_MARK && w->keep[0] == MBS_LOOP_KEEP_MARK
            && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
 #endif
 }
