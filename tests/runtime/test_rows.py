@@ -103,11 +103,26 @@ def crank_outputs():
     return run(mbs.loads(CRANK_ACCELERATION))
 
 
-def test_one_pass_projects_each_row_and_gives_its_outputs_there(crank_outputs):
+@pytest.fixture(scope="module")
+def crank_outputs_numeric():
+    """The crank with the numeric loop solver alone: its rows go through c/loops.c mbs_loop_project_row (a closed
+    form projects them itself), which starts each row's Newton steps from the factors of G the row before it left."""
+    system = mbs.loads(CRANK_ACCELERATION)
+    compiled, gen = system.compile(closed_form=False), system.generate(closed_form=False)
+    values = {p.name: p.value for p in system.model.parameters}
+    res = simulate(compiled, system._workspace(compiled, gen, values), 0.5, sample=0.01)
+    return system._workspace(compiled, gen, values), res.t, res.data[:, 1:1 + compiled.nx]
+
+
+@pytest.mark.parametrize("case", ["crank_outputs", "crank_outputs_numeric"])
+def test_one_pass_projects_each_row_and_gives_its_outputs_there(request, case):
     """Function.rows with `projected`: each row's projection, and the outputs at it from the loop solve that starts
     from the projection's factors (not projecting again), against project then outputs called row by row.  The
-    two differ only by the round-off of a second projection of a projected state."""
-    data, ts, xs = crank_outputs
+    two differ only by the round-off of a second projection of a projected state.  With the numeric loop solver
+    (crank_outputs_numeric) each row's Newton steps start from the factors of G the row before it left, where
+    project evaluates and factors G afresh: the same positions (the independent ones stay in both) to the Newton
+    tolerance, the same velocities and outputs to round-off, rows after a change of the loop's length included."""
+    data, ts, xs = request.getfixturevalue(case)
     longer = data.p.copy()
     longer[data.model.parameter_index("L")] *= 1.1
     ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
@@ -121,37 +136,6 @@ def test_one_pass_projects_each_row_and_gives_its_outputs_there(crank_outputs):
     outputs = one_by_one(data, "outputs", ps, ts, reference, which)
     np.testing.assert_allclose(ys, outputs, rtol=1e-9, atol=1e-9 * np.abs(outputs).max())
     assert np.ptp(ys[:, 0]) > 1.0  # the slider's acceleration varies over the run: the comparison means something
-
-
-@pytest.fixture(scope="module")
-def crank_outputs_numeric():
-    """The crank with the numeric loop solver alone: its rows go through c/loops.c mbs_loop_project_row (a closed
-    form projects them itself), which starts each row's Newton steps from the factors of G the row before it left."""
-    system = mbs.loads(CRANK_ACCELERATION)
-    compiled, gen = system.compile(closed_form=False), system.generate(closed_form=False)
-    values = {p.name: p.value for p in system.model.parameters}
-    res = simulate(compiled, system._workspace(compiled, gen, values), 0.5, sample=0.01)
-    return system._workspace(compiled, gen, values), res.t, res.data[:, 1:1 + compiled.nx]
-
-
-def test_rows_from_the_factors_of_the_row_before_are_the_fresh_projections(crank_outputs_numeric):
-    """Each row projected from the previous row's factors (simplified Newton, then G and its factors once at the
-    projected positions for the velocities and the outputs' solve) against mbs_project called row by row, which
-    evaluates and factors G afresh for its Newton steps: the same positions (the independent ones stay in both) to
-    the Newton tolerance, the same velocities and outputs to round-off; rows after a change of the loop's length
-    (the factors of the other geometry) as well."""
-    data, ts, xs = crank_outputs_numeric
-    longer = data.p.copy()
-    longer[data.model.parameter_index("L")] *= 1.1
-    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
-    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
-    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
-    assert project_and_evaluate_rows(data, "outputs", ps, ts, xs, which, projected, ys) == (len(ts), None, None)
-    reference = one_by_one(data, "project", ps, ts, xs, which)
-    np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
-    outputs = one_by_one(data, "outputs", ps, ts, reference, which)
-    np.testing.assert_allclose(ys, outputs, rtol=1e-9, atol=1e-9 * np.abs(outputs).max())
-    assert np.ptp(ys[:, 0]) > 1.0
 
 
 def test_one_pass_names_the_stage_that_failed(crank_outputs):
