@@ -46,6 +46,12 @@ COLD_FUNCTIONS = frozenset({"mbs_mass_matrix_unchecked", "mbs_mass_matrix", "mbs
 #: mass matrix, nor the forces, nor the constraint acceleration (only the loop Jacobian of the implicit integrators,
 #: the equilibrium and a singular position do): they are cold there too.
 COLD_WITH_LOOP_TERMS = COLD_FUNCTIONS | {"mbs_constraint_acceleration"}
+#: The macro of a tree's file written without its cold functions (compiler/ccode.py cold_apart): the glue leaves
+#: them out of the function table, and runtime/build.py build_cold makes them a library of their own, from the
+#: whole file, when one is first called (cold_sources).
+COLD_APART = "MBS_COLD_APART"
+#: The glue unit of that library (its function table: runtime/c/mbs_cold_glue.c).
+COLD_GLUE_UNIT = "cold_glue.c"
 _LOOPS = re.compile(r"^#define MBS_NC ", re.M)
 _LOOP_TERMS = re.compile(r"^#define MBS_LOOP_TERMS\b", re.M)
 #: The first line of a generated file's outputs part (written by compiler/ccode.py, read here).
@@ -194,15 +200,7 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
     hot = tuple(b for b in layout.functions if part_of(b.name) not in cold)
     colder = tuple(b for b in layout.functions if part_of(b.name) in cold)
     for prefix, functions in (("model_", hot), (COLD_PREFIX, colder)):
-        for k, group in enumerate(_balanced(functions) if functions else [], start=1):
-            texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */",
-                     '#include "model.h"']
-            body = "\n".join(b.text for b in group)
-            for helper in _helpers_for(body, layout.helpers):
-                texts += [f"#line {helper.line} \"{where}\"", helper.text]
-            for block in group:
-                texts += [f"#line {block.line} \"{where}\"", block.text]
-            files[f"{prefix}{k}.c"] = "\n".join(texts) + "\n"
+        files.update(_units_of(functions, prefix, layout.helpers, filename))
     if marker:
         texts = [f"/* The outputs of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
         for helper in _helpers_for(outputs, layout.helpers):
@@ -210,6 +208,43 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
         texts += [f"#line {layout.outputs_line} \"{where}\"", OUTPUTS_MARKER, outputs,
                   "const int mbs_ny = MBS_NY;"]
         files[OUTPUTS_UNIT] = "\n".join(texts) + "\n"
+    return files
+
+
+def cold_sources(code: str, filename: str) -> dict[str, str] | None:
+    """{file name: text} of the library of a tree's cold functions (COLD_FUNCTIONS) in the whole generated file
+    `code`: model.h (the file's shared header and the cold functions' prototypes) and cold_1.c .. (without its glue
+    unit); None: the text is not in the generated layout, or the model has loops or no cold function. Whatever
+    the file's size: the library is built apart from the model's (runtime/build.py build_cold)."""
+    layout = read_layout(code)
+    if layout is None or has_loops(layout.header):
+        return None
+    cold = tuple(b for b in layout.functions if part_of(b.name) in COLD_FUNCTIONS)
+    if not cold:
+        return None
+    where = line_name(filename)
+    prototypes = "\n".join(b.prototype for b in cold)
+    files = {"model.h": (f"/* The shared part of {filename} and its cold functions' prototypes, for their library "
+                         "(mbs.runtime.translation_units): do not edit */\n"
+                         f"#line 1 \"{where}\"\n{layout.header}\n"
+                         "/* The functions no integrator calls, each defined in one of the units cold_<k>.c. */\n"
+                         f"{prototypes}\n")}
+    files.update(_units_of(cold, COLD_PREFIX, layout.helpers, filename))
+    return files
+
+
+def _units_of(functions: tuple[Block, ...], prefix: str, helpers: tuple[Block, ...], filename: str) -> dict[str, str]:
+    """{<prefix><k>.c: text} of the functions in balanced groups, each unit with the static helpers it calls."""
+    where = line_name(filename)
+    files = {}
+    for k, group in enumerate(_balanced(functions) if functions else [], start=1):
+        texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
+        body = "\n".join(b.text for b in group)
+        for helper in _helpers_for(body, helpers):
+            texts += [f"#line {helper.line} \"{where}\"", helper.text]
+        for block in group:
+            texts += [f"#line {block.line} \"{where}\"", block.text]
+        files[f"{prefix}{k}.c"] = "\n".join(texts) + "\n"
     return files
 
 
