@@ -130,8 +130,14 @@ def load_c(path: str | os.PathLike | None = None, *, code: str | None = None,
     _log.log(25 if took > 1.0 else logging.INFO, "C build of %s: cache %s, %.2f s", info.get("name", "model"),
              "hit" if result.cached else "miss", took)  # 25: mbs.pipeline.NOTE, a slow step shown by default
     _log.debug("C build product: %s", getattr(result, "path", "?"))
-    library = functools.partial(_load_cold, cold, info.get("name", "model"), options) if cold is not None else None
+    library = cold_library(cold, info.get("name", "model"), **options)
     return CompiledModel.from_backend(CBackend(_build.load(result), cold=library), **info)
+
+
+def cold_library(whole: Callable[[], str] | None, name: str, **options) -> Callable[[], ModuleType] | None:
+    """What loads the library of the cold functions of the whole file `whole()` gives (None: no such file);
+    options: of build_cold (cache_dir, extra_flags)."""
+    return functools.partial(_load_cold, whole, name, options) if whole is not None else None
 
 
 def _load_cold(whole: Callable[[], str], name: str, options: dict) -> ModuleType:
