@@ -371,12 +371,12 @@ def main() -> None:
               f"{len(former[0]['code']) / 1024:.0f} KiB ({'the same text but the cold functions' if same else 'THE TEXTS DIFFER'}); "
               f"medians of {args.repeat}")
         print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s}")
-        for label, runs in (("current", current), ("former", former)):
+        for label, runs in (("current", current), (args.baseline, former)):
             print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
                   f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
         ratio = lambda key: median(former, key) / median(current, key)  # noqa: E731
         target = TARGETS.get(name)
-        print(f"  former / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "
+        print(f"  {args.baseline} / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "
               f"{ratio('derive cpu'):.2f} x), C compiler cpu {ratio('cc cpu'):.2f} x"
               + (f"; target: compile under {target:g} s (now {median(current, 'total'):.1f} s)" if target else ""))
         print(f"  first mass matrix call after the fresh compile: {median(current, 'first'):.2f} s (compiler cpu "

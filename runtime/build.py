@@ -222,6 +222,7 @@ def _build_files(code: str, filename: str) -> dict[str, str]:
         return {"unit.c": _unit_source(code, filename), RUNTIME_UNIT: _runtime_unit()}
     glue = ("/* glue unit written by mbs.runtime.build: do not edit */\n"
             "#define MBS_SEPARATE_INIT 1\n#include \"model.h\"\n"
+            + (_units.OUTPUTS_DECLARATIONS if _units.OUTPUTS_UNIT in split else "") +
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
     return {**split, _units.GLUE_UNIT: glue, RUNTIME_UNIT: _runtime_unit()}
 
@@ -276,7 +277,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     objects, todo, pending = {}, [], []
     jobs = _unit_jobs(files, flags, model_flags, cc, cache, outputs_flags)
     for name, command, cached in jobs:
-        if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
+        if cached in _PREBUILDS and not _cancelled(cached):  # being compiled by prebuild: taken when done
             pending.append((name, command, cached))
         elif cached.exists() and _cache.problem(cached) is None:
             objects[name] = cached
@@ -392,6 +393,18 @@ def _forget_prebuilds() -> None:
     _PREBUILD_LOCK = threading.Lock()
     _PREBUILDS.clear()
     _PREBUILD_POOL.clear()
+
+
+def _cancelled(key: Path) -> bool:
+    """Whether prebuild's job for the object `key` had not started and is now withdrawn (build compiles it in its
+    own pool, beside the others: prebuild's one compiler process would otherwise compile its queue one unit after
+    another while build waits and a core idles)."""
+    with _PREBUILD_LOCK:
+        job = _PREBUILDS.get(key)
+        if job is None or not job.cancel():
+            return False
+        del _PREBUILDS[key]
+        return True
 
 
 def _forget_finished_prebuilds() -> None:

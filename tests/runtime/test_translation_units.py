@@ -42,9 +42,9 @@ model tables {
 
 @pytest.fixture(scope="module")
 def generated():
-    """The generated C of a closed-loop model and of a tree with outputs."""
-    return {"slider_crank": mbs.load(SLIDER_CRANK).generate().c_source,
-            "quarter_car": mbs.load(TABLES).generate().c_source}
+    """The whole generated C (the cold functions included) of a closed-loop model and of a tree with outputs."""
+    return {"slider_crank": mbs.load(SLIDER_CRANK).generate().whole_source,
+            "quarter_car": mbs.load(TABLES).generate().whole_source}
 
 
 def test_the_generated_layout_is_read_back_whole(generated):
@@ -118,6 +118,29 @@ def test_the_functions_no_integrator_calls_go_to_cold_units(generated, monkeypat
     assert build.unit_flags("model_1.c", model_flags, ("-fout",)) == model_flags
     assert build.unit_flags(units.OUTPUTS_UNIT, model_flags, ("-fout",)) == (*model_flags, "-fout")
     assert build.unit_flags(units.GLUE_UNIT, model_flags, ("-fout",)) == ()
+
+
+def test_the_cold_library_has_the_cold_functions_of_a_whole_tree_file_alone(generated):
+    """cold_sources (runtime/build.py build_cold): the whole file's header with the cold functions' prototypes and
+    units of those functions alone, each with the helpers it calls (a table's lookup for the forces); none for a
+    model with loops (its loop solver calls them) nor for a file written without them."""
+    whole = generated["quarter_car"]
+    files = units.cold_sources(whole, "quarter_car.c")
+    bodies = {name: text for name, text in files.items() if name != "model.h"}
+    assert bodies and all(name.startswith(units.COLD_PREFIX) for name in bodies)
+    defined = set()
+    for text in bodies.values():
+        defined |= set(re.findall(r"^int (mbs_\w+)\(", text, re.M))
+    assert {units.part_of(name) for name in defined} == {"mbs_mass_matrix", "mbs_forces"}
+    assert "#define MBS_NWORK" in files["model.h"] and "int mbs_rhs(" not in files["model.h"]
+    assert "int mbs_mass_matrix(double t" in files["model.h"]
+    for text in bodies.values():  # helpers only where called (-Wall)
+        for helper in re.findall(r"^static \w+ (mbs_\w+)\(", text, re.M):
+            assert len(re.findall(rf"\b{helper}\(", text)) >= 2, helper
+    assert units.cold_sources(generated["slider_crank"], "slider_crank.c") is None
+    apart = mbs.load(TABLES).generate().c_source
+    assert f"#define {units.COLD_APART} " in apart and units.cold_sources(apart, "quarter_car.c") is None
+    assert build.unit_flags(units.COLD_GLUE_UNIT, ("-fmodel",), ()) == ()
 
 
 @pytest.mark.parametrize("path", [SLIDER_CRANK, TABLES], ids=lambda p: p.stem)
@@ -207,7 +230,7 @@ def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, mon
     unit's model.h): none in model.h, and in a unit exactly when the unit calls the table."""
     monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
     monkeypatch.setattr(units, "UNIT_CHARS", 1_000)
-    code = mbs.loads(TABLE_MODEL).generate().c_source
+    code = mbs.loads(TABLE_MODEL).generate().whole_source  # (the forces, in cold units, call both tables)
     tables = re.findall(r"^static double (mbs_table_\d+)\(double x\)$", code, re.M)
     assert len(tables) == 3  # the force's two, the output's one
     files = units.split_sources(code, "tables.c")
