@@ -28,8 +28,8 @@ and noisy, so CPU seconds are printed beside wall seconds):
 * --units: each translation unit compiled alone, one at a time, with the current and the former flags: its
   size and the compiler's CPU seconds.
 * --baseline eager: the baseline is the current settings with a tree's cold functions (its mass matrix and forces,
-  which no integrator calls) derived and compiled with the rest, as before (mbs/system.py COLD_APART): the change
-  "cold functions on demand" alone. The default baseline, "former", has them so too. Printed besides: the first
+  which no integrator calls) derived and compiled with the rest, as before (mbs/system.py COLD_APART), and the
+  split build's prebuild as before (eager_cold): the change "cold functions on demand" alone. The default baseline, "former", has them so too. Printed besides: the first
   call of the mass matrix after the fresh compile (the whole file derived, the cold functions' library built:
   runtime/backends.py ColdLibrary), the same in a new process's view (a new System on the same cache: nothing
   derived nor compiled again), and whether the right-hand side and the mass matrix of both builds are the same to
@@ -130,12 +130,25 @@ _EAGER_NUMPY = [False]
 
 @contextlib.contextmanager
 def eager_cold():
-    """A tree's cold functions derived and compiled with the rest (mbs/system.py COLD_APART False), as before."""
+    """As before the cold functions were built on demand: a tree's cold functions derived and compiled with the
+    rest (mbs/system.py COLD_APART False), the outputs' declarations in model.h (so that prebuild's model units
+    were compiled again for a scene without outputs) and build waiting for prebuild's queue of jobs, compiled one
+    after another."""
+    split, cancelled = translation_units.split_sources, build._cancelled
+
+    def split_as_before(code, filename):
+        files = split(code, filename)
+        if files is not None and translation_units.OUTPUTS_UNIT in files:
+            files["model.h"] += translation_units.OUTPUTS_DECLARATIONS
+        return files
+
     system_module.COLD_APART = False
+    translation_units.split_sources, build._cancelled = split_as_before, (lambda key: False)
     try:
         yield
     finally:
         system_module.COLD_APART = True
+        translation_units.split_sources, build._cancelled = split, cancelled
 
 
 @contextlib.contextmanager
@@ -363,7 +376,7 @@ def main() -> None:
           f"cache): compiler cpu {runtime_cpu():.2f} s, once per compiler and flags")
     if args.baseline == "eager":
         print("baseline: the current settings with a tree's cold functions (mass matrix, forces) derived and compiled "
-              "with the rest (mbs/system.py COLD_APART False)")
+              "with the rest (mbs/system.py COLD_APART False) and prebuild as before (bench/compile_time.py eager_cold)")
     for name in args.models:
         current, former = compare_compiles(name, args.repeat, args.baseline)
         same = all(same_but_cold(r["code"], former[0]["code"]) for r in current + former)

@@ -208,6 +208,24 @@ def test_prebuild_compiles_the_equations_units_before_the_outputs_are_known(gene
     assert a.NY == len(gen.y_names) and dict(a.FUNCTIONS)["outputs"] == (len(gen.y_names),)
 
 
+def test_prebuilds_serve_a_scene_without_outputs(tmp_path, monkeypatch):
+    """A scene without outputs (the 40-link chain's) has no outputs' part, which prebuild cannot know: model.h is
+    the same text either way (the outputs' declarations are the glue unit's), so build compiles no model unit again."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    without = "\n".join(line for line in TABLE_MODEL.splitlines() if "output shape" not in line)
+    gen = mbs.loads(without).generate()
+    assert not gen.y_names and units.OUTPUTS_MARKER not in gen.c_source
+    assert build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path) > 0
+    for job in list(build._PREBUILDS.values()):
+        job.result()
+    compiled, run = [], build._run
+    monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(command[-1]) or run(command, *a))
+    result = build.build(gen.c_source, cache_dir=tmp_path)
+    assert compiled and not [name for name in compiled if name.startswith("model_")]
+    assert result.warnings == "" and "outputs" not in dict(build.load(result).FUNCTIONS)
+
+
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="fork")
 def test_a_forked_child_does_not_wait_for_the_parents_prebuilds(tmp_path, monkeypatch):
     """A sweep's workers may be forked while a prebuild runs: the child compiles what is not cached itself."""
