@@ -60,18 +60,20 @@ class System:
 
     def generate(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
                  dynamics: bool = False, frames: tuple[str, ...] = (), equations_ready=None,
-                 closed_form: bool = True) -> pipeline.Generated:
+                 closed_form: bool = True, cold_apart: bool | None = None) -> pipeline.Generated:
         """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
         parameter_jacobian: with mbs_param_jacobian (for sensitivities); dynamics: also the dynamics functions,
         and the kinematics of the named frames (mbs.dynamics); equations_ready: called with the C of the equations
         as soon as it is written (pipeline.generate); closed_form: False for the numeric loop solver alone.
-        A tree's c_source is written without its cold functions (COLD_APART): whole_source has them."""
-        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames), closed_form, COLD_APART)
+        A tree's c_source is written without its cold functions (cold_apart, None: COLD_APART): whole_source has
+        them."""
+        cold_apart = COLD_APART if cold_apart is None else cold_apart
+        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames), closed_form, cold_apart)
         if key not in self._compiled:
             self._compiled[key] = derivation_cache.generate(
                 self.model, self.scene(scene), cache_dir=self.cache_dir, jacobian=jacobian,
                 parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames),
-                equations_ready=equations_ready, closed_form=closed_form, cold_apart=COLD_APART)
+                equations_ready=equations_ready, closed_form=closed_form, cold_apart=cold_apart)
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
