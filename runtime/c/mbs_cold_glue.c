@@ -1,7 +1,8 @@
 /* The glue of the library of a tree's cold functions: those no integrator calls (runtime/translation_units.py
- * COLD_FUNCTIONS: the mass matrix, the forces, the dynamics functions), which a model's fresh compile leaves out
- * (its file defines MBS_COLD_APART) and runtime/build.py build_cold builds from the whole file when one is first
- * called.  Its model.h is the whole file's shared header with their prototypes; the library has its own module,
+ * COLD_FUNCTIONS), which a tree's fresh compile leaves out (its file defines MBS_COLD_APART; a compile that asks
+ * for the dynamics functions keeps them all: mbs/pipeline.py cold_apart_applies, so the table holds the mass matrix
+ * and the forces, runtime/backends.py COLD_APART_FUNCTIONS) and runtime/build.py build_cold builds from the whole
+ * file when one is first called.  Its model.h is the whole file's shared header with their prototypes; the library has its own module,
  * with their function table alone, and is called with the model's own parameters and work (the same sizes:
  * runtime/backends.py checks them).  A small unit of the build (build.py _init_unit) calls mbs_module_init.
  */
@@ -15,16 +16,6 @@
 static const mbs_entry MBS_COLD_TABLE[] = {
     {"mass_matrix", mbs_mass_matrix, MBS_NV, MBS_NV, 0},
     {"forces", mbs_forces, MBS_NV, 0, 0},
-#ifdef MBS_NXA
-    {"inverse_dynamics", mbs_inverse_dynamics, MBS_NV, 0, MBS_NXA},
-    {"bias_forces", mbs_bias_forces, MBS_NV, 0, 0},
-    {"gravity_forces", mbs_gravity_forces, MBS_NV, 0, 0},
-#endif
-#ifdef MBS_NF
-    {"frame_positions", mbs_frame_positions, MBS_NF, 12, 0},
-    {"frame_velocities", mbs_frame_velocities, MBS_NF, 6, 0},
-    {"frame_jacobians", mbs_frame_jacobians, 6 * MBS_NF, MBS_NV, 0},
-#endif
 };
 
 /* No right-hand side, Jacobian, outputs nor loops: nothing of this library is integrated. */
