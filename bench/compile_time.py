@@ -317,16 +317,19 @@ def compiled_workspace(compiled):
     return Workspace(compiled)
 
 
-def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int) -> tuple[float, float, float]:
-    """Median seconds of a whole simulate with each build (interleaved): the vehicle's bump_5, a chain's 1 s."""
+def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int,
+                   baseline: str = "former") -> tuple[float, float, float]:
+    """Median seconds of a whole simulate with each build (interleaved): the vehicle's bump_5, a chain's 1 s. The
+    baseline's System runs in its settings (a System compiles again when mbs/system.py COLD_APART changed)."""
     _, _, scene, t_end = model_text(name)
     walls: list[list[float]] = [[], []]
     for _ in range(rounds):
         for k, run in enumerate((current_run, former_run)):
             system = run["system"]
-            start = time.perf_counter()
-            system.simulate(scene, t_end=t_end) if t_end is not None else system.simulate(scene)
-            walls[k].append(time.perf_counter() - start)
+            with former_settings(baseline) if k else contextlib.nullcontext():
+                start = time.perf_counter()
+                system.simulate(scene, t_end=t_end) if t_end is not None else system.simulate(scene)
+                walls[k].append(time.perf_counter() - start)
     ratios = [a / b for a, b in zip(*walls)]
     return statistics.median(walls[0]), statistics.median(walls[1]), statistics.median(ratios)
 
@@ -402,7 +405,7 @@ def main() -> None:
         times = call_times(current[-1]["compiled"], former[-1]["compiled"], 15)
         for fn, (a, b, r) in times.items():
             print(f"  {fn} per call in C: {a * 1e6:.2f} us against the former build's {b * 1e6:.2f} us: {r:.2f} x")
-        a, b, r = simulate_times(current[-1], former[-1], name, args.repeat)
+        a, b, r = simulate_times(current[-1], former[-1], name, args.repeat, args.baseline)
         print(f"  simulate: {a * 1e3:.0f} ms against the former build's {b * 1e3:.0f} ms: {r:.2f} x")
         if args.units:
             now, before = unit_cpu(current[0]["code"], False), unit_cpu(former[0]["code"], args.baseline == "former")
