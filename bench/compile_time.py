@@ -1,7 +1,7 @@
 """A model's fresh compile (text to loaded library, empty caches) with the current settings against the former ones,
 and what the settings cost the compiled model at run time.
 
-    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units]
+    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units] [--baseline eager]
 
 Per model, all measured in this run, the two settings' runs interleaved (medians of --repeat; the machine is shared
 and noisy, so CPU seconds are printed beside wall seconds):
@@ -27,6 +27,13 @@ and noisy, so CPU seconds are printed beside wall seconds):
   1 s), each against the former build;
 * --units: each translation unit compiled alone, one at a time, with the current and the former flags: its
   size and the compiler's CPU seconds.
+* --baseline eager: the baseline is the current settings with a tree's cold functions (its mass matrix and forces,
+  which no integrator calls) derived and compiled with the rest, as before (mbs/system.py COLD_APART), and the
+  split build's prebuild as before (eager_cold): the change "cold functions on demand" alone. The default baseline, "former", has them so too. Printed besides: the first
+  call of the mass matrix after the fresh compile (the whole file derived, the cold functions' library built:
+  runtime/backends.py ColdLibrary), the same in a new process's view (a new System on the same cache: nothing
+  derived nor compiled again), and whether the right-hand side and the mass matrix of both builds are the same to
+  the bit at random states.
 
 Issue 12's targets: a fresh compile of the Iltis under 5 s, of the 40-link chain under 10 s.
 """
@@ -49,10 +56,12 @@ from pathlib import Path
 import numpy as np
 
 import mbs
+from mbs import system as system_module
 from mbs.compiler import differentiate, emit_common
 from mbs.compiler import tape as tape_module
 from mbs.runtime import build
 from mbs.runtime import cache as build_cache
+from mbs.runtime import translation_units
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
@@ -120,8 +129,36 @@ _EAGER_NUMPY = [False]
 
 
 @contextlib.contextmanager
-def former_settings():
-    """The printer, the derivation's helpers and the build flags as they were before: the baseline."""
+def eager_cold():
+    """As before the cold functions were built on demand: a tree's cold functions derived and compiled with the
+    rest (mbs/system.py COLD_APART False), the outputs' declarations in model.h (so that prebuild's model units
+    were compiled again for a scene without outputs) and build waiting for prebuild's queue of jobs, compiled one
+    after another."""
+    split, cancelled = translation_units.split_sources, build._cancelled
+
+    def split_as_before(code, filename):
+        files = split(code, filename)
+        if files is not None and translation_units.OUTPUTS_UNIT in files:
+            files["model.h"] += translation_units.OUTPUTS_DECLARATIONS
+        return files
+
+    system_module.COLD_APART = False
+    translation_units.split_sources, build._cancelled = split_as_before, (lambda key: False)
+    try:
+        yield
+    finally:
+        system_module.COLD_APART = True
+        translation_units.split_sources, build._cancelled = split, cancelled
+
+
+@contextlib.contextmanager
+def former_settings(baseline: str = "former"):
+    """The printer, the derivation's helpers and the build flags as they were before, and the cold functions
+    compiled with the rest: the baseline ("eager": the cold functions alone)."""
+    if baseline == "eager":
+        with eager_cold():
+            yield
+        return
     _EAGER_NUMPY[0] = True
     printer, tape = emit_common.ExprPrinter, tape_module.Tape
     saved = (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.__dict__["symbols_read"],
@@ -132,7 +169,8 @@ def former_settings():
     differentiate.sympy_diff = lambda expr, a, memo: emit_common.sp.diff(expr, a)
     build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
-        yield
+        with eager_cold():
+            yield
     finally:
         _EAGER_NUMPY[0] = False
         (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.symbols_read,
@@ -192,15 +230,58 @@ def fresh_compile(name: str, cache: str) -> dict:
             "system": system, "compiled": compiled, "code": system.generate(scene).c_source}
 
 
-def compare_compiles(name: str, repeat: int) -> tuple[dict, dict]:
-    """{setting: [runs]} of fresh compiles with the current and the former settings, interleaved."""
+def compare_compiles(name: str, repeat: int, baseline: str = "former") -> tuple[dict, dict]:
+    """{setting: [runs]} of fresh compiles with the current and the former settings (`baseline`), interleaved."""
     runs: dict[str, list] = {"current": [], "former": []}
     for _ in range(repeat):
         for setting in runs:
             with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
-                with (former_settings() if setting == "former" else contextlib.nullcontext()):
-                    runs[setting].append(fresh_compile(name, cache))
+                with (former_settings(baseline) if setting == "former" else contextlib.nullcontext()):
+                    run = {**fresh_compile(name, cache), "cache": cache}
+                    runs[setting].append({**run, **first_cold_call(run, name)})
     return runs["current"], runs["former"]
+
+
+def same_but_cold(code: str, whole: str) -> bool:
+    """Whether `code` is the text `whole` without its cold functions (or the same text): every function of it is
+    the whole file's, and those it lacks are cold (runtime/translation_units.py COLD_FUNCTIONS)."""
+    if code == whole:
+        return True
+    mine, theirs = translation_units.read_layout(code), translation_units.read_layout(whole)
+    if mine is None or theirs is None or mine.outputs != theirs.outputs:
+        return False
+    blocks = {b.name: b.text for b in theirs.functions}
+    missing = set(blocks) - {b.name for b in mine.functions}
+    return (all(blocks.get(b.name) == b.text for b in mine.functions)
+            and all(translation_units.part_of(n) in translation_units.COLD_FUNCTIONS for n in missing))
+
+
+def first_cold_call(run: dict, name: str, rounds: int = 5) -> dict:
+    """After a fresh compile (a run of fresh_compile, its cache still there): seconds of the first mass matrix call
+    (the whole file derived and the cold functions' library built, or nothing to do when they were compiled with the
+    rest), of the same from a new System on the same cache (the warm second call: both found in the caches), and
+    whether the right-hand side and the mass matrix are those of `other` to the bit at random states."""
+    compiled = run["compiled"]
+    data = compiled_workspace(compiled)
+    x = data.x.copy()
+    start, cc_cpu = time.perf_counter(), _children_cpu()
+    data.function("mass_matrix")(0.0, x)
+    first, first_cc = time.perf_counter() - start, _children_cpu() - cc_cpu
+    text, path, scene, _ = model_text(name)
+    start = time.perf_counter()
+    again = mbs.loads(text, path=path, cache_dir=run["cache"])
+    compiled_again = again.compile(scene)
+    compiled_workspace(compiled_again).function("mass_matrix")(0.0, x)
+    warm = time.perf_counter() - start
+    rng = np.random.default_rng(12)
+    states = [x + 0.1 * rng.standard_normal(x.size) for _ in range(rounds)]
+    values = {fn: [data.function(fn)(0.0, s) for s in states] for fn in ("rhs", "mass_matrix")}
+    return {"first": first, "first cc cpu": first_cc, "warm": warm, "values": values}
+
+
+def same_bits(a: dict, b: dict) -> dict[str, bool]:
+    """{function: whether both runs' values at the same states are equal to the bit}."""
+    return {fn: all(np.array_equal(x, y) for x, y in zip(a["values"][fn], b["values"][fn])) for fn in a["values"]}
 
 
 def median(runs: list[dict], key: str) -> float:
@@ -236,16 +317,19 @@ def compiled_workspace(compiled):
     return Workspace(compiled)
 
 
-def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int) -> tuple[float, float, float]:
-    """Median seconds of a whole simulate with each build (interleaved): the vehicle's bump_5, a chain's 1 s."""
+def simulate_times(current_run: dict, former_run: dict, name: str, rounds: int,
+                   baseline: str = "former") -> tuple[float, float, float]:
+    """Median seconds of a whole simulate with each build (interleaved): the vehicle's bump_5, a chain's 1 s. The
+    baseline's System runs in its settings (a System compiles again when mbs/system.py COLD_APART changed)."""
     _, _, scene, t_end = model_text(name)
     walls: list[list[float]] = [[], []]
     for _ in range(rounds):
         for k, run in enumerate((current_run, former_run)):
             system = run["system"]
-            start = time.perf_counter()
-            system.simulate(scene, t_end=t_end) if t_end is not None else system.simulate(scene)
-            walls[k].append(time.perf_counter() - start)
+            with former_settings(baseline) if k else contextlib.nullcontext():
+                start = time.perf_counter()
+                system.simulate(scene, t_end=t_end) if t_end is not None else system.simulate(scene)
+                walls[k].append(time.perf_counter() - start)
     ratios = [a / b for a, b in zip(*walls)]
     return statistics.median(walls[0]), statistics.median(walls[1]), statistics.median(ratios)
 
@@ -282,6 +366,9 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40", "fourbar40"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
+    ap.add_argument("--baseline", choices=("former", "eager"), default="former",
+                    help="former: every former setting (the default); eager: the current settings with a tree's cold "
+                         "functions compiled with the rest")
     args = ap.parse_args()
     same = "(those of the model units)"
     print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, the outputs' unit and the "
@@ -290,30 +377,43 @@ def main() -> None:
           f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
     print(f"the runtime object every model shares (the Python bindings, the integrators; in every fresh compile's "
           f"cache): compiler cpu {runtime_cpu():.2f} s, once per compiler and flags")
+    if args.baseline == "eager":
+        print("baseline: the current settings with a tree's cold functions (mass matrix, forces) derived and compiled "
+              "with the rest (mbs/system.py COLD_APART False) and prebuild as before (bench/compile_time.py eager_cold)")
     for name in args.models:
-        current, former = compare_compiles(name, args.repeat)
-        same = all(r["code"] == current[0]["code"] for r in current + former)
-        print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB "
-              f"({'the same text with both settings' if same else 'THE TEXTS DIFFER'}); medians of {args.repeat}")
+        current, former = compare_compiles(name, args.repeat, args.baseline)
+        same = all(same_but_cold(r["code"], former[0]["code"]) for r in current + former)
+        print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB, the baseline's "
+              f"{len(former[0]['code']) / 1024:.0f} KiB ({'the same text but the cold functions' if same else 'THE TEXTS DIFFER'}); "
+              f"medians of {args.repeat}")
         print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s}")
-        for label, runs in (("current", current), ("former", former)):
+        for label, runs in (("current", current), (args.baseline, former)):
             print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
                   f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
         ratio = lambda key: median(former, key) / median(current, key)  # noqa: E731
         target = TARGETS.get(name)
-        print(f"  former / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "
+        print(f"  {args.baseline} / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "
               f"{ratio('derive cpu'):.2f} x), C compiler cpu {ratio('cc cpu'):.2f} x"
               + (f"; target: compile under {target:g} s (now {median(current, 'total'):.1f} s)" if target else ""))
+        print(f"  first mass matrix call after the fresh compile: {median(current, 'first'):.2f} s (compiler cpu "
+              f"{median(current, 'first cc cpu'):.1f} s) against the baseline's {median(former, 'first'):.3f} s; "
+              f"compile and first call from a new System on the same cache: {median(current, 'warm'):.3f} s against "
+              f"{median(former, 'warm'):.3f} s")
+        bits = {fn: all(same_bits(a, b)[fn] for a in current for b in former) for fn in ("rhs", "mass_matrix")}
+        print("  the same to the bit as the baseline's build at random states: "
+              + ", ".join(f"{fn} {'yes' if ok else 'NO'}" for fn, ok in bits.items()))
         times = call_times(current[-1]["compiled"], former[-1]["compiled"], 15)
         for fn, (a, b, r) in times.items():
             print(f"  {fn} per call in C: {a * 1e6:.2f} us against the former build's {b * 1e6:.2f} us: {r:.2f} x")
-        a, b, r = simulate_times(current[-1], former[-1], name, args.repeat)
+        a, b, r = simulate_times(current[-1], former[-1], name, args.repeat, args.baseline)
         print(f"  simulate: {a * 1e3:.0f} ms against the former build's {b * 1e3:.0f} ms: {r:.2f} x")
         if args.units:
-            now, before = unit_cpu(current[0]["code"], False), unit_cpu(current[0]["code"], True)
+            now, before = unit_cpu(current[0]["code"], False), unit_cpu(former[0]["code"], args.baseline == "former")
             print(f"  {'unit':12s} {'KiB':>6s} {'cpu':>7s} {'former':>7s}")
-            for unit, (size, cpu) in now.items():
-                print(f"  {unit:12s} {size / 1024:6.0f} {cpu:6.2f}s {before[unit][1]:6.2f}s")
+            for unit in {**before, **now}:
+                size, cpu = now.get(unit, before[unit])
+                print(f"  {unit:12s} {size / 1024:6.0f} " + (f"{cpu:6.2f}s" if unit in now else f"{'-':>7s}")
+                      + (f" {before[unit][1]:6.2f}s" if unit in before else f" {'-':>7s}"))
             print(f"  {'total':12s} {'':6s} {sum(c for _, c in now.values()):6.2f}s "
                   f"{sum(c for _, c in before.values()):6.2f}s")
 

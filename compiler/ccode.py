@@ -64,7 +64,7 @@ from .reactions import ACCELERATION_ARRAY, MULTIPLIER_ARRAY
 GENERATOR = "mbs.compiler.ccode"
 #: OUTPUTS_MARKER: the first line of a file's outputs part (generate_c_outputs), which runtime/translation_units.py
 #: builds as a unit of its own, so that a scene asking for other outputs recompiles only that unit.
-from mbs.runtime.translation_units import OUTPUTS_MARKER, PART_SUFFIX  # noqa: E402
+from mbs.runtime.translation_units import COLD_APART, COLD_FUNCTIONS, OUTPUTS_MARKER, PART_SUFFIX  # noqa: E402
 
 
 class NotSeparable(CodegenError):
@@ -142,8 +142,11 @@ class CEmitter:
                  outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                  constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
                  dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False,
-                 closed_form=None):
+                 closed_form=None, cold_apart: bool = False):
         self.eqs, self.model_name, self.inline_max_chars = equations, model_name, inline_max_chars
+        # a tree's functions that no integrator calls left out of the file (mbs/pipeline.py cold_apart): the
+        # runtime builds them into a library of their own when one is first called
+        self.cold_apart = cold_apart and not (constraints is not None and constraints.nc)
         self.jacobian = self.parameter_jacobian = None
         self.loop_jacobian = None
         # bearing friction in loops (compiler/friction_loops.py bearing_routines): (routines, inputs, definitions,
@@ -210,6 +213,8 @@ class CEmitter:
         """The contract's functions; with loops the constraint functions, and mbs_rhs is the loop solver's."""
         routines = equation_routines(self.eqs, self.outputs, self.events, self.actions) + list(self.dynamics_routines)
         if self.constraints is None:
+            if self.cold_apart:
+                routines = [r for r in routines if r[0] not in COLD_FUNCTIONS]
             return routines + [r for r in (self.jacobian, self.parameter_jacobian) if r]
         partials = self.loop_jacobian.routine if self.loop_jacobian else None
         loops = loop_routines(self.constraints) + ([partials] if partials else [])
@@ -255,6 +260,9 @@ class CEmitter:
             lines.append(f"#define MBS_OUTPUTS_WORK {self._output_scratch()}   /* mbs_outputs solve in work from here */")
         if self.jacobian:
             lines.append("#define MBS_JACOBIAN 1   /* mbs_jacobian exists */")
+        if self.cold_apart:
+            lines.append(f"#define {COLD_APART} 1   /* mbs_mass_matrix, mbs_forces ... are not in this file: the "
+                         "runtime builds them apart when first called */")
         if self.dynamics_routines:
             lines.append("#define MBS_NXA (MBS_NX+MBS_NV)   /* input [q; v; a] of mbs_inverse_dynamics */")
         if self.frame_names:
@@ -287,29 +295,9 @@ class CEmitter:
                   "            return 0;",
                   "    return 1;",
                   "}",
-                  "",
-                  "/* Cholesky factorisation of the n x n row-major matrix A into work (n*n doubles): 1 if A is",
-                  " * positive definite. */",
-                  "static int mbs_positive_definite(const double *A, int n, double *work)",
-                  "{",
-                  "    int i, j, k;",
-                  "    for (i = 0; i < n; ++i) {",
-                  "        for (j = 0; j <= i; ++j) {",
-                  "            double s = A[i * n + j];",
-                  "            for (k = 0; k < j; ++k)",
-                  "                s -= work[i * n + k] * work[j * n + k];",
-                  "            if (i == j) {",
-                  "                if (!(s > 0.0))",
-                  "                    return 0;",
-                  "                work[i * n + i] = sqrt(s);",
-                  "            } else {",
-                  "                work[i * n + j] = s / work[j * n + j];",
-                  "            }",
-                  "        }",
-                  "    }",
-                  "    return 1;",
-                  "}",
                   ""]
+        if not self.cold_apart:  # (the mass matrix's test alone calls it: unused, a warning)
+            lines += POSITIVE_DEFINITE
         return "\n".join(lines)
 
     def _helpers(self, used: set, hook_calls: dict | None = None) -> list[str]:
@@ -478,6 +466,29 @@ class CEmitter:
         return "\n".join(texts)
 
 
+#: The Cholesky test of mbs_mass_matrix (in the header of every file that has one).
+POSITIVE_DEFINITE = ["/* Cholesky factorisation of the n x n row-major matrix A into work (n*n doubles): 1 if A is",
+                     " * positive definite. */",
+                     "static int mbs_positive_definite(const double *A, int n, double *work)",
+                     "{",
+                     "    int i, j, k;",
+                     "    for (i = 0; i < n; ++i) {",
+                     "        for (j = 0; j <= i; ++j) {",
+                     "            double s = A[i * n + j];",
+                     "            for (k = 0; k < j; ++k)",
+                     "                s -= work[i * n + k] * work[j * n + k];",
+                     "            if (i == j) {",
+                     "                if (!(s > 0.0))",
+                     "                    return 0;",
+                     "                work[i * n + i] = sqrt(s);",
+                     "            } else {",
+                     "                work[i * n + j] = s / work[j * n + j];",
+                     "            }",
+                     "        }",
+                     "    }",
+                     "    return 1;",
+                     "}",
+                     ""]
 _PROLOGUE_COMMENT = "    /* the accelerations at (t, x) first: x' at the start of work, then the loop multipliers */"
 
 
@@ -557,7 +568,7 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
                dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False,
-               closed_form=None) -> str:
+               closed_form=None, cold_apart: bool = False) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -571,13 +582,16 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     events, actions: (name, expression) pairs of mbs_events (MBS_NEV) and mbs_event_actions (MBS_NACT).
     parameter_jacobian: also emit mbs_param_jacobian (d xdot/d p; trees only), for sensitivities.
     separate_outputs: the file without outputs, to which generate_c_outputs appends them (then the text does
-    not depend on the outputs: the header does not list them, MBS_NWORK always holds their scratch)."""
+    not depend on the outputs: the header does not list them, MBS_NWORK always holds their scratch).
+    cold_apart: a tree's file without the functions no integrator calls (runtime/translation_units.py
+    COLD_FUNCTIONS), which the runtime builds from the whole file when first called; the rest of the text is the
+    whole file's (MBS_NWORK too), the header says so (COLD_APART)."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
                     dynamics=dynamics, friction=friction, separate_outputs=separate_outputs,
-                    closed_form=closed_form).source()
+                    closed_form=closed_form, cold_apart=cold_apart).source()
 
 
 def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], equations_source: str,

@@ -93,15 +93,28 @@ def outputs_key(equations: str, scene: M.Scene | None) -> str | None:
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, cache_dir=None, jacobian: bool | None = None,
              parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
-             equations_ready=None, closed_form: bool = True) -> pipeline.Generated:
+             equations_ready=None, closed_form: bool = True, cold_apart: bool = False) -> pipeline.Generated:
     """pipeline.generate, taken from the derivation cache when the same content was derived before; when only
     the equations were (another scene's outputs), the outputs are derived on top of them
     (pipeline.generate_outputs) and the equations' part of the code is taken from the cache. `equations_ready`:
-    called with the equations' part of the code before the outputs are derived (pipeline.generate)."""
+    called with the equations' part of the code before the outputs are derived (pipeline.generate).
+    cold_apart: as for pipeline.generate; the whole file (Generated.whole_source) is then this function's with
+    cold_apart False, kept in the cache by content like any other derivation."""
     if jacobian is None:  # the scene's integrator decides; resolved here so the key holds what the code holds
         jacobian = pipeline.needs_jacobian(scene)
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                    frames=tuple(frames), closed_form=closed_form)
+    if cold_apart:  # (in the options only when set: the eager ones read as before)
+        options["cold_apart"] = True
+    generated = _generate(model, scene, cache_dir, options, equations_ready)
+    if not generated.cold_apart:
+        return generated
+    whole = functools.partial(generate, model, scene, cache_dir=cache_dir, **{**options, "cold_apart": False})
+    return dataclasses.replace(generated, complete=whole)
+
+
+def _generate(model: M.Model, scene: M.Scene | None, cache_dir, options: dict, equations_ready) -> pipeline.Generated:
+    """generate with its options resolved."""
     eq_key = equations_key(model, scene, options)
     out_key = outputs_key(eq_key, scene) if eq_key is not None else None
     if out_key is None:

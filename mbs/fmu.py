@@ -261,7 +261,7 @@ def export_fmu(system, scene: str | None, path: str | Path, hooks=None) -> Path:
     x0, p0 = start_state(system, scene, binding)
     settings = _settings(system.scene(scene), None, None, None, None, None)
     hook_files = {name: text for name, (_, text) in binding.c_file_names().items()} if binding is not None else {}
-    model_c = gen.c_source + ("\n/* ---- user hooks ---- */\n" + binding.c_source(include=True) + "\n"
+    model_c = gen.whole_source + ("\n/* ---- user hooks ---- */\n" + binding.c_source(include=True) + "\n"
                               if binding is not None else "")
     guid_source = model_c + repr(sorted(hook_files.items())) + repr((list(x0), list(p0), compiled.x_names,
                                                                      compiled.y_names))

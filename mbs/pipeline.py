@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, Callable, Mapping
 
@@ -27,6 +27,7 @@ from mbs.language import model as M
 from mbs.language import units as U
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.language.quaternions import norm_problem
+from mbs.runtime.translation_units import COLD_APART
 
 if TYPE_CHECKING:  # the symbolic stages (sympy) load only when something is derived: a cached run needs none
     from mbs.compiler.constraints import Constraints
@@ -90,6 +91,22 @@ class Generated:
     #: where c_source's outputs part starts (compiler/ccode.py generate_c_outputs); None: written with the rest
     outputs_at: int | None = None
     print_numpy: Callable[[], str] | None = field(default=None, compare=False, repr=False)
+    #: (c_source written without the cold functions) what derives the whole file: generate with cold_apart False
+    complete: Callable[[], "Generated"] | None = field(default=None, compare=False, repr=False)
+
+    @property
+    def cold_apart(self) -> bool:
+        """Whether c_source was written without a tree's cold functions (the mass matrix, the forces: no
+        integrator calls them; compiler/ccode.py cold_apart): the runtime builds them from whole_source into a
+        library of their own when one is first called (runtime/backends.py ColdLibrary)."""
+        return f"#define {COLD_APART} " in self.c_source
+
+    @cached_property
+    def whole_source(self) -> str:
+        """The whole C file, the cold functions included (what a standalone library, an FMU or `mbs compile`
+        needs): c_source, or the same model derived with them when c_source was written without (the derivation
+        cache keeps it by content, so this derives once)."""
+        return self.complete().c_source if self.cold_apart else self.c_source
 
     @cached_property
     def symbolic(self) -> Symbolic:
@@ -152,7 +169,8 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
 
 def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
              parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
-             equations_ready: Callable[[str], None] | None = None, closed_form: bool = True) -> Generated:
+             equations_ready: Callable[[str], None] | None = None, closed_form: bool = True,
+             cold_apart: bool = False) -> Generated:
     """Validated model -> generated source (symbolic derivation included). `dynamics`: also the dynamics
     functions (inverse dynamics, bias and gravity forces; compiler/dynamics_functions.py); `frames`: with
     them the positions, velocities and Jacobians of these frames ("part.frame").
@@ -170,21 +188,37 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     equations were written. The derivation cache keeps the parts apart and the build compiles the outputs as a
     unit of their own, so a scene asking for other outputs derives and compiles only those. `equations_ready` is
     called with the equations' part as soon as it is written (runtime/build.py prebuild starts compiling it
-    while the outputs are derived)."""
+    while the outputs are derived).
+
+    cold_apart: a tree's file is written without the functions no integrator calls (the mass matrix and the
+    forces, runtime/translation_units.py COLD_FUNCTIONS; cold_apart_applies says when), which the runtime builds
+    from the whole file (Generated.whole_source, this function with cold_apart False) when one is first called.
+    The equations are derived whole all the same: the tape, and so every other function's text, is the one of the
+    whole file (deriving the right-hand side alone would share other temporaries and round otherwise)."""
     from mbs.compiler.ccode import NotSeparable
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames,
-                   closed_form=closed_form)
+                   closed_form=closed_form, cold_apart=cold_apart)
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else ""))
     try:
-        return _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
+        generated = _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
     except NotSeparable as exc:  # (outputs that call a hook or add a switch) the file whole
         _log.info("%s: the outputs are written with the equations (%s)", clock.what, exc)
-        return _generate(model, scene, clock, separate=False, **options)
+        generated = _generate(model, scene, clock, separate=False, **options)
+    if not generated.cold_apart:
+        return generated
+    return replace(generated, complete=lambda: generate(model, scene, **{**options, "cold_apart": False}))
+
+
+def cold_apart_applies(model: M.Model, constraints, dynamics: bool, frames) -> bool:
+    """Whether the cold functions may be left out of a file: a tree (with loops the loop solver calls the mass
+    matrix and the forces, or reads them off its loop terms), without the dynamics functions (asked for, they are
+    wanted) and without user hooks (their implementations are attached to the model's library alone)."""
+    return constraints is None and not dynamics and not frames and not model.hooks
 
 
 def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: str, *,
                      jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
-                     frames: tuple[str, ...] = (), closed_form: bool = True
+                     frames: tuple[str, ...] = (), closed_form: bool = True, cold_apart: bool = False
                      ) -> tuple[str, str, tuple[str, ...], Symbolic]:
     """(outputs part, the NumPy module's printer, output names, symbolic stages or None) of a scene whose equations part
     (generate's c_source up to outputs_at, with the same options) is `equations_source`: the model is lowered
@@ -193,7 +227,7 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
     text is the one generate gives.
     Raises compiler.ccode.NotSeparable when the outputs cannot stand apart. (closed_form: as for generate; the
     outputs do not depend on it: they read the loop solver's rates.)"""
-    del closed_form
+    del closed_form, cold_apart  # (nor on whether the cold functions are in the equations' part)
     from mbs.compiler.ccode import generate_c_outputs
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
@@ -345,7 +379,7 @@ def closed_form_of(model: M.Model, lowered, constraints, equations, friction):
 
 
 def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobian, dynamics, frames,
-              equations_ready=None, closed_form: bool = True) -> Generated:
+              equations_ready=None, closed_form: bool = True, cold_apart: bool = False) -> Generated:
     """generate, with the outputs written apart (`separate`) or with the rest of the file."""
     from mbs.compiler.ccode import generate_c, generate_c_outputs
     from mbs.compiler.lower import lower_outputs
@@ -357,11 +391,12 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
     form = closed_form_of(model, lowered, constraints, equations, friction) if closed_form else None
     if form is not None:
         clock("closed the loops in closed form")
+    cold_apart = cold_apart and cold_apart_applies(model, constraints, dynamics, frames)
     outputs_at = None
     if separate:
         first_table = len(lowered.tables.tables)
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
-                              separate_outputs=True, closed_form=form,
+                              separate_outputs=True, closed_form=form, cold_apart=cold_apart,
                               **options)
         clock("generated the equations' C")
         if equations_ready is not None:
@@ -379,7 +414,7 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         options.update(outputs=lowered.outputs, tables=lowered.tables, run_time_inputs=lowered.run_time_inputs)
     else:
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
-                              closed_form=form, **options)
+                              closed_form=form, cold_apart=cold_apart, **options)
     clock("generated C")
 
     def print_numpy() -> str:

@@ -27,11 +27,12 @@ FLAGS = ["-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-Wextra"]
 
 
 def standalone_source(gen: Generated) -> str:
-    """The generated C; with closed loops the run-time loop solver (runtime/c/loops.c) appended, which defines
-    the mbs_loop_rhs that mbs_rhs calls, mbs_project, mbs_loop_multipliers, ..."""
+    """The whole generated C (the cold functions included: Generated.whole_source); with closed loops the run-time
+    loop solver (runtime/c/loops.c) appended, which defines the mbs_loop_rhs that mbs_rhs calls, mbs_project,
+    mbs_loop_multipliers, ..."""
     if gen.layout.constraint_rows is None:
-        return gen.c_source
-    source = gen.c_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
+        return gen.whole_source
+    source = gen.whole_source + "\n/* ---- the loop solver, runtime/c/loops.c ---- */\n" + (C_DIR / "loops.c").read_text()
     if "#define MBS_LOOP_JACOBIAN " in gen.c_source:  # its exact Jacobian, when the scene's integrator asked for it
         source += "\n/* ---- runtime/c/loop_jacobian.c ---- */\n" + _with_includes_inlined("loop_jacobian.c")
     return source

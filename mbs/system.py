@@ -32,6 +32,12 @@ from . import derivation_cache, model_cache, pipeline
 from .quantities import parameter_overrides
 from .gimbal import warn_gimbal
 
+#: Whether a compile leaves a tree's cold functions (the mass matrix and the forces, which no integrator calls)
+#: to a library of their own, derived and built the first time something calls one (mbs.pipeline.generate
+#: cold_apart, runtime/backends.py ColdLibrary). False: compiled with the rest, as before (bench/compile_time.py
+#: flips it for its baseline).
+COLD_APART = True
+
 
 @dataclass
 class System:
@@ -54,17 +60,20 @@ class System:
 
     def generate(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
                  dynamics: bool = False, frames: tuple[str, ...] = (), equations_ready=None,
-                 closed_form: bool = True) -> pipeline.Generated:
+                 closed_form: bool = True, cold_apart: bool | None = None) -> pipeline.Generated:
         """The generated code of a scene; jacobian: with mbs_jacobian (None: when the scene's integrator uses it);
         parameter_jacobian: with mbs_param_jacobian (for sensitivities); dynamics: also the dynamics functions,
         and the kinematics of the named frames (mbs.dynamics); equations_ready: called with the C of the equations
-        as soon as it is written (pipeline.generate); closed_form: False for the numeric loop solver alone."""
-        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames), closed_form)
+        as soon as it is written (pipeline.generate); closed_form: False for the numeric loop solver alone.
+        A tree's c_source is written without its cold functions (cold_apart, None: COLD_APART): whole_source has
+        them."""
+        cold_apart = COLD_APART if cold_apart is None else cold_apart
+        key = ("generated", scene, jacobian, parameter_jacobian, dynamics, tuple(frames), closed_form, cold_apart)
         if key not in self._compiled:
             self._compiled[key] = derivation_cache.generate(
                 self.model, self.scene(scene), cache_dir=self.cache_dir, jacobian=jacobian,
                 parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=tuple(frames),
-                equations_ready=equations_ready, closed_form=closed_form)
+                equations_ready=equations_ready, closed_form=closed_form, cold_apart=cold_apart)
         return self._compiled[key]
 
     def compile(self, scene: str | None = None, *, jacobian: bool | None = None, parameter_jacobian: bool = False,
@@ -74,7 +83,7 @@ class System:
         hooks: the implementations of the model's user hooks ({name: callable or 'file.c'}, runtime/hooks.py)."""
         binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         key = ("compiled", scene, jacobian, parameter_jacobian, dynamics, tuple(frames),
-               binding.key if binding is not None else None, closed_form)
+               binding.key if binding is not None else None, closed_form, COLD_APART)
         if key not in self._compiled:
             c_back_end = self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler())
             # the C compiler starts on the equations while the outputs are derived (runtime/build.py prebuild)
@@ -92,7 +101,8 @@ class System:
                                                     "need the C back end (no C compiler found)", None)])
             if self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler()):
                 code = gen.c_source + (binding.c_source() if binding is not None else "")
-                self._compiled[key] = load_c(code=code, cache_dir=self.cache_dir, **info)
+                whole = (lambda: gen.whole_source) if gen.cold_apart else None  # (no hooks then: pipeline)
+                self._compiled[key] = load_c(code=code, cache_dir=self.cache_dir, cold=whole, **info)
             else:
                 _hooks.check_numpy(binding)
                 self._compiled[key] = load_numpy(_numpy_module(gen), **info)

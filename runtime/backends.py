@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import threading
 import time
 from pathlib import Path
 from types import ModuleType
@@ -62,6 +63,10 @@ FUNCTION_INPUTS: dict[str, str] = {"inverse_dynamics": "NXA"}
 
 ModelFunction = Callable[[float, np.ndarray], np.ndarray]
 
+#: The functions of a tree's file written without its cold functions (compiler/ccode.py cold_apart), which
+#: ColdLibrary builds apart when one is first called.
+COLD_APART_FUNCTIONS = ("mass_matrix", "forces")
+
 
 class Backend(Protocol):
     kind: str                        #: "c" or "numpy"
@@ -74,23 +79,93 @@ class Backend(Protocol):
 
 
 class CBackend:
-    """A model compiled to a CPython extension module (see build.py and c/mbs_glue.c)."""
+    """A model compiled to a CPython extension module (see build.py and c/mbs_glue.c).
+
+    cold: for a tree whose file was written without its cold functions (COLD_APART_FUNCTIONS), what loads their
+    library (a callable returning its module, built the first time: ColdLibrary); they are in `functions` all the
+    same, and a workspace's binding of one builds the library at its first call."""
 
     kind = "c"
 
-    def __init__(self, module: ModuleType):
+    def __init__(self, module: ModuleType, cold: Callable[[], ModuleType] | None = None):
         self.module = module
         ny = module.NY if module.NY >= 0 else 0
         self.sizes = {"NQ": module.NQ, "NV": module.NV, "NX": module.NX, "NP": module.NP,
                       "NWORK": module.NWORK, "NY": ny}
         self.functions = {name: tuple(shape) for name, shape in module.FUNCTIONS}
         self.native_methods = tuple(module.METHODS)
+        self.cold = ColdLibrary(cold, self.sizes) if cold is not None else None
+        if self.cold is not None:
+            self.functions.update({name: tuple(self.sizes[d] for d in FUNCTION_SHAPES[name])
+                                   for name in COLD_APART_FUNCTIONS})
 
     def function(self, name: str, p: np.ndarray, work: np.ndarray) -> ModelFunction:
+        if self.cold is not None and name in COLD_APART_FUNCTIONS:
+            return ColdFunction(self.cold, name, p, work)
         return self.module.Function(name, p, work)
 
     def time_call(self, f, x, n, t):
         return f.time(np.ascontiguousarray(x, dtype=float), int(n), float(t))
+
+
+class ColdLibrary:
+    """The library of a model's cold functions (runtime/build.py build_cold), loaded the first time one is called.
+
+    Why a slot filled late in an immutable model: a fresh compile of a long open chain spent a third of its C
+    compiler (and much of its printing) on the mass matrix and the forces, which no integrator of a tree calls;
+    they are built when linearisation, the equilibrium, the dynamics API or a user first asks. The slot holds
+    nothing the user sees change: the same functions, the same values (the whole file's text, compiled as the eager
+    build compiles it), only later. A lock makes the first fill happen once when threads ask at the same time."""
+
+    def __init__(self, load: Callable[[], ModuleType], sizes: dict[str, int]):
+        self._load, self._sizes = load, sizes
+        self._module: ModuleType | None = None
+        self._lock = threading.Lock()
+
+    @property
+    def loaded(self) -> bool:
+        """Whether the library is built and loaded (no call of a cold function before: False)."""
+        return self._module is not None
+
+    def module(self) -> ModuleType:
+        """The library's module (built, or taken from the build cache, and loaded at the first call)."""
+        if self._module is None:
+            with self._lock:
+                if self._module is None:
+                    module = self._load()
+                    theirs = {k: getattr(module, k) for k in ("NQ", "NV", "NX", "NP", "NWORK")}
+                    if any(theirs[k] != self._sizes[k] for k in theirs):
+                        raise UsageError(f"the library of the cold functions does not fit the model: sizes {theirs}, "
+                                         f"the model's {self._sizes}")
+                    self._module = module
+        return self._module
+
+
+class ColdFunction:
+    """A cold function bound to a workspace's p and work: the library's own Function, made at the first call
+    (which builds the library if needed); its methods (time, rows) and attributes are that Function's."""
+
+    __slots__ = ("_library", "_name", "_p", "_work", "_bound")
+
+    def __init__(self, library: ColdLibrary, name: str, p: np.ndarray, work: np.ndarray):
+        self._library, self._name, self._p, self._work = library, name, p, work
+        self._bound = None
+
+    def _function(self):
+        if self._bound is None:
+            self._bound = self._library.module().Function(self._name, self._p, self._work)
+        return self._bound
+
+    def __call__(self, t, x):
+        return self._function()(t, x)
+
+    def __getattr__(self, attribute: str):
+        if attribute.startswith("__"):  # (what copy, pickle and functools look for: not a reason to build)
+            raise AttributeError(attribute)
+        return getattr(self._function(), attribute)
+
+    def __repr__(self) -> str:
+        return f"<cold function {self._name}{'' if self._library.loaded else ' (not built yet)'}>"
 
 
 class NumpyBackend:

@@ -55,7 +55,7 @@ BUILD_FORMAT = 3
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The run-time C files compiled into every model (all hashed).
 RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rosenbrock.c", "rodasp.c", "rodas5p.c",
-                   "loops.c", "loop_jacobian.c", "mbs_python.h", "mbs_python.c", "mbs_glue.c")
+                   "loops.c", "loop_jacobian.c", "mbs_python.h", "mbs_python.c", "mbs_glue.c", "mbs_cold_glue.c")
 #: The run-time object's unit (the same for every model) and the C files it is made of (its cache key hashes them).
 RUNTIME_UNIT = "runtime.c"
 RUNTIME_UNIT_SOURCES = ("mbs_python.c", "mbs_python.h", "mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c",
@@ -185,10 +185,11 @@ def _environment(digest: _Digest, cc: tuple[str, ...]) -> _Digest:
 
 
 def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[str, ...], cc: tuple[str, ...],
-          outputs_flags: tuple[str, ...] = ()) -> str:
+          outputs_flags: tuple[str, ...] = (), library: str = "model") -> str:
     """The module's key: the generated text and everything that turns it into the module (the split into units
-    is a function of the text, the splitter's and this module's source)."""
-    digest = _environment(_Digest(), cc).add("code", code).add("filename", filename)
+    is a function of the text, the splitter's and this module's source); `library`: "model", or "cold" for the
+    library of its cold functions (build_cold)."""
+    digest = _environment(_Digest(), cc).add("library", library).add("code", code).add("filename", filename)
     for name in RUNTIME_SOURCES:
         digest.add(name, (C_DIR / name).read_bytes())
     for module in (_units.__file__, __file__):
@@ -207,7 +208,7 @@ def _object_key(name: str, files: dict[str, str], command: tuple[str, ...], cc: 
         sources = RUNTIME_UNIT_SOURCES
     else:
         digest.add("model.h", files.get("model.h", ""))
-        sources = RUNTIME_SOURCES if name == _units.GLUE_UNIT else ()
+        sources = RUNTIME_SOURCES if name in (_units.GLUE_UNIT, _units.COLD_GLUE_UNIT) else ()
     for source in sources:
         digest.add(source, (C_DIR / source).read_bytes())
     return digest.add("command", "\0".join(command)).hexdigest()
@@ -221,8 +222,21 @@ def _build_files(code: str, filename: str) -> dict[str, str]:
         return {"unit.c": _unit_source(code, filename), RUNTIME_UNIT: _runtime_unit()}
     glue = ("/* glue unit written by mbs.runtime.build: do not edit */\n"
             "#define MBS_SEPARATE_INIT 1\n#include \"model.h\"\n"
+            + (_units.OUTPUTS_DECLARATIONS if _units.OUTPUTS_UNIT in split else "") +
             "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
     return {**split, _units.GLUE_UNIT: glue, RUNTIME_UNIT: _runtime_unit()}
+
+
+def _cold_files(code: str, filename: str) -> dict[str, str]:
+    """{file name: text} of the library of the cold functions of the whole generated file `code`
+    (runtime/translation_units.py cold_sources), its glue unit (c/mbs_cold_glue.c) and the runtime unit. Raises
+    BuildError when the file has none."""
+    split = _units.cold_sources(code, filename)
+    if split is None:
+        raise BuildError(f"{filename} has no functions to build apart (a tree's mass matrix and forces)")
+    glue = ("/* cold glue unit written by mbs.runtime.build: do not edit */\n#include \"model.h\"\n"
+            "#line 1 \"mbs_cold_glue.c\"\n#include \"mbs_cold_glue.c\"\n")
+    return {**split, _units.COLD_GLUE_UNIT: glue, RUNTIME_UNIT: _runtime_unit()}
 
 
 def _init_unit(module_name: str) -> str:
@@ -263,7 +277,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     objects, todo, pending = {}, [], []
     jobs = _unit_jobs(files, flags, model_flags, cc, cache, outputs_flags)
     for name, command, cached in jobs:
-        if cached in _PREBUILDS:  # started by prebuild while the outputs were derived: compiled for this build
+        if cached in _PREBUILDS and not _cancelled(cached):  # being compiled by prebuild: taken when done
             pending.append((name, command, cached))
         elif cached.exists() and _cache.problem(cached) is None:
             objects[name] = cached
@@ -351,7 +365,7 @@ def unit_flags(name: str, model_flags: tuple[str, ...], outputs_flags: tuple[str
     """The flags unit `name` of a split build gets beyond FLAGS: none for the glue unit and the runtime unit,
     model_flags for the model's units, and outputs_flags (COLD_UNIT_FLAGS) after them for the outputs' unit (the cold
     functions' units)."""
-    if name in (_units.GLUE_UNIT, RUNTIME_UNIT):
+    if name in (_units.GLUE_UNIT, _units.COLD_GLUE_UNIT, RUNTIME_UNIT):
         return ()
     if name.startswith(_units.COLD_PREFIX):
         return (*model_flags, *COLD_UNIT_FLAGS)
@@ -379,6 +393,18 @@ def _forget_prebuilds() -> None:
     _PREBUILD_LOCK = threading.Lock()
     _PREBUILDS.clear()
     _PREBUILD_POOL.clear()
+
+
+def _cancelled(key: Path) -> bool:
+    """Whether prebuild's job for the object `key` had not started and is now withdrawn (build compiles it in its
+    own pool, beside the others: prebuild's one compiler process would otherwise compile its queue one unit after
+    another while build waits and a core idles)."""
+    with _PREBUILD_LOCK:
+        job = _PREBUILDS.get(key)
+        if job is None or not job.cancel():
+            return False
+        del _PREBUILDS[key]
+        return True
 
 
 def _forget_finished_prebuilds() -> None:
@@ -507,12 +533,29 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
     outputs_flags: appended after them to those of its outputs' unit (default OUTPUTS_UNIT_FLAGS).
     Raises BuildError with the compiler's messages when compilation fails.
     """
+    return _cached_build(code, filename, cache_dir, extra_flags, model_flags, outputs_flags, "model")
+
+
+def build_cold(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
+               extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> BuildResult:
+    """The library of the cold functions (runtime/translation_units.py COLD_FUNCTIONS) of the whole generated file
+    `code` of a tree: an extension module of its own with their function table alone (c/mbs_cold_glue.c), built
+    the first time one of them is called of a model whose file was written without them (compiler/ccode.py
+    cold_apart; runtime/backends.py ColdLibrary), and cached by content like a model (a second call finds it).
+    Its units get the cold units' flags (COLD_UNIT_FLAGS). Raises BuildError."""
+    return _cached_build(code, filename, cache_dir, extra_flags, model_flags, None, "cold")
+
+
+def _cached_build(code: str, filename: str, cache_dir, extra_flags, model_flags, outputs_flags,
+                  library: str) -> BuildResult:
+    """build (library "model") or build_cold (library "cold")."""
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
     model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     outputs_flags = OUTPUTS_UNIT_FLAGS if outputs_flags is None else tuple(outputs_flags)
-    key = _hash(code, filename, flags, model_flags, cc, outputs_flags)
-    module_name = f"mbs_model_{key[:24]}"
+    key = _hash(code, filename, flags, model_flags, cc, outputs_flags, library)
+    # (both under the cache's module prefix, so that `mbs cache` lists and cleans the cold libraries too)
+    module_name = f"mbs_model_{key[:24]}" if library == "model" else f"mbs_model_{library}_{key[:24]}"
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
     if target.exists():
@@ -528,7 +571,7 @@ def build(code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike 
         why = "a file, not a folder" if cache.exists() and not cache.is_dir() else (exc.strerror or str(exc))
         raise BuildError(f"the build cache {cache} cannot be used ({why}): set {CACHE_ENV} to a writable "
                          "folder") from None
-    files = _build_files(code, filename)
+    files = _cold_files(code, filename) if library == "cold" else _build_files(code, filename)
     unit = _joined(files)
     try:
         output, compiled, reused = _compile(files, flags, model_flags, cc, module_name, tmp, filename, cache,

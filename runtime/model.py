@@ -7,12 +7,13 @@ initial state, and the loaded back end.  Everything that does change lives in a
 
 from __future__ import annotations
 
+import functools
 import logging
 import os
 import time
 from dataclasses import dataclass, field
 from types import MappingProxyType, ModuleType
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -113,9 +114,13 @@ class CompiledModel:
 
 
 def load_c(path: str | os.PathLike | None = None, *, code: str | None = None,
-           cache_dir: str | os.PathLike | None = None, extra_flags: tuple[str, ...] = (), **info) -> CompiledModel:
+           cache_dir: str | os.PathLike | None = None, extra_flags: tuple[str, ...] = (),
+           cold: Callable[[], str] | None = None, **info) -> CompiledModel:
     """Compile (or fetch from the cache) a generated C file, or C source text given as ``code``, and
-    wrap it; ``info`` as in :meth:`CompiledModel.from_backend`.  Raises BuildError when the compiler fails."""
+    wrap it; ``info`` as in :meth:`CompiledModel.from_backend`.  Raises BuildError when the compiler fails.
+    cold: for a tree's file written without its cold functions (compiler/ccode.py cold_apart), what gives the
+    whole file, whose cold functions are built into a library of their own when one is first called
+    (runtime/backends.py ColdLibrary, runtime/build.py build_cold)."""
     if (path is None) == (code is None):
         raise UsageError("give either the path of a generated C file or its source as code= (exactly one)")
     options = dict(cache_dir=cache_dir, extra_flags=extra_flags)
@@ -125,7 +130,24 @@ def load_c(path: str | os.PathLike | None = None, *, code: str | None = None,
     _log.log(25 if took > 1.0 else logging.INFO, "C build of %s: cache %s, %.2f s", info.get("name", "model"),
              "hit" if result.cached else "miss", took)  # 25: mbs.pipeline.NOTE, a slow step shown by default
     _log.debug("C build product: %s", getattr(result, "path", "?"))
-    return CompiledModel.from_backend(CBackend(_build.load(result)), **info)
+    library = cold_library(cold, info.get("name", "model"), **options)
+    return CompiledModel.from_backend(CBackend(_build.load(result), cold=library), **info)
+
+
+def cold_library(whole: Callable[[], str] | None, name: str, **options) -> Callable[[], ModuleType] | None:
+    """What loads the library of the cold functions of the whole file `whole()` gives (None: no such file);
+    options: of build_cold (cache_dir, extra_flags)."""
+    return functools.partial(_load_cold, whole, name, options) if whole is not None else None
+
+
+def _load_cold(whole: Callable[[], str], name: str, options: dict) -> ModuleType:
+    """The loaded library of the cold functions of the whole file `whole()` gives (built, or from the cache)."""
+    started = time.perf_counter()
+    result = _build.build_cold(whole(), **options)
+    took = time.perf_counter() - started
+    _log.log(25 if took > 1.0 else logging.INFO, "the cold functions of %s (mass matrix, forces): derived and built "
+             "on first call, cache %s, %.2f s", name, "hit" if result.cached else "miss", took)
+    return _build.load(result)
 
 
 def load_numpy(module: ModuleType | str | os.PathLike, **info) -> CompiledModel:

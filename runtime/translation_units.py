@@ -9,12 +9,16 @@ on one core. The generated file (compiler/ccode.py) has a fixed layout, which th
     the contract's functions (int mbs_rhs(...) { ... }, name tables)  -> model_1.c .. model_n.c, by size
     those no integrator calls (COLD_FUNCTIONS, models without loops)  -> cold_1.c .., compiled cheaper
 
+A tree's file written without its cold functions (compiler/ccode.py cold_apart, COLD_APART) has no cold units; the
+whole file's cold functions are then split by cold_sources into model.h and cold_1.c .. of a library of their own
+(runtime/build.py build_cold), built when one is first called.
+
 model.h ends with the prototype of every contract function, so the units may call each other, and the glue unit
 (<Python.h>, model.h, c/mbs_glue.c with the integrators) sees them all. The outputs' part at the end of a file
-(after OUTPUTS_MARKER, compiler/ccode.py generate_c_outputs) becomes outputs.c, and model.h then declares
-mbs_outputs and their number `mbs_ny` without naming them: model.h, the model units and the glue unit are the same
-text whatever outputs a scene asks for, and the build cache (runtime/build.py) keeps their objects by content, so
-another output set recompiles outputs.c alone. Static helpers go only where they are
+(after OUTPUTS_MARKER, compiler/ccode.py generate_c_outputs) becomes outputs.c, and the glue unit then declares
+mbs_outputs and their number `mbs_ny` without naming them (OUTPUTS_DECLARATIONS): model.h and the model units are
+the same text whatever outputs a scene asks for, or none, and so is the glue unit whatever outputs; the build cache
+(runtime/build.py) keeps their objects by content, so another output set recompiles outputs.c alone. Static helpers go only where they are
 called, so no unit defines a function it does not use (-Wall stays quiet). Each function keeps its place in
 the generated file for the compiler's messages (#line). A text not in this layout (a hand-written model) is
 built as one unit, as before.
@@ -46,10 +50,24 @@ COLD_FUNCTIONS = frozenset({"mbs_mass_matrix_unchecked", "mbs_mass_matrix", "mbs
 #: mass matrix, nor the forces, nor the constraint acceleration (only the loop Jacobian of the implicit integrators,
 #: the equilibrium and a singular position do): they are cold there too.
 COLD_WITH_LOOP_TERMS = COLD_FUNCTIONS | {"mbs_constraint_acceleration"}
+#: The macro of a tree's file written without its cold functions (compiler/ccode.py cold_apart): the glue leaves
+#: them out of the function table, and runtime/build.py build_cold makes them a library of their own, from the
+#: whole file, when one is first called (cold_sources).
+COLD_APART = "MBS_COLD_APART"
+#: The glue unit of that library (its function table: runtime/c/mbs_cold_glue.c).
+COLD_GLUE_UNIT = "cold_glue.c"
 _LOOPS = re.compile(r"^#define MBS_NC ", re.M)
 _LOOP_TERMS = re.compile(r"^#define MBS_LOOP_TERMS\b", re.M)
 #: The first line of a generated file's outputs part (written by compiler/ccode.py, read here).
 OUTPUTS_MARKER = "/* ==== The outputs (MBS_NY, mbs_outputs, mbs_output_name): a part of their own ==== */"
+
+#: What the glue unit of a split file with an outputs part declares of them (outputs.c defines them). Not in model.h:
+#: model.h, and so the model units' objects, are then the same text whether the scene has outputs or not, which
+#: runtime/build.py prebuild does not know when it compiles them (a scene without outputs threw its objects away).
+OUTPUTS_DECLARATIONS = ("/* The outputs, in outputs.c (their number: mbs_ny). */\n#define MBS_OUTPUTS_UNIT 1\n"
+                        "extern const int mbs_ny;\n"
+                        "int mbs_outputs(double t, const double *x, const double *p, double *y, double *work);\n"
+                        "const char *mbs_output_name(int i);\n")
 
 #: A long function is printed as parts `<name>_part<k>` and a function `<name>` that calls them (written by
 #: compiler/ccode_parts.py, read here): the parts of a cold function are cold too.
@@ -181,11 +199,6 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
     marker, outputs = layout.outputs is not None, layout.outputs
     where = line_name(filename)
     prototypes = "\n".join(b.prototype for b in layout.functions)
-    if marker:
-        prototypes += ("\n/* The outputs, in outputs.c (their number: mbs_ny). */\n#define MBS_OUTPUTS_UNIT 1\n"
-                       "extern const int mbs_ny;\n"
-                       "int mbs_outputs(double t, const double *x, const double *p, double *y, double *work);\n"
-                       "const char *mbs_output_name(int i);")
     files = {"model.h": (f"/* The shared part of {filename}, split into units by mbs.runtime.translation_units: do not edit */\n"
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
@@ -194,15 +207,7 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
     hot = tuple(b for b in layout.functions if part_of(b.name) not in cold)
     colder = tuple(b for b in layout.functions if part_of(b.name) in cold)
     for prefix, functions in (("model_", hot), (COLD_PREFIX, colder)):
-        for k, group in enumerate(_balanced(functions) if functions else [], start=1):
-            texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */",
-                     '#include "model.h"']
-            body = "\n".join(b.text for b in group)
-            for helper in _helpers_for(body, layout.helpers):
-                texts += [f"#line {helper.line} \"{where}\"", helper.text]
-            for block in group:
-                texts += [f"#line {block.line} \"{where}\"", block.text]
-            files[f"{prefix}{k}.c"] = "\n".join(texts) + "\n"
+        files.update(_units_of(functions, prefix, layout.helpers, filename))
     if marker:
         texts = [f"/* The outputs of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
         for helper in _helpers_for(outputs, layout.helpers):
@@ -210,6 +215,43 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
         texts += [f"#line {layout.outputs_line} \"{where}\"", OUTPUTS_MARKER, outputs,
                   "const int mbs_ny = MBS_NY;"]
         files[OUTPUTS_UNIT] = "\n".join(texts) + "\n"
+    return files
+
+
+def cold_sources(code: str, filename: str) -> dict[str, str] | None:
+    """{file name: text} of the library of a tree's cold functions (COLD_FUNCTIONS) in the whole generated file
+    `code`: model.h (the file's shared header and the cold functions' prototypes) and cold_1.c .. (without its glue
+    unit); None: the text is not in the generated layout, or the model has loops or no cold function. Whatever
+    the file's size: the library is built apart from the model's (runtime/build.py build_cold)."""
+    layout = read_layout(code)
+    if layout is None or has_loops(layout.header):
+        return None
+    cold = tuple(b for b in layout.functions if part_of(b.name) in COLD_FUNCTIONS)
+    if not cold:
+        return None
+    where = line_name(filename)
+    prototypes = "\n".join(b.prototype for b in cold)
+    files = {"model.h": (f"/* The shared part of {filename} and its cold functions' prototypes, for their library "
+                         "(mbs.runtime.translation_units): do not edit */\n"
+                         f"#line 1 \"{where}\"\n{layout.header}\n"
+                         "/* The functions no integrator calls, each defined in one of the units cold_<k>.c. */\n"
+                         f"{prototypes}\n")}
+    files.update(_units_of(cold, COLD_PREFIX, layout.helpers, filename))
+    return files
+
+
+def _units_of(functions: tuple[Block, ...], prefix: str, helpers: tuple[Block, ...], filename: str) -> dict[str, str]:
+    """{<prefix><k>.c: text} of the functions in balanced groups, each unit with the static helpers it calls."""
+    where = line_name(filename)
+    files = {}
+    for k, group in enumerate(_balanced(functions) if functions else [], start=1):
+        texts = [f"/* Unit {k} of {filename} (mbs.runtime.translation_units): do not edit */", '#include "model.h"']
+        body = "\n".join(b.text for b in group)
+        for helper in _helpers_for(body, helpers):
+            texts += [f"#line {helper.line} \"{where}\"", helper.text]
+        for block in group:
+            texts += [f"#line {block.line} \"{where}\"", block.text]
+        files[f"{prefix}{k}.c"] = "\n".join(texts) + "\n"
     return files
 
 

@@ -29,7 +29,8 @@ class Compile:
         from mbs.runtime.hooks import bind
         system = mbs.load(args.file, args.model)
         binding = bind(system.model.hooks, hooks_from_args(args), system.model.name)  # before the derivation
-        gen = system.generate(args.scene, dynamics=args.dynamics or bool(args.frame), frames=tuple(args.frame))
+        gen = system.generate(args.scene, dynamics=args.dynamics or bool(args.frame), frames=tuple(args.frame),
+                              cold_apart=False)  # the whole file: a library for other tools has every function
         paths = write_standalone(gen, Path(args.output), binding)
         for path in paths:
             print(path)

@@ -48,6 +48,9 @@ class ModelPackage:
     fixed: tuple[str, ...] = ()    #: states the user gave initial values (assembly keeps them)
     rows: tuple[str, ...] = ()     #: names of the loop-closure rows (for assembly messages)
     hooks: object = None           #: runtime.hooks.HookBinding of the model's user hooks, or None
+    #: the whole generated C when `source` was written without the cold functions (mbs.pipeline.Generated
+    #: cold_apart): a worker builds them from it when one is first called ("": none apart)
+    whole: str = ""
 
     @classmethod
     def of(cls, system, scene: str | None, hooks=None) -> "ModelPackage":
@@ -70,7 +73,8 @@ class ModelPackage:
             module = compiled.backend.module
             return cls(key=module.__name__, kind="c", module_name=module.__name__,
                        binary=Path(module.__file__).read_bytes(), platform=_platform_tag(),
-                       source=gen.c_source + (binding.c_source() if binding is not None else ""), info=info, **loops)
+                       source=gen.c_source + (binding.c_source() if binding is not None else ""), info=info,
+                       whole=gen.whole_source if gen.cold_apart else "", **loops)
         import hashlib
         key = "numpy_" + hashlib.sha256(gen.numpy_source.encode()).hexdigest()[:24]
         return cls(key=key, kind="numpy", module_name="", binary=b"", platform="", source=gen.numpy_source,
@@ -82,14 +86,16 @@ class ModelPackage:
             module = types.ModuleType(f"mbs_numpy_{self.info['name']}")
             exec(compile(self.source, f"<generated numpy code of {self.info['name']}>", "exec"), module.__dict__)
             return load_numpy(module, **self.info)
+        cold = (lambda: self.whole) if self.whole else None
         if self.platform != _platform_tag():
-            return load_c(code=self.source, **self.info)
+            return load_c(code=self.source, cold=cold, **self.info)
         path = _build.default_cache_dir() / (self.module_name + sysconfig.get_config_var("EXT_SUFFIX"))
         if not path.exists():
             write_bytes_atomic(path, self.binary)
         module = _build.load(_build.BuildResult(path, self.module_name, self.key, True, ""))
         from mbs.runtime.backends import CBackend
-        return CompiledModel.from_backend(CBackend(module), **self.info)
+        from mbs.runtime.model import cold_library
+        return CompiledModel.from_backend(CBackend(module, cold=cold_library(cold, self.info["name"])), **self.info)
 
 
 def _check_picklable(binding) -> None:

@@ -39,8 +39,10 @@ extern const int mbs_ny;
  * split build is set when the module is created. */
 static mbs_entry MBS_TABLE[] = {
     {"rhs", mbs_rhs, MBS_NX, 0},
+#ifndef MBS_COLD_APART  /* else in a library of their own, built when first called (c/mbs_cold_glue.c) */
     {"mass_matrix", mbs_mass_matrix, MBS_NV, MBS_NV},
     {"forces", mbs_forces, MBS_NV, 0},
+#endif
     {"qdot", mbs_qdot, MBS_NQ, 0},
 #ifdef MBS_NY
     {"outputs", mbs_outputs, MBS_NY, 0},

@@ -42,9 +42,9 @@ model tables {
 
 @pytest.fixture(scope="module")
 def generated():
-    """The generated C of a closed-loop model and of a tree with outputs."""
-    return {"slider_crank": mbs.load(SLIDER_CRANK).generate().c_source,
-            "quarter_car": mbs.load(TABLES).generate().c_source}
+    """The whole generated C (the cold functions included) of a closed-loop model and of a tree with outputs."""
+    return {"slider_crank": mbs.load(SLIDER_CRANK).generate().whole_source,
+            "quarter_car": mbs.load(TABLES).generate().whole_source}
 
 
 def test_the_generated_layout_is_read_back_whole(generated):
@@ -120,6 +120,29 @@ def test_the_functions_no_integrator_calls_go_to_cold_units(generated, monkeypat
     assert build.unit_flags(units.GLUE_UNIT, model_flags, ("-fout",)) == ()
 
 
+def test_the_cold_library_has_the_cold_functions_of_a_whole_tree_file_alone(generated):
+    """cold_sources (runtime/build.py build_cold): the whole file's header with the cold functions' prototypes and
+    units of those functions alone, each with the helpers it calls (a table's lookup for the forces); none for a
+    model with loops (its loop solver calls them) nor for a file written without them."""
+    whole = generated["quarter_car"]
+    files = units.cold_sources(whole, "quarter_car.c")
+    bodies = {name: text for name, text in files.items() if name != "model.h"}
+    assert bodies and all(name.startswith(units.COLD_PREFIX) for name in bodies)
+    defined = set()
+    for text in bodies.values():
+        defined |= set(re.findall(r"^int (mbs_\w+)\(", text, re.M))
+    assert {units.part_of(name) for name in defined} == {"mbs_mass_matrix", "mbs_forces"}
+    assert "#define MBS_NWORK" in files["model.h"] and "int mbs_rhs(" not in files["model.h"]
+    assert "int mbs_mass_matrix(double t" in files["model.h"]
+    for text in bodies.values():  # helpers only where called (-Wall)
+        for helper in re.findall(r"^static \w+ (mbs_\w+)\(", text, re.M):
+            assert len(re.findall(rf"\b{helper}\(", text)) >= 2, helper
+    assert units.cold_sources(generated["slider_crank"], "slider_crank.c") is None
+    apart = mbs.load(TABLES).generate().c_source
+    assert f"#define {units.COLD_APART} " in apart and units.cold_sources(apart, "quarter_car.c") is None
+    assert build.unit_flags(units.COLD_GLUE_UNIT, ("-fmodel",), ()) == ()
+
+
 @pytest.mark.parametrize("path", [SLIDER_CRANK, TABLES], ids=lambda p: p.stem)
 def test_a_split_build_computes_what_one_unit_computes(path, tmp_path, monkeypatch):
     """Both libraries built from the same text, without a compiler warning; rhs, outputs and the loop solver's
@@ -185,6 +208,24 @@ def test_prebuild_compiles_the_equations_units_before_the_outputs_are_known(gene
     assert a.NY == len(gen.y_names) and dict(a.FUNCTIONS)["outputs"] == (len(gen.y_names),)
 
 
+def test_prebuilds_serve_a_scene_without_outputs(tmp_path, monkeypatch):
+    """A scene without outputs (the 40-link chain's) has no outputs' part, which prebuild cannot know: model.h is
+    the same text either way (the outputs' declarations are the glue unit's), so build compiles no model unit again."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    without = "\n".join(line for line in TABLE_MODEL.splitlines() if "output shape" not in line)
+    gen = mbs.loads(without).generate()
+    assert not gen.y_names and units.OUTPUTS_MARKER not in gen.c_source
+    assert build.prebuild(gen.c_source[:gen.outputs_at - 1], cache_dir=tmp_path) > 0
+    for job in list(build._PREBUILDS.values()):
+        job.result()
+    compiled, run = [], build._run
+    monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(command[-1]) or run(command, *a))
+    result = build.build(gen.c_source, cache_dir=tmp_path)
+    assert compiled and not [name for name in compiled if name.startswith("model_")]
+    assert result.warnings == "" and "outputs" not in dict(build.load(result).FUNCTIONS)
+
+
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="fork")
 def test_a_forked_child_does_not_wait_for_the_parents_prebuilds(tmp_path, monkeypatch):
     """A sweep's workers may be forked while a prebuild runs: the child compiles what is not cached itself."""
@@ -207,7 +248,7 @@ def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, mon
     unit's model.h): none in model.h, and in a unit exactly when the unit calls the table."""
     monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
     monkeypatch.setattr(units, "UNIT_CHARS", 1_000)
-    code = mbs.loads(TABLE_MODEL).generate().c_source
+    code = mbs.loads(TABLE_MODEL).generate().whole_source  # (the forces, in cold units, call both tables)
     tables = re.findall(r"^static double (mbs_table_\d+)\(double x\)$", code, re.M)
     assert len(tables) == 3  # the force's two, the output's one
     files = units.split_sources(code, "tables.c")
