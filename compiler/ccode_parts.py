@@ -35,8 +35,11 @@ import itertools
 import re
 from dataclasses import dataclass
 
-#: The characters of temporaries a part aims for (bench/compile_time.py --part-chars measures the trade-off).
-PART_CHARS = 20_000
+#: The characters of temporaries a part aims for. 20,000 before the statements were printed in part_order; with it,
+#: parts of half that size cost the Iltis's model units a fifth less compiler CPU and its right-hand side no more
+#: (bench/function_parts.py --order: 56,396 instructions against 57,009 at 20,000, the cuts at fewer live values;
+#: 6,000 compiled no faster, in one unit more).
+PART_CHARS = 10_000
 #: A function is cut only when it is longer than this; shorter ones stay one function, as readable as before.
 SPLIT_CHARS = 3 * PART_CHARS // 2
 _IDENTIFIER = re.compile(r"[A-Za-z_]\w*")
