@@ -16,13 +16,28 @@ noisy, so CPU seconds are printed beside wall seconds):
 * the same results to the bit: the right-hand side and the outputs of both builds at the start state;
 * --units: each translation unit of both texts compiled alone, one at a time: its size and CPU seconds, and the
   longest unit (what a parallel build waits for).
+
+    python bench/function_parts.py --order [--models iltis] [--repeat 3]
+
+measures instead the order of the statements inside each part (compiler/ccode_parts.py part_order: a carried value
+read where first used, stored where computed, an output written after its last temporary) and the parts' size
+(ccode_parts.PART_CHARS) against the former order (every read at the top, the outputs and the stores at the end)
+and size (FORMER_PART_CHARS): each model unit (model_*.c, the units of
+the integrators' functions) of both texts compiled alone, the two texts interleaved, --repeat times: its size,
+the median CPU seconds of the C compiler for each and their ratio, and the model units' sum; the two builds'
+right-hand side and outputs at the start state compared to the bit. (bench/rhs_instructions.py counts what the
+order does to the right-hand side's instructions.)
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import resource
+import statistics
+import subprocess
 import sys
+import sysconfig
 import tempfile
 from pathlib import Path
 
@@ -30,10 +45,11 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from compile_time import (TARGETS, call_times, compiled_workspace, fresh_compile, median,  # noqa: E402
-                          simulate_times, unit_cpu)
+                          model_text, simulate_times, unit_cpu)
 
+import mbs  # noqa: E402
 from mbs.compiler import ccode_parts  # noqa: E402
-from mbs.runtime import translation_units  # noqa: E402
+from mbs.runtime import build, translation_units  # noqa: E402
 
 
 @contextlib.contextmanager
@@ -45,6 +61,93 @@ def whole_functions():
         yield
     finally:
         ccode_parts.SPLIT_CHARS, translation_units.COLD_WITH_LOOP_TERMS = saved
+
+
+def _former_part_order(part, results) -> list:
+    """part_order as it was: the carried reads first, then the temporaries, the outputs, the stores for later
+    parts."""
+    return ([("read", name) for name in part.imports] + [("step", step) for step in part.steps]
+            + [("write", entry) for entry in results] + [("keep", name) for name in part.exports])
+
+
+#: The characters of temporaries a part aimed for before part_order (ccode_parts.PART_CHARS now).
+FORMER_PART_CHARS = 20_000
+
+
+@contextlib.contextmanager
+def former_order():
+    """The statements of each part in the former order, in parts of the former size (the baseline of --order)."""
+    from mbs.compiler import ccode
+    saved = ccode.part_order, ccode_parts.PART_CHARS, ccode_parts.SPLIT_CHARS
+    ccode.part_order = _former_part_order
+    ccode_parts.PART_CHARS, ccode_parts.SPLIT_CHARS = FORMER_PART_CHARS, 3 * FORMER_PART_CHARS // 2
+    try:
+        yield
+    finally:
+        ccode.part_order, ccode_parts.PART_CHARS, ccode_parts.SPLIT_CHARS = saved
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def model_unit_texts(code: str) -> dict[str, str]:
+    """{unit: text} of the split build's files: the model units (model_*.c) and the header they include."""
+    files = build._build_files(code, "model.c")
+    return {name: text for name, text in files.items() if not name.endswith(".c") or name.startswith("model_")}
+
+
+def compile_cpu(files: dict[str, str], unit: str, folder: Path) -> float:
+    """CPU seconds of the C compiler for `unit` alone, with the flags of a split build's model units."""
+    cc = tuple(build.compiler_command())
+    for name, text in files.items():
+        (folder / name).write_text(text, encoding="utf-8")
+    includes = (f"-I{build.C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
+    command = (*cc, *build._compile_flags(build.FLAGS), *build.model_unit_flags(cc), *includes, "-c", unit,
+               "-o", unit[:-2] + ".o")
+    cpu = _children_cpu()
+    subprocess.run(command, cwd=folder, check=True, capture_output=True)
+    return _children_cpu() - cpu
+
+
+def order_report(name: str, repeat: int) -> None:
+    """The --order figures of model `name` (see the module's doc)."""
+    text, path, scene, _ = model_text(name)
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-") as tmp:
+        systems, texts = {}, {}
+        for label in ("in order", "former"):  # (each its own cache: the generated C is cached by the model's text)
+            with former_order() if label == "former" else contextlib.nullcontext():
+                cache = Path(tmp, label.replace(" ", "_") + "_cache")
+                systems[label] = mbs.loads(text, path=path, cache_dir=cache)
+                texts[label] = model_unit_texts(systems[label].generate(scene).c_source)
+        if texts["in order"] == texts["former"]:
+            print(f"\n{name}: no function in parts, the same text in either order")
+            return
+        units = sorted(n for n in texts["in order"] if n.endswith(".c"))
+        cpu = {label: {u: [] for u in units} for label in texts}
+        folders = {label: Path(tmp, label.replace(" ", "_")) for label in texts}
+        for folder in folders.values():
+            folder.mkdir()
+        for _ in range(repeat):
+            for unit in units:
+                for label in texts:
+                    cpu[label][unit].append(compile_cpu(texts[label], unit, folders[label]))
+        print(f"\n{name}: the model units compiled alone, each order interleaved; medians of {repeat}")
+        print(f"  {'unit':10s} {'KiB':>5s} {'in order':>9s} {'former':>8s} {'ratio':>6s}")
+        sums = {label: [sum(cpu[label][u][k] for u in units) for k in range(repeat)] for label in texts}
+        for unit in units:
+            a, b = (statistics.median(cpu[label][unit]) for label in texts)
+            print(f"  {unit:10s} {len(texts['in order'][unit]) / 1024:5.0f} {a:8.2f}s {b:7.2f}s {a / b:6.2f}")
+        a, b = (statistics.median(sums[label]) for label in texts)
+        print(f"  {'sum':10s} {'':5s} {a:8.2f}s {b:7.2f}s {a / b:6.2f}   (in order / former: C compiler CPU of "
+              "the model units)")
+        compiled = {}
+        for label, system in systems.items():
+            with former_order() if label == "former" else contextlib.nullcontext():
+                compiled[label] = system.compile(scene)
+        print(f"  same results to the bit (rhs, outputs at the start): "
+              f"{same_results(compiled['in order'], compiled['former'])}")
 
 
 def same_results(current, former) -> bool:
@@ -66,7 +169,13 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, both texts")
+    ap.add_argument("--order", action="store_true",
+                    help="instead: the statements' order inside the parts against the former order (model units)")
     args = ap.parse_args()
+    if args.order:
+        for name in args.models:
+            order_report(name, args.repeat)
+        return
     print(f"parts of about {ccode_parts.PART_CHARS} characters, functions over {ccode_parts.SPLIT_CHARS} cut")
     for name in args.models:
         runs: dict[str, list] = {"parts": [], "whole": []}

@@ -38,7 +38,7 @@ from .ccode_loops import (CONSTRAINT_MATRIX, constraint_matrix_routine, loop_def
 from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form_functions, closed_form_routine
 from .ccode_loop_terms import (LOOP_TERMS, LOOP_TERMS_READ, loop_terms_checks, loop_terms_readers, loop_terms_routine,
                                loop_terms_size)
-from .ccode_parts import names_in, plan_parts
+from .ccode_parts import names_in, part_order, plan_parts
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -440,16 +440,12 @@ class CEmitter:
                      f"int {r.name}{PART_SUFFIX}{k}(double t, const double *x, const double *p, double *{out}, "
                      "double *work, double *carry)", "{", *mine]
             lines += [_read_line(read) for read in reads]
-            lines += [f"    const double {name} = carry[{slots[name]}];" for name in part.imports]
             unused = [arg for arg, present in (("t", "t" in used), ("x", "x" in arrays), ("p", "p" in arrays),
                                                (out, bool(part.results)), ("work", bool(mine)),
                                                ("carry", bool(part.imports or part.exports))) if not present]
             if unused:
                 lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
-            lines += _statements(part.steps, copies_in_part[k - 1], out)
-            if part.exports:
-                lines.append("    /* for the parts after this one */")
-                lines += [f"    carry[{slots[name]}] = {name};" for name in part.exports]
+            lines += _part_statements(part_order(part, copies_in_part[k - 1]), slots, out)
             texts.append("\n".join(lines + ["    return 0;", "}\n"]))
         lines = [f"/* {_comment(r.doc)} (in {n} parts) */",
                  f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
@@ -510,6 +506,31 @@ def _statements(steps, results, out: str) -> list[str]:
     lines.append("    /* outputs */")
     for k, value in results:
         lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
+    return lines
+
+
+def _part_statements(order, slots: dict[str, int], out: str) -> list[str]:
+    """A part's statements in the order of ccode_parts.part_order, under their sections' comments: the reads of
+    carried temporaries, the temporaries (each after its pivot test), their stores for later parts, the outputs."""
+    lines, reads, section = [], [], None
+    for kind, what in order:
+        if kind == "read":  # (printed after the comment of the section whose statement reads it)
+            reads.append(f"    const double {what} = carry[{slots[what]}];")
+            continue
+        if kind == "step" and what.section != section:
+            section = what.section
+            lines.append(f"    /* {_comment(section)} */")
+        lines += reads
+        reads.clear()
+        if kind == "keep":
+            lines.append(f"    carry[{slots[what]}] = {what};")
+        elif kind == "write":
+            k, value = what
+            lines.append(f"    {out}[{k}] = {f'{out}[{value}]' if isinstance(value, int) else value};")
+        else:
+            if what.guard is not None:
+                lines.append(f"    MBS_PIVOT({what.guard});")
+            lines.append(f"    const double {what.name} = {what.text};")
     return lines
 
 

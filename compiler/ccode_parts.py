@@ -18,6 +18,15 @@ output is written by the part that computes the last temporary it reads; an entr
 symmetric mass matrix's lower triangle) is copied right after its source, by the same part (ccode.py prints the
 copies of the plan there). The results are the same to the
 bit: every expression is printed and evaluated exactly as before, only where its value is kept changes.
+
+Inside a part the statements come in the order of `part_order`: a carried temporary is read from carry right
+before the first statement that needs it, stored right after it is computed, and an output is written right after
+the last temporary of the part it reads. Printed with the reads at the top and the stores and outputs at the end,
+every value lived through the whole part, and GCC's register allocation (IRA, LRA, the post-reload CSE and dead
+stores over the spills) went superlinear in the live values: the Iltis's mass matrix part held 337 values live at
+once, its largest part 548, and those two parts took 4 s of the model units' 11 s of CPU (bench/function_parts.py
+--order measures it). GCC keeps the stores and loads where the text has them (out and carry may alias), so the
+text's order is the order of the code.
 """
 
 from __future__ import annotations
@@ -26,8 +35,11 @@ import itertools
 import re
 from dataclasses import dataclass
 
-#: The characters of temporaries a part aims for (bench/compile_time.py --part-chars measures the trade-off).
-PART_CHARS = 20_000
+#: The characters of temporaries a part aims for. 20,000 before the statements were printed in part_order; with it,
+#: parts of half that size cost the Iltis's model units a fifth less compiler CPU and its right-hand side no more
+#: (bench/function_parts.py --order: 56,396 instructions against 57,009 at 20,000, the cuts at fewer live values;
+#: 6,000 compiled no faster, in one unit more).
+PART_CHARS = 10_000
 #: A function is cut only when it is longer than this; shorter ones stay one function, as readable as before.
 SPLIT_CHARS = 3 * PART_CHARS // 2
 _IDENTIFIER = re.compile(r"[A-Za-z_]\w*")
@@ -127,3 +139,39 @@ def _cuts(steps, results, part_chars: int) -> list[int]:
         cuts.append(cut)
         begin = cut
     return cuts
+
+
+def part_order(part: Part, results) -> list[tuple[str, object]]:
+    """The statements of `part` in the order printed, as (kind, what): ("read", name) of an import, ("step", step),
+    ("keep", name) of an export, ("write", (k, value)) of an output (`results`: the part's outputs with the copies
+    after their sources, value an int for a copy). An import comes right before the first statement that reads it,
+    an export right after its step, an output right after the last step of this part it reads (one that reads none
+    first), a copy right after its source: each value lives from where it is computed to where it is last used,
+    not across the part."""
+    local = {s.name: k for k, s in enumerate(part.steps)}
+    after: dict[int, list] = {}
+    where: dict[int, int] = {}
+    for k, value in results:
+        if isinstance(value, int):
+            at = where.get(value, -1)
+        else:
+            at = max((local[n] for n in names_in(value) if n in local), default=-1)
+        where[k] = at
+        after.setdefault(at, []).append(("write", (k, value)))
+    exports = set(part.exports)
+    for k, step in enumerate(part.steps):
+        if step.name in exports:
+            after.setdefault(k, []).insert(0, ("keep", step.name))
+    items = after.get(-1, [])
+    for k, step in enumerate(part.steps):
+        items += [("step", step), *after.get(k, [])]
+    rank = {name: k for k, name in enumerate(part.imports)}
+    pending, order = set(part.imports), []
+    for kind, what in items:
+        if pending and kind != "keep" and not (kind == "write" and isinstance(what[1], int)):
+            texts = (what.text, what.guard or "") if kind == "step" else (what[1],)
+            due = pending.intersection(*[set().union(*map(names_in, texts))])
+            order += [("read", name) for name in sorted(due, key=rank.__getitem__)]
+            pending -= due
+        order.append((kind, what))
+    return order
