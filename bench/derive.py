@@ -14,7 +14,9 @@ The previous code path (the switch `previous_derivation`, before issue 12's thir
 * every tyre's unswitched laws (the lateral force, the aligning torque) converted to sympy on their own (now
   the first tyre's conversion renamed for the other tyres of its component: compiler/instances.py);
 * the canonical order of a sum's or a product's arguments by a key for atoms and nodes of atoms only, made anew
-  at every sort (now a key for any depth, kept per node: fast_arith.sort_key);
+  at every sort (now kept per node, and one level deeper: fast_arith.sort_key);
+* sympy's constructor postprocessors looked up for every argument of every sum and product built (now once
+  per type of argument: fast_arith.postprocessed);
 * the parameters of the equations and of the loop constraints found anew each time they are asked for (now
   once: Equations._parameters, Constraints._parameters);
 * Python's cyclic garbage collector running during the derivation (now paused: compiler/gc_pause.py).
@@ -104,17 +106,18 @@ def _uncached(cls):
 @contextlib.contextmanager
 def previous_derivation():
     """The code path before issue 12's third derivation pass."""
-    saved = (instances.SharedLaws.convert, fast_arith.sort_key, Equations.parameters, Constraints.parameters,
-             gc_pause.ENABLED)
+    saved = (instances.SharedLaws.convert, fast_arith.sort_key, fast_arith.postprocessed, Equations.parameters,
+             Constraints.parameters, gc_pause.ENABLED)
     instances.SharedLaws.convert = lambda self, expr, to_sympy: to_sympy(expr)
     fast_arith.sort_key = fast_arith._shallow_or_none
+    fast_arith.postprocessed = lambda node: type(node)._exec_constructor_postprocessors(node)
     Equations.parameters, Constraints.parameters = _uncached(Equations), _uncached(Constraints)
     gc_pause.ENABLED = False
     try:
         yield
     finally:
-        (instances.SharedLaws.convert, fast_arith.sort_key, Equations.parameters, Constraints.parameters,
-         gc_pause.ENABLED) = saved
+        (instances.SharedLaws.convert, fast_arith.sort_key, fast_arith.postprocessed, Equations.parameters,
+         Constraints.parameters, gc_pause.ENABLED) = saved
 
 
 @contextlib.contextmanager

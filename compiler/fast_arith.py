@@ -135,7 +135,27 @@ sort_key = _kept_key
 
 
 def _mul_of(args: tuple):
-    return _Mul._exec_constructor_postprocessors(_Mul._from_args(args, True))
+    return postprocessed(_Mul._from_args(args, True))
+
+
+def _quiet_postprocessed(node):
+    """Basic._exec_constructor_postprocessors(node) for a sum or a product: node itself when none of its arguments'
+    types (nor their bases) has a constructor postprocessor (sympy's matrix expressions have), which is every
+    node the derivation builds; sympy's own asks its cache once per argument."""
+    for a in node._args:
+        kind = type(a)
+        if kind not in _QUIET:
+            if any(c in Basic._constructor_postprocessor_mapping for c in kind.__mro__):
+                return type(node)._exec_constructor_postprocessors(node)
+            _QUIET.add(kind)
+    return node
+
+
+_QUIET: set = set()  # argument types without a constructor postprocessor
+
+#: The postprocessing of the sums and products built here: _quiet_postprocessed, or sympy's own before issue
+#: 12's third derivation pass (bench/derive.py measures the one against the other).
+postprocessed = _quiet_postprocessed
 
 
 def _base(f):
@@ -287,4 +307,4 @@ def total(terms):
         return _ZERO
     if len(args) == 1:
         return args[0]
-    return _Add._exec_constructor_postprocessors(_Add._from_args(args, True))
+    return postprocessed(_Add._from_args(args, True))

@@ -26,6 +26,8 @@ from sympy.logic.boolalg import ITE
 
 from mbs.language import expr as X
 
+from . import fast_arith
+
 _PLAIN = (sp.Symbol, sp.Dummy)  # exact types: a renamed leaf must be of the same one
 
 
@@ -129,7 +131,7 @@ def _rebuilt(node, args: tuple):
     """`node` of the renamed `args` as they stand; _Unknown for a kind of node not known to be built so."""
     kind = type(node)
     if kind is sp.Add or kind is sp.Mul:
-        return kind._exec_constructor_postprocessors(kind._from_args(args, node.is_commutative))
+        return fast_arith.postprocessed(kind._from_args(args, node.is_commutative))
     if kind is sp.Piecewise or kind is ExprCondPair:  # (their constructors would look at the conditions again)
         return Basic.__new__(kind, *args)
     if kind in _AS_WRITTEN:

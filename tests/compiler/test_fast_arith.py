@@ -113,3 +113,12 @@ def test_symbols_of_is_free_symbols():
               sp.Derivative(f(x, y), x) + z, sp.Integral(x * y, (x, 0, 1)) * d, sp.And(x > 1, y < d),
               sp.Max(x, y) + sp.Abs(d) ** 2, sp.S.true, sp.pi * x):
         assert symbols_of(e) == e.free_symbols
+
+
+def test_postprocessed_is_sympys_also_for_a_type_that_has_a_postprocessor():
+    x, y = sp.symbols("x y")
+    A, B = sp.MatrixSymbol("A", 2, 2), sp.MatrixSymbol("B", 2, 2)
+    for node in (sp.Mul._from_args((x, y)), sp.Add._from_args((x, y)), sp.Mul._from_args((A, B), False),
+                 sp.Add._from_args((A, B), True)):
+        expected = type(node)._exec_constructor_postprocessors(node)
+        assert sp.srepr(fast_arith._quiet_postprocessed(node)) == sp.srepr(expected)
