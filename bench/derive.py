@@ -32,8 +32,9 @@ switched off as well):
 * the forward derivatives' |u|, max/min and step functions rewritten for every symbol a temporary reads (now
   once per temporary).
 
-(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) Both code
-paths must give the same text: the bench says so.
+(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) All three
+code paths must give the same text: the bench says so (bench/derive_texts.py compares the texts of every library
+and test model with those of another checkout's code).
 
 Issue 12's targets (a fresh compile, derivation and C compiler together): the Iltis under 5 s, the 40-link chain
 under 10 s; bench/compile_time.py measures the whole compile.
