@@ -1,12 +1,28 @@
 """The symbolic derivation alone (model text to generated C text, empty caches) with the current code path
-against the former one, measured in the same run.
+against the two before it, measured in the same run.
 
     python bench/derive.py [--models iltis chain40 quarter] [--repeat 5]
 
 Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C; a tree's
-NumPy module is printed when first asked for, after the timing, and compared too), its CPU seconds (this process; the machine is shared and noisy, so CPU rather than wall
-time), each run in a process of its own (as a fresh compile: sympy's caches empty; the imports are not timed),
-the two code paths interleaved, medians of --repeat. The former code path (the switch `former_derivation`):
+NumPy module is printed when first asked for, after the timing, and compared too), its CPU seconds (this process;
+the machine is shared and noisy, so CPU rather than wall time), each run in a process of its own (as a fresh
+compile: sympy's caches empty; the modules of the pipeline are imported before the clock starts), the three code
+paths interleaved, medians of --repeat.
+
+The previous code path (the switch `previous_derivation`, before issue 12's third derivation pass):
+
+* every tyre's unswitched laws (the lateral force, the aligning torque) converted to sympy on their own (now
+  the first tyre's conversion renamed for the other tyres of its component: compiler/instances.py);
+* the canonical order of a sum's or a product's arguments by a key for atoms and nodes of atoms only, made anew
+  at every sort (now kept per node, and one level deeper: fast_arith.sort_key);
+* sympy's constructor postprocessors looked up for every argument of every sum and product built (now once
+  per type of argument: fast_arith.postprocessed);
+* the parameters of the equations and of the loop constraints found anew each time they are asked for (now
+  once: Equations._parameters, Constraints._parameters);
+* Python's cyclic garbage collector running during the derivation (now paused: compiler/gc_pause.py).
+
+The former code path (the switch `former_derivation`, before issue 12's second pass; the previous path's changes
+switched off as well):
 
 * sympy's own `a*b`, `Mul(...)`, `a + b` and `-a` in the spatial algebra, the forward derivatives and the
   printer's substitution (compiler/fast_arith.py builds the common cases directly, sympy's expressions);
@@ -16,8 +32,9 @@ the two code paths interleaved, medians of --repeat. The former code path (the s
 * the forward derivatives' |u|, max/min and step functions rewritten for every symbol a temporary reads (now
   once per temporary).
 
-(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) Both code
-paths must give the same text: the bench says so.
+(Not switched: Tape.temp's sympify of what already is a sympy expression, a few percent of its time.) All three
+code paths must give the same text: the bench says so (bench/derive_texts.py compares the texts of every library
+and test model with those of another checkout's code).
 
 Issue 12's targets (a fresh compile, derivation and C compiler together): the Iltis under 5 s, the 40-link chain
 under 10 s; bench/compile_time.py measures the whole compile.
@@ -38,7 +55,12 @@ from pathlib import Path
 import sympy as sp
 
 import mbs
-from mbs.compiler import differentiate, emit_common, fast_arith, tape
+from mbs import pipeline, system  # noqa: F401 (imported before the clock starts, with the modules below)
+from mbs.compiler import (ccode, differentiate, emit_common, fast_arith, gc_pause, instances, lower,  # noqa: F401
+                          pycode, tape)
+from mbs.compiler.constraints import Constraints
+from mbs.compiler.equations import Equations
+from mbs.language import frontend  # noqa: F401
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "bench"))
@@ -78,9 +100,36 @@ def _former_differentiate(expr, seeds: dict, derivative: dict) -> dict:
     return {k: total[k] for k in sorted(total) if total[k] != 0}
 
 
+def _uncached(cls):
+    return lambda self: cls._parameters.func(self)
+
+
+@contextlib.contextmanager
+def previous_derivation():
+    """The code path before issue 12's third derivation pass."""
+    saved = (instances.SharedLaws.convert, fast_arith.sort_key, fast_arith.postprocessed, Equations.parameters,
+             Constraints.parameters, gc_pause.ENABLED)
+    instances.SharedLaws.convert = lambda self, expr, to_sympy: to_sympy(expr)
+    fast_arith.sort_key = fast_arith._shallow_or_none
+    fast_arith.postprocessed = lambda node: type(node)._exec_constructor_postprocessors(node)
+    Equations.parameters, Constraints.parameters = _uncached(Equations), _uncached(Constraints)
+    gc_pause.ENABLED = False
+    try:
+        yield
+    finally:
+        (instances.SharedLaws.convert, fast_arith.sort_key, fast_arith.postprocessed, Equations.parameters,
+         Constraints.parameters, gc_pause.ENABLED) = saved
+
+
 @contextlib.contextmanager
 def former_derivation():
-    """The code path before issue 12's second derivation pass: the baseline."""
+    """The code path before issue 12's second derivation pass (and its third)."""
+    with previous_derivation(), _second_pass_off():
+        yield
+
+
+@contextlib.contextmanager
+def _second_pass_off():
     saved = (fast_arith.product, fast_arith.product_of, fast_arith.total, fast_arith.negative,
              emit_common.negative_number, tape.symbols_of, emit_common.symbols_of, emit_common.replaced,
              differentiate._differentiate)
@@ -110,10 +159,13 @@ def derive(name: str) -> tuple[float, str]:
     return cpu, generated.c_source + generated.numpy_source
 
 
-def derive_fresh(name: str, former: bool) -> tuple[float, str]:
-    """derive in a process of its own (sympy's caches as a fresh compile finds them): (CPU seconds, SHA-256 of
-    the text)."""
-    command = [sys.executable, __file__, "--one", name] + (["--former"] if former else [])
+PATHS = {"current": contextlib.nullcontext, "previous": previous_derivation, "former": former_derivation}
+
+
+def derive_fresh(name: str, path: str) -> tuple[float, str]:
+    """derive in a process of its own (sympy's caches as a fresh compile finds them) on code path `path` (a key
+    of PATHS): (CPU seconds, SHA-256 of the text)."""
+    command = [sys.executable, __file__, "--one", name, "--path", path]
     out = subprocess.run(command, check=True, capture_output=True, text=True).stdout.split()
     return float(out[0]), out[1]
 
@@ -123,25 +175,27 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40"])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--one", help=argparse.SUPPRESS)  # the child: one derivation, prints seconds and digest
-    ap.add_argument("--former", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--path", choices=PATHS, default="current", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.one:
-        with former_derivation() if args.former else contextlib.nullcontext():
+        with PATHS[args.path]():
             cpu, text = derive(args.one)
         print(f"{cpu:.6f} {hashlib.sha256(text.encode()).hexdigest()}")
         return
     print(f"derivation CPU seconds (parse to C text, each in a fresh process), medians of {args.repeat}, the "
-          "current and the former code path interleaved")
-    print(f"  {'model':8s} {'current':>8s} {'former':>8s} {'former/current':>15s}  text")
+          "current, the previous (before issue 12's third pass) and the former (before its second) code path "
+          "interleaved")
+    print(f"  {'model':8s} {'current':>8s} {'previous':>9s} {'former':>8s} {'previous/current':>17s} "
+          f"{'former/current':>15s}  text")
     for name in args.models:
-        runs: dict[bool, list] = {False: [], True: []}
+        runs: dict[str, list] = {path: [] for path in PATHS}
         for _ in range(args.repeat):
-            for former in runs:
-                runs[former].append(derive_fresh(name, former))
-        now, before = (statistics.median(c for c, _ in runs[f]) for f in (False, True))
-        same = len({digest for _, digest in runs[False] + runs[True]}) == 1
-        print(f"  {name:8s} {now:7.2f}s {before:7.2f}s {before / now:14.2f}x  "
-              f"{'the same with both' if same else 'THE TEXTS DIFFER'}", flush=True)
+            for path in runs:
+                runs[path].append(derive_fresh(name, path))
+        now, previous, former = (statistics.median(c for c, _ in runs[p]) for p in PATHS)
+        same = len({digest for path in runs for _, digest in runs[path]}) == 1
+        print(f"  {name:8s} {now:7.2f}s {previous:8.2f}s {former:7.2f}s {previous / now:16.2f}x "
+              f"{former / now:14.2f}x  {'the same with all three' if same else 'THE TEXTS DIFFER'}", flush=True)
 
 
 if __name__ == "__main__":

@@ -139,6 +139,11 @@ class Constraints:
     def parameters(self) -> tuple:
         """Symbols the rows use other than the state and t, in `natural_key` order (geometry that only a cut
         joint uses appears here and not in `Equations.parameters`)."""
+        return self._parameters
+
+    @cached_property
+    def _parameters(self) -> tuple:
+        """(found once, as Equations._parameters)"""
         tree = self.tree
         found = self.tape.free_symbols(self.outputs()) - set(tree.q_symbols) - set(tree.v_symbols) - {t}
         return tuple(sorted(found, key=natural_key))

@@ -12,6 +12,7 @@ small models, for `mbs eom`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import sympy as sp
 
@@ -60,6 +61,12 @@ class Equations:
     def parameters(self) -> tuple:
         """Symbols the results depend on other than the state and t, in `natural_key` order: the run-time
         parameters (a default order for the emitter)."""
+        return self._parameters
+
+    @cached_property
+    def _parameters(self) -> tuple:
+        """(found once: the pipeline and the emitter both ask, and the walk over the tape is a tenth of the
+        derivation of a long chain; the tape only grows at its end, which the results do not read)"""
         states = set(self.tree.x_symbols) | {t}
         found = self.tape.free_symbols(self.outputs()) - states
         return tuple(sorted(found, key=natural_key))

@@ -68,19 +68,94 @@ def _shallow_key(x) -> tuple:
     return _class_key(type(x)), len(content), tuple(map(_atom_key, content))
 
 
+def _kept_key(x) -> tuple | None:
+    """_shallow_key, and one level deeper (a product of a sum and a symbol, a function of a product), kept for
+    every node by its identity in _KEYS: a temporary is sorted into thousands of sums and products, and its key
+    (sympy's hashable content of a Dummy, its assumptions sorted anew) was a tenth of the time of building them.
+    None for deeper nodes (a key of all of a large expression costs more than the few comparisons that order it)
+    and where the key cannot stand for Basic.compare (a node with more than its arguments to compare, an atom
+    holding nodes)."""
+    hit = _KEYS.get(id(x))
+    if hit is not None and hit[0] is x:
+        return hit[1]
+    try:
+        if not x.args:
+            key = _atom_key(x)
+        else:
+            content = x._hashable_content()
+            if content is not x.args:
+                raise TypeError
+            items = []
+            for a in content:
+                if a.args:
+                    k = _KEYS.get(id(a))
+                    k = k[1] if k is not None and k[0] is a else _shallow_key(a)
+                    if k is None:
+                        raise TypeError
+                else:
+                    k = _kept_key(a)
+                items.append(k)
+            key = (_class_key(type(x)), len(content), tuple(items))
+    except TypeError:
+        key = None
+    if len(_KEYS) >= _KEYS_KEPT:
+        _KEYS.clear()
+    _KEYS[id(x)] = (x, key)  # (x kept alive with its key: its id is not reused while the entry stands)
+    return key
+
+
+_KEYS: dict = {}  # id(node) -> (node, _kept_key)
+_KEYS_KEPT = 400_000  # entries before the cache starts anew (a derivation of the Iltis makes about 60,000)
+
+
 def sort_canonically(items: list) -> None:
     """items.sort(key=cmp_to_key(Basic.compare)), sympy's order of the arguments of a sum or a product."""
+    keys = list(map(sort_key, items))
+    if None not in keys:
+        try:
+            order = sorted(range(len(items)), key=keys.__getitem__)
+        except TypeError:  # (items of keys that Python cannot order: two classes of one name)
+            pass
+        else:
+            items[:] = [items[k] for k in order]
+            return
+    items.sort(key=_ORDER)
+
+
+def _shallow_or_none(x):
     try:
-        keys = list(map(_shallow_key, items))
+        return _shallow_key(x)
     except TypeError:
-        items.sort(key=_ORDER)
-        return
-    order = sorted(range(len(items)), key=keys.__getitem__)
-    items[:] = [items[k] for k in order]
+        return None
+
+
+#: The key sort_canonically sorts by (None: sort with Basic.compare); _kept_key, or the key before the third
+#: derivation pass (bench/derive.py measures the one against the other).
+sort_key = _kept_key
 
 
 def _mul_of(args: tuple):
-    return _Mul._exec_constructor_postprocessors(_Mul._from_args(args, True))
+    return postprocessed(_Mul._from_args(args, True))
+
+
+def _quiet_postprocessed(node):
+    """Basic._exec_constructor_postprocessors(node) for a sum or a product: node itself when none of its arguments'
+    types (nor their bases) has a constructor postprocessor (sympy's matrix expressions have), which is every
+    node the derivation builds; sympy's own asks its cache once per argument."""
+    for a in node._args:
+        kind = type(a)
+        if kind not in _QUIET:
+            if any(c in Basic._constructor_postprocessor_mapping for c in kind.__mro__):
+                return type(node)._exec_constructor_postprocessors(node)
+            _QUIET.add(kind)
+    return node
+
+
+_QUIET: set = set()  # argument types without a constructor postprocessor
+
+#: The postprocessing of the sums and products built here: _quiet_postprocessed, or sympy's own before issue
+#: 12's third derivation pass (bench/derive.py measures the one against the other).
+postprocessed = _quiet_postprocessed
 
 
 def _base(f):
@@ -232,4 +307,4 @@ def total(terms):
         return _ZERO
     if len(args) == 1:
         return args[0]
-    return _Add._exec_constructor_postprocessors(_Add._from_args(args, True))
+    return postprocessed(_Add._from_args(args, True))

@@ -291,7 +291,10 @@ def affine_split(tape, targets, symbols) -> tuple[list, list]:
     entries = tape.entries_for(targets)
 
     def split(expr, name):
-        read = [a for a in expr.free_symbols if a in at_zero]
+        # in sympy's order of the symbols, and the slopes in the order of the forces, not in the order of the set
+        # of free symbols (which changes with the hash seed, and with it the order of the temporaries in the
+        # generated C and the build cache's key)
+        read = sorted((a for a in expr.free_symbols if a in at_zero), key=sp.default_sort_key)
         if not read:
             return expr, {}
         value = tape.temp(expr.xreplace(at_zero), f"{name}_f0")
@@ -300,7 +303,7 @@ def affine_split(tape, targets, symbols) -> tuple[list, list]:
             partial = sp.diff(expr, a).xreplace(at_zero)
             for k, da in slopes[a].items():
                 d[k] = d.get(k, sp.S.Zero) + partial * da
-        return value, {k: tape.temp(v, f"{name}_dF{k}") for k, v in d.items() if v != 0}
+        return value, {k: tape.temp(v, f"{name}_dF{k}") for k, v in sorted(d.items()) if v != 0}
 
     for entry in entries:
         value, d = split(entry.expr, entry.name)

@@ -19,6 +19,7 @@ from mbs.language.diagnostics import Diagnostic, MbsError
 from .constraints import CutJoint
 from .events import LoweredEvent, SwitchRegistry, lower_events
 from .friction import FrictionLowering
+from .instances import SharedLaws
 from .kinematics import Kinematics
 from .reactions import AccelerationTerms, in_frame
 from .spatial import cross, dot
@@ -84,6 +85,7 @@ class _Lowering:
         self._sensor_cache: dict[str, sp.Expr] = {}
         self.acceleration_terms = AccelerationTerms(self.kin, self.cuts)
         self.friction = FrictionLowering(self)
+        self.shared_laws = SharedLaws()  # force laws converted once for all instances of a component
 
     # ---------------------------------------------------------------------------------------- tree
     def _no_state(self, sym: X.Sym) -> sp.Expr:

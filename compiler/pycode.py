@@ -34,6 +34,7 @@ from .emit_common import (INLINE_MAX_CHARS, PREC_LOGIC, CodegenError, ExprPrinte
                           Routine, check_inputs, describe, equation_routines, plan_routine, printable,
                           table_slopes)
 from .equations import Equations
+from .gc_pause import paused
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .reactions import ACCELERATION_ARRAY
 
@@ -267,6 +268,7 @@ def _docstring_text(text: str) -> str:
     return re.sub('"(?=")', '\\\\"', printable(text).replace("\\", "\\\\"))
 
 
+@paused  # (compiler/gc_pause.py)
 def generate_numpy(equations: Equations, parameters: Sequence[sp.Symbol], model_name: str = "model", *,
                    outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                    run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,

@@ -90,8 +90,10 @@ def attach_tyre(lowering, inter: M.Interaction, force: M.Force) -> dict[str, sp.
                 raise _error(f"the {arg} law of a tyre cannot read '{sym.name}' (it may read "
                              f"{', '.join(allowed)})", force.span)
             return scope[sym.name]
-        switches = lowering.switches if arg in _SWITCHED else None
-        return sp.sympify(ToSympy(resolve, lowering.tables, switches)(expr))
+        if arg in _SWITCHED:
+            return sp.sympify(ToSympy(resolve, lowering.tables, lowering.switches)(expr))
+        # the same law of every tyre of one component, converted once (compiler/instances.py)
+        return sp.sympify(lowering.shared_laws.convert(expr, ToSympy(resolve, lowering.tables)))
 
     centre = to_road([p - q for p, q in zip(pb, pa)])
     x, y = tape.temp(centre[0], "tyx"), tape.temp(centre[1], "tyy")

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Callable, Mapping
 
 import numpy as np
 
+from mbs.compiler.gc_pause import paused
 from mbs.compiler.integrator_names import JACOBIAN_INTEGRATORS
 from mbs.compiler.tyre_relaxation import model_inputs, relaxation_states
 from mbs.language import binding
@@ -167,6 +168,7 @@ def needs_jacobian(scene: M.Scene | None, integrator: str | None = None) -> bool
     return bool(name) and str(name).lower() in JACOBIAN_INTEGRATORS
 
 
+@paused  # (compiler/gc_pause.py)
 def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | None = None,
              parameter_jacobian: bool = False, dynamics: bool = False, frames: tuple[str, ...] = (),
              equations_ready: Callable[[str], None] | None = None, closed_form: bool = True,
@@ -216,6 +218,7 @@ def cold_apart_applies(model: M.Model, constraints, dynamics: bool, frames) -> b
     return constraints is None and not dynamics and not frames and not model.hooks
 
 
+@paused  # (compiler/gc_pause.py)
 def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: str, *,
                      jacobian: bool | None = None, parameter_jacobian: bool = False, dynamics: bool = False,
                      frames: tuple[str, ...] = (), closed_form: bool = True, cold_apart: bool = False

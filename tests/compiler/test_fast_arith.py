@@ -70,6 +70,32 @@ def test_sort_canonically_is_sympys_order():
         assert [sp.srepr(e) for e in items] == [sp.srepr(e) for e in expected]
 
 
+def test_sort_canonically_is_sympys_order_for_any_node():
+    """Deeper nodes and nodes of other kinds (piecewise, comparisons, min/max, undefined functions, floats),
+    sorted by their keys where those stand for Basic.compare, else by Basic.compare: sympy's order either way,
+    also when the same nodes are sorted again (their keys kept)."""
+    rng = random.Random(5)
+    f = sp.Function("f")
+    def node(depth=0):
+        e = random_expr(rng, depth)
+        r = rng.random()
+        if r < 0.15:
+            return sp.Piecewise((e, rng.choice(SYMBOLS) > 0), (random_expr(rng), True))
+        if r < 0.25:
+            return sp.Max(e, rng.choice(SYMBOLS))
+        if r < 0.35:
+            return f(e, rng.choice(NUMBERS))
+        if r < 0.45:
+            return sp.atan2(e, rng.choice(SYMBOLS)) * node(depth + 2) if depth < 3 else e
+        return e
+    pool = [node() for _ in range(120)]
+    for _ in range(400):
+        items = rng.sample(pool, rng.randint(2, 7))
+        expected = sorted(items, key=cmp_to_key(Basic.compare))
+        fast_arith.sort_canonically(items)
+        assert [sp.srepr(e) for e in items] == [sp.srepr(e) for e in expected]
+
+
 def test_the_cases_sympy_evaluates_further_are_sympys():
     x, y = sp.symbols("x y")
     assert fast_arith.product(x, x) == x ** 2                               # a power
@@ -87,3 +113,12 @@ def test_symbols_of_is_free_symbols():
               sp.Derivative(f(x, y), x) + z, sp.Integral(x * y, (x, 0, 1)) * d, sp.And(x > 1, y < d),
               sp.Max(x, y) + sp.Abs(d) ** 2, sp.S.true, sp.pi * x):
         assert symbols_of(e) == e.free_symbols
+
+
+def test_postprocessed_is_sympys_also_for_a_type_that_has_a_postprocessor():
+    x, y = sp.symbols("x y")
+    A, B = sp.MatrixSymbol("A", 2, 2), sp.MatrixSymbol("B", 2, 2)
+    for node in (sp.Mul._from_args((x, y)), sp.Add._from_args((x, y)), sp.Mul._from_args((A, B), False),
+                 sp.Add._from_args((A, B), True)):
+        expected = type(node)._exec_constructor_postprocessors(node)
+        assert sp.srepr(fast_arith._quiet_postprocessed(node)) == sp.srepr(expected)
