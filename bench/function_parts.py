@@ -27,6 +27,11 @@ the integrators' functions) of both texts compiled alone, the two texts interlea
 the median CPU seconds of the C compiler for each and their ratio, and the model units' sum; the two builds'
 right-hand side and outputs at the start state compared to the bit. (bench/rhs_instructions.py counts what the
 order does to the right-hand side's instructions.)
+
+    python bench/function_parts.py --order --split-baseline 15000 [--models iltis] [--repeat 3]
+
+the same, with the baseline the current order and parts but every function over 15,000 characters cut (rather
+than over ccode_parts.SPLIT_CHARS): what cutting the shorter functions too would buy.
 """
 
 from __future__ import annotations
@@ -111,13 +116,25 @@ def compile_cpu(files: dict[str, str], unit: str, folder: Path) -> float:
     return _children_cpu() - cpu
 
 
-def order_report(name: str, repeat: int) -> None:
-    """The --order figures of model `name` (see the module's doc)."""
+@contextlib.contextmanager
+def split_above(chars: int):
+    """The current order and parts, with every function over `chars` characters cut (the --split-baseline)."""
+    saved = ccode_parts.SPLIT_CHARS
+    ccode_parts.SPLIT_CHARS = chars
+    try:
+        yield
+    finally:
+        ccode_parts.SPLIT_CHARS = saved
+
+
+def order_report(name: str, repeat: int, baseline=former_order, baseline_label: str = "former") -> None:
+    """The --order figures of model `name` (see the module's doc); baseline: the context of the text compared
+    with the current one (the former order and size, or split_above)."""
     text, path, scene, _ = model_text(name)
     with tempfile.TemporaryDirectory(prefix="mbs-bench-") as tmp:
         systems, texts = {}, {}
         for label in ("in order", "former"):  # (each its own cache: the generated C is cached by the model's text)
-            with former_order() if label == "former" else contextlib.nullcontext():
+            with baseline() if label == "former" else contextlib.nullcontext():
                 cache = Path(tmp, label.replace(" ", "_") + "_cache")
                 systems[label] = mbs.loads(text, path=path, cache_dir=cache)
                 texts[label] = model_unit_texts(systems[label].generate(scene).c_source)
@@ -134,6 +151,7 @@ def order_report(name: str, repeat: int) -> None:
                 for label in texts:
                     cpu[label][unit].append(compile_cpu(texts[label], unit, folders[label]))
         print(f"\n{name}: the model units compiled alone, each order interleaved; medians of {repeat}")
+        print(f"  baseline ('former'): {baseline_label}")
         print(f"  {'unit':10s} {'KiB':>5s} {'in order':>9s} {'former':>8s} {'ratio':>6s}")
         sums = {label: [sum(cpu[label][u][k] for u in units) for k in range(repeat)] for label in texts}
         for unit in units:
@@ -144,7 +162,7 @@ def order_report(name: str, repeat: int) -> None:
               "the model units)")
         compiled = {}
         for label, system in systems.items():
-            with former_order() if label == "former" else contextlib.nullcontext():
+            with baseline() if label == "former" else contextlib.nullcontext():
                 compiled[label] = system.compile(scene)
         print(f"  same results to the bit (rhs, outputs at the start): "
               f"{same_results(compiled['in order'], compiled['former'])}")
@@ -171,10 +189,19 @@ def main() -> None:
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, both texts")
     ap.add_argument("--order", action="store_true",
                     help="instead: the statements' order inside the parts against the former order (model units)")
+    ap.add_argument("--split-baseline", type=int, metavar="CHARS",
+                    help="with --order: the baseline is the current order and parts with every function over CHARS "
+                         "characters cut")
     args = ap.parse_args()
     if args.order:
         for name in args.models:
-            order_report(name, args.repeat)
+            if args.split_baseline:
+                order_report(name, args.repeat, lambda: split_above(args.split_baseline),
+                             f"the same order and parts, every function over {args.split_baseline} characters cut "
+                             f"(now over {ccode_parts.SPLIT_CHARS})")
+            else:
+                order_report(name, args.repeat, former_order,
+                             f"the former order in parts of {FORMER_PART_CHARS} characters")
         return
     print(f"parts of about {ccode_parts.PART_CHARS} characters, functions over {ccode_parts.SPLIT_CHARS} cut")
     for name in args.models:

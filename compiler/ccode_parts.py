@@ -41,8 +41,9 @@ from dataclasses import dataclass
 #: 6,000 compiled no faster, in one unit more).
 PART_CHARS = 10_000
 #: A function is cut only when it is longer than this; shorter ones stay one function, as readable as before.
-#: 30,000 as before the parts were halved: cutting the functions of 15,000 to 30,000 characters too saved the
-#: Iltis's model units 0.27 s of 7.1 s of compiler CPU (0.96) but grew a 10-link chain's file by 11 % in carries
+#: 30,000 as before the parts were halved: cutting the functions of 15,000 to 30,000 characters too saves the
+#: Iltis's model units 4-7 % of their compiler CPU (`python bench/function_parts.py --order --split-baseline 15000`:
+#: 7.71 against 7.23 s, 1.07; 1.04 in an earlier run) but grew a 10-link chain's file by 11 % in carries
 #: (tests/compiler/test_ccode.py bounds its size), where no function compiles slowly.
 SPLIT_CHARS = 30_000
 _IDENTIFIER = re.compile(r"[A-Za-z_]\w*")
