@@ -80,6 +80,7 @@ struct mbs_ode {
     double *g_old, *g_new, *g_try;  /* [nev] each, owned: at the step's start, end, and a trial time */
     double *t_located;              /* [nev], owned: each indicator's crossing in the step (NaN: none) */
     double *y_try;          /* [n], owned: the dense output at a trial time */
+    struct mbs_ode_trials *trials;  /* owned: the indicators at the root finder's trial points (ode.c) */
     /* events whose actions are generated C (switch flags, `set` of modes and parameters) applied and the
      * integrator restarted inside mbs_ode_sample, logged for the caller; NULL: every event returns (ode.c) */
     struct mbs_ode_restarts *restarts;

@@ -24,6 +24,42 @@
  * that direction start this much larger again (up to the controller's step: see mbs_ode_learn_first_step). */
 #define MBS_ODE_FIRST_STEP_RELAX 1.2
 
+/* The root finder's memory of one step (mbs_ode_trials), and how many trial points it keeps: a crossing takes about
+ * ten, the indicators that cross in one step together (the twin wheels) a few dozen. */
+#define MBS_ODE_TRIALS 64
+/* -DMBS_ODE_EVENTS_FORMER=1 builds the former root finding (each crossing located from the step's ends alone, the
+ * departure probe taken every time, the indicators at an event evaluated again by the restart): the same-run
+ * baseline of bench/event_instructions.py --machinery. */
+#ifdef MBS_ODE_EVENTS_FORMER
+#define MBS_ODE_SHARE_TRIALS 0
+#else
+#define MBS_ODE_SHARE_TRIALS 1
+#endif
+
+/* Every evaluation of the indicators evaluates all of them: the trial points of one step's root finding (each
+ * crossing indicator's, in turn) bracket the others' crossings too.  The mirror-image wheels of the symmetric Iltis
+ * cross within 1e-14 to 1e-9 s of each other in nearly every step with a crossing: the second one's search starts
+ * from the tightest bracket the first one's trial points give (a few doubles wide) instead of the whole step.  The
+ * indicators at the located event are kept for the restart there, evaluated at the same time and state with the
+ * same parameters: the same bits. */
+typedef struct mbs_ode_trials {
+    int count;              /* trial points kept from the current search (at most MBS_ODE_TRIALS) */
+    double t[MBS_ODE_TRIALS];
+    double *g;              /* [MBS_ODE_TRIALS * nev]: the indicators at t[i] are g[i nev .. (i + 1) nev) */
+    int g_old_exact;        /* g_old holds the indicators evaluated at t_old (not departing values: see
+                             * mbs_ode_depart; external callers may write departing values after set_events) */
+    int event_ready;        /* g_event holds the indicators at the located event t_event, parameters unchanged */
+    double t_event;
+    double *g_event;        /* [nev] */
+} mbs_ode_trials;
+
+static void mbs_ode_free_trials(mbs_ode_trials *tr)
+{
+    if (!tr) return;
+    free(tr->g); free(tr->g_event);
+    free(tr);
+}
+
 /* Events restarted in C (see mbs_ode_restart): which indicators qualify and what their actions assign, and the
  * log of the events handled since the caller last read it. */
 typedef struct mbs_ode_restarts {
@@ -62,6 +98,7 @@ static void mbs_ode_free_restarts(mbs_ode_restarts *r)
 static void mbs_ode_free(mbs_ode *o)
 {
     mbs_ode_free_restarts(o->restarts);
+    mbs_ode_free_trials(o->trials);
     if (o->release) o->release(o);
     free(o->atol); free(o->y); free(o->f); free(o->cont); free(o->impl); free(o->yproj);
     free(o->directions); free(o->g_old); free(o->g_new); free(o->g_try); free(o->t_located); free(o->y_try);
@@ -201,7 +238,11 @@ static int mbs_ode_set_events(mbs_ode *o, mbs_fn events, int nev, const int *dir
     o->g_try = calloc((size_t)nev + 1, sizeof(double));
     o->t_located = calloc((size_t)nev + 1, sizeof(double));
     o->y_try = calloc((size_t)o->n + 1, sizeof(double));
-    if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->t_located || !o->y_try) return -1;
+    o->trials = calloc(1, sizeof *o->trials);
+    if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->t_located || !o->y_try || !o->trials) return -1;
+    o->trials->g = calloc((size_t)MBS_ODE_TRIALS * (size_t)nev + 1, sizeof(double));
+    o->trials->g_event = calloc((size_t)nev + 1, sizeof(double));
+    if (!o->trials->g || !o->trials->g_event) return -1;
     for (k = 0; k < nev; k++) o->directions[k] = directions[k];
     s = events(o->t, o->y, o->p, o->g_old, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; }
@@ -215,27 +256,70 @@ static int mbs_ode_crossed(const mbs_ode *o, int k, double g_old, double g_new)
     return (d >= 0 && g_old < 0 && g_new >= 0) || (d <= 0 && g_old > 0 && g_new <= 0);
 }
 
-/* g_k on the dense output at t (the trial state is left in y_try); a model failure returns NaN. */
+/* Keep the indicators g at trial point t for the other crossings' searches (while there is room). */
+static void mbs_ode_keep_trial(mbs_ode *o, double t, const double *g)
+{
+    mbs_ode_trials *tr = o->trials;
+    if (!MBS_ODE_SHARE_TRIALS || tr->count >= MBS_ODE_TRIALS) return;
+    tr->t[tr->count] = t;
+    memcpy(tr->g + (size_t)tr->count * (size_t)o->nev, g, (size_t)o->nev * sizeof(double));
+    tr->count++;
+}
+
+/* The indicators kept at trial point t, or NULL. */
+static const double *mbs_ode_kept_trial(const mbs_ode *o, double t)
+{
+    const mbs_ode_trials *tr = o->trials;
+    int i;
+    for (i = 0; i < tr->count; i++)
+        if (tr->t[i] == t) return tr->g + (size_t)i * (size_t)o->nev;
+    return NULL;
+}
+
+/* g_k on the dense output at t (the trial state is left in y_try, every indicator in g_try and kept among the
+ * trials); a model failure returns NaN. */
 static double mbs_ode_g_at(mbs_ode *o, int k, double t)
 {
     o->dense(o, t, o->y_try);
     if (o->events(t, o->y_try, o->p, o->g_try, o->work) != MBS_OK) return NAN;
+    mbs_ode_keep_trial(o, t, o->g_try);
     return o->g_try[k];
+}
+
+/* Narrow the bracket [*a, *b] of indicator k (values *ga, *gb) by the trial points kept inside it: its right end to
+ * the earliest where g_k has left the sign of *ga, its left end to the latest before that where it has not. */
+static void mbs_ode_narrow(const mbs_ode *o, int k, double *a, double *b, double *ga, double *gb)
+{
+    const mbs_ode_trials *tr = o->trials;
+    int i, nev = o->nev;
+    for (i = 0; i < tr->count; i++) {
+        double t = tr->t[i], g = tr->g[(size_t)i * (size_t)nev + k];
+        if (*a < t && t < *b && !(g * *ga > 0)) { *b = t; *gb = g; }
+    }
+    for (i = 0; i < tr->count; i++) {
+        double t = tr->t[i], g = tr->g[(size_t)i * (size_t)nev + k];
+        if (*a < t && t < *b && g * *ga > 0) { *a = t; *ga = g; }
+    }
 }
 
 /* The first time in (a, b] at which g_k has left the sign of ga, to adjacent doubles: Illinois (a secant that
  * halves the value at an end kept twice) until the bracket is 1e-12 s wide, bisection after that.  The same
- * algorithm as mbs.runtime.events.locate_crossing.  A NaN counts as the new side (the bracket closes on it); a trial
- * point where g_k is exactly 0 is the crossing once g_k has ga's sign four doubles below it. */
+ * algorithm as mbs.runtime.events.locate_crossing, started from the bracket the trial points of the step's other
+ * crossings give (mbs_ode_trials).  A NaN counts as the new side (the bracket closes on it); a trial point where g_k
+ * is exactly 0 is the crossing once g_k has ga's sign four doubles below it. */
 static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
 {
     int retained = 0, straddled = 0;
-    /* ga may be the value an indicator at zero leaves with (1e-12 s on, runtime/event_loop.py): start there */
+    /* ga may be the value an indicator at zero leaves with (1e-12 s on, runtime/event_loop.py): start there.  Not
+     * when g_old holds the indicators evaluated at a (the step after one without an event): g_k has ga's sign there
+     * already, and the probe would move a by 1e-12 s. */
     double probe = a + MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(a));
-    if (probe < b) {
-        double gp = mbs_ode_g_at(o, k, probe);
+    if (probe < b && !(MBS_ODE_SHARE_TRIALS && o->trials->g_old_exact)) {
+        const double *kept = mbs_ode_kept_trial(o, probe);
+        double gp = kept ? kept[k] : mbs_ode_g_at(o, k, probe);
         if (gp * ga > 0) { a = probe; ga = gp; }
     }
+    mbs_ode_narrow(o, k, &a, &b, &ga, &gb);
     for (;;) {
         double width = b - a, c, gc;
         if (width <= 1e-12 * fmax(1.0, fabs(b)) && !straddled) {
@@ -283,6 +367,16 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
     }
 }
 
+/* The indicators g at the event about to be stopped at, t (NULL: not known), for mbs_ode_restart. */
+static void mbs_ode_keep_event(mbs_ode *o, double t, const double *g)
+{
+    mbs_ode_trials *tr = o->trials;
+    tr->event_ready = MBS_ODE_SHARE_TRIALS && g != NULL;
+    if (!tr->event_ready) return;
+    tr->t_event = t;
+    memcpy(tr->g_event, g, (size_t)o->nev * sizeof(double));
+}
+
 /* After an accepted step: stop at the earliest located crossing (status MBS_ODE_EVENT, t and y at it; g_old
  * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old.
  * Crossings within MBS_ODE_DEPARTURE_STEP of the earliest are one event, at the latest of them, where each has
@@ -298,6 +392,8 @@ static void mbs_ode_find_event(mbs_ode *o)
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
+    o->trials->count = 0;
+    mbs_ode_keep_trial(o, o->t, o->g_new);
     for (k = 0; k < o->nev; k++) {
         located[k] = NAN;
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
@@ -316,10 +412,12 @@ static void mbs_ode_find_event(mbs_ode *o)
     }
     if (!found) {
         swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;
+        o->trials->g_old_exact = 1;
         if (r && r->h_resume > 0) { o->h = r->h_resume; r->h_resume = 0; }  /* the next crossing was not there */
         return;
     }
     if (r) { r->h_cut = o->t - o->t_old; r->t_next = t_next; }
+    mbs_ode_keep_event(o, t_event, mbs_ode_kept_trial(o, t_event));
     o->dense(o, t_event, o->y);
     o->t = t_event;
     o->status = MBS_ODE_EVENT;
@@ -387,6 +485,7 @@ static void mbs_ode_depart(mbs_ode *o, double *g)
 {
     double dt = MBS_ODE_DEPARTURE_STEP * fmax(1.0, fabs(o->t));
     int i, k;
+    o->trials->g_old_exact = 0;
     if (o->events(o->t, o->y, o->p, g, o->work) != MBS_OK) return;
     for (i = 0; i < o->n; i++) o->y_try[i] = o->y[i] + dt * o->f[i];
     if (o->events(o->t + dt, o->y_try, o->p, o->g_try, o->work) != MBS_OK) return;
@@ -467,8 +566,10 @@ static int mbs_ode_bridge(mbs_ode *o)
     mbs_ode_restarts *r = o->restarts;
     void (*dense)(const mbs_ode *, double, double *) = o->dense;
     double t1 = o->t, b = t1 + 2.0 * (r->t_next - t1), t2 = HUGE_VAL, err;
+    const double *kept;
     int i, k, ok = 0;
     if (!(b < r->t_fence && b <= o->t_bound && r->t_next > t1)) return 0;
+    o->trials->count = 0;
     o->dense = mbs_ode_euler_dense;
     o->dense(o, b, o->y_try);
     if (o->events(b, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
@@ -480,7 +581,9 @@ static int mbs_ode_bridge(mbs_ode *o)
     }
     if (!(t2 < HUGE_VAL && t2 > t1)) goto done;
     o->dense(o, t2, o->y_try);
-    if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
+    kept = mbs_ode_kept_trial(o, t2);  /* the located end of a bracket: evaluated there already */
+    if (kept) memcpy(o->g_new, kept, (size_t)o->nev * sizeof(double));
+    else if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
     for (k = 0; k < o->nev; k++)
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k]) && !r->handled[k]) goto done;
     o->nfev++;
@@ -494,6 +597,7 @@ done:
     memcpy(o->y, o->y_try, (size_t)o->n * sizeof(double));
     o->t = t2;
     o->status = MBS_ODE_EVENT;
+    mbs_ode_keep_event(o, t2, o->g_new);
     r->t_next = HUGE_VAL;
     mbs_ode_restart(o);  /* 0: the event at t2 goes back to the caller from the state there */
     return 1;
@@ -513,7 +617,10 @@ static int mbs_ode_restart(mbs_ode *o)
     entry = r->log + (size_t)r->count * r->width;
     g_event = entry + 1 + 2 * (size_t)n + nev;
     values = g_event + nev;
-    if (o->events(o->t, o->y, o->p, g_event, o->work) != MBS_OK) return 0;
+    if (o->trials->event_ready && o->trials->t_event == o->t)  /* found there by the root finder (same bits) */
+        memcpy(g_event, o->trials->g_event, (size_t)nev * sizeof(double));
+    else if (o->events(o->t, o->y, o->p, g_event, o->work) != MBS_OK) return 0;
+    o->trials->event_ready = 0;
     for (k = 0; k < nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
             if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) return 0;
@@ -575,6 +682,7 @@ static int mbs_ode_sample(mbs_ode *o, const double *t_eval, long n_eval, long *i
 {
     long i = *index;
     int n = o->n;
+    if (o->trials) o->trials->event_ready = 0;  /* the caller may have changed the parameters since */
     for (;;) {
         /* at an event only the samples before it: from its time on they belong to the state after it */
         while (i < n_eval && (t_eval[i] < o->t || (t_eval[i] == o->t && o->status != MBS_ODE_EVENT))) {
