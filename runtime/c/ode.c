@@ -303,8 +303,10 @@ static void mbs_ode_narrow(const mbs_ode *o, int k, double *a, double *b, double
 }
 
 /* The first time in (a, b] at which g_k has left the sign of ga, to adjacent doubles: Illinois (a secant that
- * halves the value at an end kept twice) until the bracket is 1e-12 s wide, bisection after that.  The same
- * algorithm as mbs.runtime.events.locate_crossing, started from the bracket the trial points of the step's other
+ * halves the value at an end kept twice) until the bracket is 1e-12 s wide; then the double nearest the secant's
+ * root and its neighbour, probes four doubles either side of it, and bisection, until the bracket is two adjacent
+ * doubles.  The algorithm of mbs.runtime.events.locate_crossing (which does without the first pair of probes: both
+ * end on adjacent doubles across a sign change), started from the bracket the trial points of the step's other
  * crossings give (mbs_ode_trials).  A NaN counts as the new side (the bracket closes on it); a trial point where g_k
  * is exactly 0 is the crossing once g_k has ga's sign four doubles below it. */
 static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, double gb)
@@ -322,12 +324,32 @@ static double mbs_ode_locate(mbs_ode *o, int k, double a, double b, double ga, d
     mbs_ode_narrow(o, k, &a, &b, &ga, &gb);
     for (;;) {
         double width = b - a, c, gc;
-        if (width <= 1e-12 * fmax(1.0, fabs(b)) && !straddled) {
-            /* the indicator is linear to round-off here: probe a few doubles either side of the secant's root
-             * (the bracket closes to ~8 doubles in two evaluations instead of a dozen halvings) */
+        if (width <= 1e-12 * fmax(1.0, fabs(b)) && straddled == 0 && MBS_ODE_SHARE_TRIALS) {
+            /* the indicator is linear to round-off here: the double nearest the secant's root, then its neighbour on
+             * the other side of the crossing; adjacent doubles in two evaluations when the secant is right to the
+             * last bit (six crossings in seven over the Iltis bump), else the probes below go on from there */
+            double s = b - gb * width / (gb - ga);
+            straddled = 1;
+            s = fmin(fmax(s, a), b);
+            if (a < s && s < b) {
+                gc = mbs_ode_g_at(o, k, s);
+                if (gc * ga > 0) { a = s; ga = gc; }
+                else { b = s; gb = gc; }
+            }
+            c = s == a ? nextafter(s, HUGE_VAL) : nextafter(s, -HUGE_VAL);
+            if (a < c && c < b) {
+                gc = mbs_ode_g_at(o, k, c);
+                if (gc * ga > 0) { a = c; ga = gc; }
+                else { b = c; gb = gc; }
+            }
+            continue;
+        }
+        if (width <= 1e-12 * fmax(1.0, fabs(b)) && straddled < 2) {
+            /* probe a few doubles either side of the secant's root (the bracket closes to ~8 doubles in two
+             * evaluations instead of a dozen halvings) */
             double s = b - gb * width / (gb - ga), e, side[2];
             int j;
-            straddled = 1;
+            straddled = 2;
             s = fmin(fmax(s, a), b);  /* a root at an end to round-off: the probe inside it closes the bracket */
             e = 4.0 * (nextafter(s, HUGE_VAL) - s);
             side[0] = s - e; side[1] = s + e;
