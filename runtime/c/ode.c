@@ -25,7 +25,7 @@
 #define MBS_ODE_FIRST_STEP_RELAX 1.2
 
 /* The root finder's memory of one step (mbs_ode_trials), and how many trial points it keeps: a crossing takes about
- * ten, the indicators that cross in one step together (the twin wheels) a few dozen. */
+ * eight evaluations, the indicators that cross in one step together (the twin wheels) a dozen or two. */
 #define MBS_ODE_TRIALS 64
 /* -DMBS_ODE_EVENTS_FORMER=1 builds the former root finding (each crossing located from the step's ends alone, the
  * departure probe taken every time, the indicators at an event evaluated again by the restart): the same-run

@@ -1,0 +1,66 @@
+"""The root finder of c/ode.c shares the trial points of a step's searches among the indicators that cross in it
+(the second of two twin contacts starts from the bracket the first one's trial points give), takes the departure
+probe only after a restart and hands the indicators at the event to the restart: none of it may move an event.
+The reference is the same model built with -DMBS_ODE_EVENTS_FORMER=1 (each crossing located from its step's ends
+alone): where an indicator changes sign once at the scale of doubles (two free falls onto contacts, quadratic in
+time), both must end on the same two adjacent doubles, so the runs agree to the bit."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mbs
+from mbs.runtime import build
+from mbs.runtime.backends import CBackend
+
+TWIN_DROPS = Path(__file__).parent / "models" / "twin_drops.mbs"
+G, H = 9.81, 1.0
+
+
+def former_build(system, scene: str):
+    """The scene's compiled model with the former root finding."""
+    compiled = system.compile(scene)
+    result = build.build(system.generate(scene).c_source, extra_flags=("-DMBS_ODE_EVENTS_FORMER=1",))
+    return dataclasses.replace(compiled, backend=CBackend(build.load(result)))
+
+
+def simulate_with(system, scene: str, model, **kwargs):
+    compiled = system.compile(scene)
+    keys = [key for key, value in system._compiled.items() if value is compiled]
+    for key in keys:
+        system._compiled[key] = model
+    try:
+        return system.simulate(scene, **kwargs)
+    finally:
+        for key in keys:
+            system._compiled[key] = compiled
+
+
+@pytest.fixture(scope="module")
+def twins():
+    system = mbs.load(TWIN_DROPS)
+    return system, former_build(system, "drops")
+
+
+@pytest.mark.parametrize("apart", [4e-10, 1e-11, 1e-14])
+def test_twin_contacts_are_located_as_the_former_root_finder_did_to_the_bit(twins, apart):
+    """Two contacts `apart` seconds apart, found in one step: beyond the departure step they are two events (the
+    second located from the first one's trial points), within it one; either way at the times and with the samples
+    of the former search, and each at its free-fall time sqrt(2 h / g)."""
+    system, former = twins
+    dh = apart * np.sqrt(2 * G * H)
+    now = system.simulate("drops", params={"dh": dh})
+    before = simulate_with(system, "drops", former, params={"dh": dh})
+    assert now.success and before.success
+    assert [(e["event"], e["direction"], e["time"]) for e in now.events] == \
+        [(e["event"], e["direction"], e["time"]) for e in before.events]
+    for name in now.names:
+        assert np.array_equal(now[name], before[name]), name
+    closing = {e["event"].split(" ")[-1]: e["time"] for e in now.events if e["direction"] == "rising"}
+    assert closing["drop_left.contact)"] == pytest.approx(np.sqrt(2 * H / G), abs=1e-12)
+    assert closing["drop_right.contact)"] == pytest.approx(np.sqrt(2 * (H + dh) / G), abs=1e-12)
+    assert closing["drop_right.contact)"] - closing["drop_left.contact)"] == pytest.approx(apart, abs=2e-12)
