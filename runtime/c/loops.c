@@ -82,9 +82,9 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then 4 + 3 NC + 3 NV ints in the room of
- * 3 + 2 NC + 2 NV doubles (mbs_loop_blocks). */
-#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV)
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 5 + 3 NC + 3 NV + 2 NC NV ints in
+ * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
+#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -435,6 +435,9 @@ typedef struct {
     int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
+    int *ng;     /* the entries of G the blocks hold (at most NC x NV): */
+    int *src;    /* ng: each one's offset in G (row-major, w->G0) */
+    int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
 } mbs_loop_blocks;
 
 static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -448,7 +451,10 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.block = s; s += MBS_NV;
     b.clean = s; s += 1;
     b.col = s; s += MBS_NV;
-    b.row = s;
+    b.row = s; s += MBS_NC;
+    b.ng = s; s += 1;
+    b.src = s; s += MBS_NC * MBS_NV;
+    b.dst = s;
     return b;
 }
 
@@ -519,6 +525,18 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     memcpy(kp + 4 + MBS_NV, rows, r * sizeof(double));
     for (j = 0; j < MBS_NV; j++) bl.col[j] = (int)cols[j];
     for (k = 0; k < r; k++) bl.row[k] = (int)rows[k];
+    for (b = 0, n = 0; b < *bl.nb; b++)  /* the gather: each block's rows, its dependent then independent columns */
+        for (k = bl.k0[b]; k < bl.k0[b + 1]; k++) {
+            for (c = bl.k0[b]; c < bl.k0[b + 1]; c++, n++) {
+                bl.src[n] = bl.row[k] * MBS_NV + bl.col[c];
+                bl.dst[n] = k * MBS_NV + c;
+            }
+            for (e = bl.j0[b]; e < bl.j0[b + 1]; e++, n++) {
+                bl.src[n] = bl.row[k] * MBS_NV + bl.col[bl.jl[e]];
+                bl.dst[n] = k * MBS_NV + bl.jl[e];
+            }
+        }
+    *bl.ng = n;
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -534,7 +552,6 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     const double *kp = w->keep, *G0 = w->G0;
     const int r = (int)kp[1];
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    const int *cpi = bl.col;
     double *A = w->G, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
     int i, k, c, b, e;
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
@@ -546,24 +563,11 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (b = 0; b < *bl.nb; b++) {
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-        for (k = k0; k < k1; k++) {
-            const double *row = G0 + bl.row[k] * MBS_NV;
-            double *dst = A + k * MBS_NV;
-            for (c = k0; c < k1; c++) {
-                const double g = row[cpi[c]], a = fabs(g);
-                dst[c] = g;
-                amax0 = a > amax0 ? a : amax0;
-                probe += 0.0 * g;
-            }
-            for (e = 0; e < nj; e++) {
-                const double g = row[cpi[jl[e]]], a = fabs(g);
-                dst[jl[e]] = g;
-                amax0 = a > amax0 ? a : amax0;
-                probe += 0.0 * g;
-            }
-        }
+    for (e = 0; e < *bl.ng; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
+        const double g = G0[bl.src[e]], a = fabs(g);
+        A[bl.dst[e]] = g;
+        amax0 = a > amax0 ? a : amax0;
+        probe += 0.0 * g;
     }
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
@@ -1242,8 +1246,12 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
         w->a[j] = sum - mbs_loop_dot(mt, w->c0);
         for (i = j; i < m; i++) {
-            sum = 0.0;
-            for (f = start[i]; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
+            f = start[i];
+            if (start[i + 1] == f + 1 && T[f] == 1.0) {  /* a unit column: its velocity's entry (0 + 1 x = x) */
+                A[i * MBS_NV + j] = mt[Ti[f]];
+                continue;
+            }
+            for (sum = 0.0; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
