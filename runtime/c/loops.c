@@ -240,6 +240,16 @@ static double mbs_loop_maxabs(const double *a, int n, int *where)
     return m;
 }
 
+/* Are all n entries of a finite?  (0 x is 0 for a finite x, NaN for an infinite one or NaN: no branch per entry,
+ * where mbs_loop_maxabs, which also says where, takes one.) */
+static int mbs_loop_finite(const double *a, int n)
+{
+    double probe = 0.0;
+    int i;
+    for (i = 0; i < n; i++) probe += 0.0 * a[i];
+    return probe == 0.0;
+}
+
 /* Unit quaternions in the position part of x. */
 static void mbs_loop_normalize_q(double *x)
 {
@@ -585,8 +595,8 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
         for (k = k0; k < k1; k++) {
             int pi = k;
-            double amax = 0.0;
-            for (i = k; i < k1; i++)
+            double amax = fabs(A[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
+            for (i = k + 1; i < k1; i++)
                 if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
             if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
             minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
@@ -1296,9 +1306,9 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     for (j = 0; j < m; j++)
         for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
 #ifdef MBS_NLOADED
-    if (isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL))) return mbs_loop_bearing_friction(t, p, w, r, m, start);
+    if (mbs_loop_finite(w->vd, MBS_NV)) return mbs_loop_bearing_friction(t, p, w, r, m, start);
 #endif
-    return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    return mbs_loop_finite(w->vd, MBS_NV) ? 0 : MBS_LOOP_NONFINITE;
 }
 
 /* Rows outside the partition were dropped as dependent on its rows: they must hold too.  Checked on the
