@@ -69,3 +69,27 @@ def test_the_iltis_corners_share_no_inertia(corner):
     assert len(mine) == 7 and len(others) == 21 and len(body) == 6
     assert not pattern[np.ix_(mine, others)].any()
     assert pattern[np.ix_(mine, body)].all()  # (a suspension's motion moves the body's mass centre: coupled)
+
+
+def test_without_the_pattern_the_solver_reads_whole_rows_to_the_same_result(tmp_path):
+    """loops.c's fallback for a model without the table (every entry of M counted) against the table's path: the
+    same products in the same order, plus products with M's exact zeros, so the same right-hand side."""
+    from mbs.runtime.model import load_c
+    from mbs.runtime.workspace import Workspace
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs", cache_dir=tmp_path)
+    generated = system.generate()
+    source = generated.c_source
+    start = source.index("#define MBS_MASS_PATTERN 1")
+    end = source.index("\n", source.index("static const int mbs_mass_end"))
+    whole = source[:start] + source[end + 1:]
+    assert "MBS_MASS_PATTERN" not in whole
+    info = dict(q_names=list(generated.q_names), v_names=list(generated.v_names), p_names=list(generated.p_names))
+    compiled = system.compile()
+    patterned = Workspace(compiled)
+    fallback = Workspace(load_c(code=whole, cache_dir=tmp_path, name="whole_rows",
+                                p_default=list(compiled.p_default), **info))
+    rng = np.random.default_rng(11)
+    f, g = patterned.function("loop_rhs"), fallback.function("loop_rhs")
+    for _ in range(5):
+        x = patterned.x + rng.uniform(-0.01, 0.01, patterned.x.size)
+        np.testing.assert_allclose(g(0.0, x), f(0.0, x), rtol=1e-13, atol=1e-13)
