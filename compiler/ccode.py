@@ -276,7 +276,7 @@ class CEmitter:
         if self.constraints is not None:
             lines += [f"#define MBS_TREE_NWORK {self._tree_work()}   /* of the tree functions */",
                       loop_definitions(self.constraints, self.constraint_matrix is not None, self._friction_work(),
-                                       len(self.parameters))]
+                                       len(self.parameters), self.eqs.mass_matrix)]
             if self.closed_form is not None:
                 lines.append(closed_form_definitions(self.closed_form, nv, self.constraints.nc))
             if self.friction:
@@ -663,5 +663,5 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     if emitter.outputs:
         names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
     helpers = emitter._helpers(printer.used, printer.hook_calls)
-    return "\n".join([header, loop_definitions(constraints, np=len(emitter.parameters)), *helpers, *functions, *names,
+    return "\n".join([header, loop_definitions(constraints, np=len(emitter.parameters), mass_matrix=equations.mass_matrix), *helpers, *functions, *names,
                       loop_functions(constraints)])

@@ -47,7 +47,7 @@ def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0, np: int = 0) -> int:
     in its two state copies, np parameters in its stamp."""
     nx = nq + nv + nz
     stamp = nq + np + 4  # the state and parameters whose factors the solver keeps for an accepted step's projection
-    plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
+    plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv + nc * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
     return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp + plan
 
 
@@ -99,13 +99,42 @@ def constraint_matrix_routine(equations: Equations, constraints: Constraints) ->
     return dataclasses.replace(equations, kinematics=kinematics), routine
 
 
+def mass_pattern(mass_matrix) -> str:
+    """The structural nonzeros of the mass matrix as runs of columns by rows (MBS_MASS_PATTERN): the entries the
+    generated functions print as anything but the literal 0, from its upper triangle (M is symmetric; row i holds
+    column j when M[min(i,j)][max(i,j)] is not the constant 0).  The loop solver forms M T and M c0 from these
+    entries only (runtime/c/loops.c): the Iltis's corners couple through the car body alone, so a corner velocity's
+    row holds 7-10 nonzeros of 34, in two or three runs (the body's six columns, then the corner's own).  Written
+    once by the generator, they hold at every state."""
+    nv = len(mass_matrix)
+    rows, begin, end = [0], [], []
+    for i in range(nv):
+        for j in range(nv):
+            if mass_matrix[min(i, j)][max(i, j)] == 0:
+                continue
+            if len(begin) > rows[-1] and end[-1] == j:
+                end[-1] = j + 1
+            else:
+                begin.append(j)
+                end.append(j + 1)
+        rows.append(len(begin))
+    return "\n".join([
+        "#define MBS_MASS_PATTERN 1   /* the structural nonzeros of M by rows (runtime/c/loops.c) */",
+        "/* Row i of M is nonzero at most in the column runs k = mbs_mass_row[i] .. mbs_mass_row[i + 1] - 1, each the",
+        " * columns mbs_mass_begin[k] .. mbs_mass_end[k] - 1. */",
+        f"static const int mbs_mass_row[{nv + 1}] = {{{', '.join(map(str, rows))}}};",
+        f"static const int mbs_mass_begin[{max(len(begin), 1)}] = {{{', '.join(map(str, begin)) or '0'}}};",
+        f"static const int mbs_mass_end[{max(len(end), 1)}] = {{{', '.join(map(str, end)) or '0'}}};"])
+
+
 def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, extra_work: int = 0,
-                     np: int = 0) -> str:
+                     np: int = 0, mass_matrix=None) -> str:
     """Sizes, quaternion slots and the declaration of the loop solver's right-hand side (after the header);
     constraint_matrix: the file defines mbs_constraint_matrix (`constraint_matrix_routine`) and mbs_loop_terms
     (compiler/ccode_loop_terms.py); extra_work: doubles
     the loop solver's work holds beyond its own (bearing friction in the loops: MBS_FRICTION_NWORK, at its end); np:
-    the model's parameters (MBS_NP)."""
+    the model's parameters (MBS_NP); mass_matrix: the symbolic M (nv x nv, its upper triangle read), whose
+    structural zeros the solver skips (`mass_pattern`; without it every entry counts)."""
     tree = constraints.tree
     slots = constraints.quaternion_slots
     work = loop_work_size(tree.nq, tree.nv, constraints.nc, tree.nz, np) + extra_work
@@ -134,6 +163,7 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, 
            "#define MBS_LOOP_TERMS 1   /* mbs_loop_terms gives [M; f; G; gddot0] (compiler/ccode_loop_terms.py) */",
            "int mbs_loop_terms(double t, const double *x, const double *p, double *out, double *work);"]
           if constraint_matrix else []),
+        *([mass_pattern(mass_matrix)] if mass_matrix is not None else []),
         "",
         "/* The constrained right-hand side and the multipliers, defined by the run-time loop solver compiled",
         " * after this file. */",

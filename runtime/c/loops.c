@@ -82,8 +82,9 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then 3 + 2 NC + 2 NV ints in as many doubles. */
-#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV)
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 5 + 3 NC + 3 NV + 2 NC NV ints in
+ * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
+#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -237,6 +238,16 @@ static double mbs_loop_maxabs(const double *a, int n, int *where)
         }
     }
     return m;
+}
+
+/* Are all n entries of a finite?  (0 x is 0 for a finite x, NaN for an infinite one or NaN: no branch per entry,
+ * where mbs_loop_maxabs, which also says where, takes one.) */
+static int mbs_loop_finite(const double *a, int n)
+{
+    double probe = 0.0;
+    int i;
+    for (i = 0; i < n; i++) probe += 0.0 * a[i];
+    return probe == 0.0;
 }
 
 /* Unit quaternions in the position part of x. */
@@ -432,6 +443,11 @@ typedef struct {
     int *jl;     /* NV */
     int *block;  /* NV: the block of each column position, -1 for an independent one that no pivot row touches */
     int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
+    int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
+    int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
+    int *ng;     /* the entries of G the blocks hold (at most NC x NV): */
+    int *src;    /* ng: each one's offset in G (row-major, w->G0) */
+    int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
 } mbs_loop_blocks;
 
 static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -443,7 +459,12 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.j0 = s; s += MBS_NC + 1;
     b.jl = s; s += MBS_NV;
     b.block = s; s += MBS_NV;
-    b.clean = s;
+    b.clean = s; s += 1;
+    b.col = s; s += MBS_NV;
+    b.row = s; s += MBS_NC;
+    b.ng = s; s += 1;
+    b.src = s; s += MBS_NC * MBS_NV;
+    b.dst = s;
     return b;
 }
 
@@ -512,6 +533,20 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
         }
     memcpy(kp + 4, cols, MBS_NV * sizeof(double));
     memcpy(kp + 4 + MBS_NV, rows, r * sizeof(double));
+    for (j = 0; j < MBS_NV; j++) bl.col[j] = (int)cols[j];
+    for (k = 0; k < r; k++) bl.row[k] = (int)rows[k];
+    for (b = 0, n = 0; b < *bl.nb; b++)  /* the gather: each block's rows, its dependent then independent columns */
+        for (k = bl.k0[b]; k < bl.k0[b + 1]; k++) {
+            for (c = bl.k0[b]; c < bl.k0[b + 1]; c++, n++) {
+                bl.src[n] = bl.row[k] * MBS_NV + bl.col[c];
+                bl.dst[n] = k * MBS_NV + c;
+            }
+            for (e = bl.j0[b]; e < bl.j0[b + 1]; e++, n++) {
+                bl.src[n] = bl.row[k] * MBS_NV + bl.col[bl.jl[e]];
+                bl.dst[n] = k * MBS_NV + bl.jl[e];
+            }
+        }
+    *bl.ng = n;
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -528,9 +563,9 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     const int r = (int)kp[1];
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     double *A = w->G, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
-    int i, j, k, c, b, e;
-    for (j = 0; j < MBS_NV; j++) w->cp[j] = kp[4 + j];
-    for (k = 0; k < r; k++) w->rp[k] = kp[4 + MBS_NV + k];
+    int i, k, c, b, e;
+    memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
+    memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
@@ -538,24 +573,11 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (b = 0; b < *bl.nb; b++) {
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-        for (k = k0; k < k1; k++) {
-            const double *row = G0 + (int)w->rp[k] * MBS_NV;
-            double *dst = A + k * MBS_NV;
-            for (c = k0; c < k1; c++) {
-                const double g = row[(int)w->cp[c]], a = fabs(g);
-                dst[c] = g;
-                amax0 = a > amax0 ? a : amax0;
-                probe += 0.0 * g;
-            }
-            for (e = 0; e < nj; e++) {
-                const double g = row[(int)w->cp[jl[e]]], a = fabs(g);
-                dst[jl[e]] = g;
-                amax0 = a > amax0 ? a : amax0;
-                probe += 0.0 * g;
-            }
-        }
+    for (e = 0; e < *bl.ng; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
+        const double g = G0[bl.src[e]], a = fabs(g);
+        A[bl.dst[e]] = g;
+        amax0 = a > amax0 ? a : amax0;
+        probe += 0.0 * g;
     }
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
@@ -573,8 +595,8 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
         for (k = k0; k < k1; k++) {
             int pi = k;
-            double amax = 0.0;
-            for (i = k; i < k1; i++)
+            double amax = fabs(A[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
+            for (i = k + 1; i < k1; i++)
                 if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
             if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
             minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
@@ -631,10 +653,10 @@ static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, doubl
     }
 }
 
-/* Factor G with the kept partition (valid), by its plan (made first when it is not the kept partition's). */
-static double mbs_loop_factor_kept(mbs_loop_work *w)
+/* Factor G with the kept partition (valid), by its plan (made first unless `planned`: the plan holds for it). */
+static double mbs_loop_factor_kept(mbs_loop_work *w, int planned)
 {
-    if (!mbs_loop_plan_holds(w)) mbs_loop_plan_build(w);
+    if (!planned) mbs_loop_plan_build(w);
     return mbs_loop_factor_blocks(w);
 }
 
@@ -711,10 +733,11 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
                               mbs_loop_info *info)
 {
     double pivot;
-    int r, rb, valid = adopt >= 0 && mbs_loop_keep_valid(w);
+    const int planned = adopt >= 0 && mbs_loop_plan_holds(w);  /* (a plan is made for a valid partition only) */
+    int r, rb, valid = planned || (adopt >= 0 && mbs_loop_keep_valid(w));
     w->fresh = w->singular = w->blocked = 0;
     if (valid) {
-        pivot = mbs_loop_factor_kept(w);
+        pivot = mbs_loop_factor_kept(w, planned);
         if (pivot < 0.0) return -1;
         w->pivot = pivot;
         if (pivot >= MBS_LOOP_KEEP_RATIO * w->keep[2] && (pivot >= MBS_LOOP_BAND_TOL || w->keep[3] == 0.0)) {
@@ -1139,20 +1162,44 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
 }
 #endif
 
-/* mt = M t for t given by its n nonzeros (values tv at velocities ti): the rows of M (symmetric) at those
- * velocities, each a contiguous run the compiler vectorises (restrict: mt aliases neither M nor t). */
-static void mbs_loop_mass_times_column(const double *restrict M, const double *restrict tv, const int *ti, int n,
-                                       double *restrict mt)
+/* mt += c times row u of M (symmetric: its column u), over the row's structural nonzeros (the generator's
+ * table, compiler/ccode_loops.py mass_pattern) when the model has one, else the whole row (a contiguous run the
+ * compiler vectorises; restrict: mt aliases no row of M). */
+static inline void mbs_loop_mass_axpy(const double *restrict M, int u, double c, double *restrict mt)
 {
-    const double c = tv[0];  /* n >= 1: a column of T holds its independent velocity's 1 */
-    const double *restrict row = M + ti[0] * MBS_NV;
-    int i, e;
-    for (i = 0; i < MBS_NV; i++) mt[i] = row[i] * c;
-    for (e = 1; e < n; e++) {
-        const double ce = tv[e];
-        const double *restrict rowe = M + ti[e] * MBS_NV;
-        for (i = 0; i < MBS_NV; i++) mt[i] += rowe[i] * ce;
-    }
+    const double *restrict row = M + u * MBS_NV;
+    int e;
+#ifdef MBS_MASS_PATTERN
+    int k;
+    for (k = mbs_mass_row[u]; k < mbs_mass_row[u + 1]; k++)
+        for (e = mbs_mass_begin[k]; e < mbs_mass_end[k]; e++) mt[e] += row[e] * c;
+#else
+    for (e = 0; e < MBS_NV; e++) mt[e] += row[e] * c;
+#endif
+}
+
+/* M t for t given by its n nonzeros (values tv at velocities ti): a row of M itself when t is a unit column (an
+ * independent velocity no loop moves, e.g. the car body's: nothing computed), else the rows of M (symmetric) at
+ * those velocities summed into mt over their structural nonzeros, in the order of t's entries. */
+static const double *mbs_loop_mass_times_column(const double *restrict M, const double *restrict tv,
+                                                const int *ti, int n, double *restrict mt)
+{
+    int e;
+    if (n == 1 && tv[0] == 1.0) return M + ti[0] * MBS_NV;
+    memset(mt, 0, MBS_NV * sizeof(double));
+    for (e = 0; e < n; e++) mbs_loop_mass_axpy(M, ti[e], tv[e], mt);
+    return mt;
+}
+
+/* a^T b over NV entries in four independent chains (a single running sum waits for its latency at every entry). */
+static double mbs_loop_dot(const double *a, const double *b)
+{
+    double s[4] = {0.0, 0.0, 0.0, 0.0};
+    int i, k;
+    for (i = 0; i + 4 <= MBS_NV; i += 4)
+        for (k = 0; k < 4; k++) s[k] += a[i + k] * b[i + k];
+    for (; i < MBS_NV; i++) s[0] += a[i] * b[i];
+    return (s[0] + s[1]) + (s[2] + s[3]);
 }
 
 /* gddot0 into w->h, M and f at w->xc, and G there into w->G0: one call of the generated mbs_loop_terms (one pass
@@ -1182,7 +1229,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
     int i, j, k, s;
     if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
                     * the same state finds h replaced at a singular position) */
@@ -1194,32 +1241,45 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
     /* the null-space basis T (NV x m, packed columns) and c0 */
-    for (j = 0; j < MBS_NV; j++) cpi[j] = (int)w->cp[j];
-    if (w->blocked)
-        mbs_loop_null_space_blocks(w, r, start, cpi);
+    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
+        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
         mbs_loop_null_space(w, r, start, cpi);
-    /* per column j of T: mt = M T_j (the rows of M at T_j's few velocities, each a contiguous run the compiler
-     * vectorises; M is symmetric), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and
-     * a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 is zero on the independent velocities) */
+    /* per column j of T: mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities,
+     * or a row of M for a unit column), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of
+     * T_i, and a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 zero on the independent velocities) */
     for (j = 0; j < m; j++) {
-        double *restrict mt = w->b, sum = 0.0;
+        const double *mt;
+        double sum = 0.0;
         int e, f;
-        mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j], mt);
+        mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j], w->b);
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
-        for (k = 0; k < r; k++) sum -= mt[cpi[k]] * w->y[k];  /* y: c0 in pivot order (the null space left it) */
-        w->a[j] = sum;
+        w->a[j] = sum - mbs_loop_dot(mt, w->c0);
         for (i = j; i < m; i++) {
-            sum = 0.0;
-            for (f = start[i]; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
+            f = start[i];
+            if (start[i + 1] == f + 1 && T[f] == 1.0) {  /* a unit column: its velocity's entry (0 + 1 x = x) */
+                A[i * MBS_NV + j] = mt[Ti[f]];
+                continue;
+            }
+            for (sum = 0.0; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
             A[i * MBS_NV + j] = sum;  /* lower triangle */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
-    /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia */
+    /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia.  Row i of A is
+     * zero left of first[i] (its envelope: the Iltis's corners couple through the body only, and with the body's
+     * columns last a corner's row of A is its diagonal alone), and so is row i of L: the sums skip those exact
+     * zeros (the same values; the zeros stay in A for the solves that read it whole). */
+    for (i = 0; i < m; i++) {
+        for (k = 0; k < i && A[i * MBS_NV + k] == 0.0; k++) {}
+        first[i] = k;
+    }
     for (j = 0; j < m; j++) {
-        double d = A[j * MBS_NV + j];
-        for (k = 0; k < j; k++) d -= A[j * MBS_NV + k] * A[j * MBS_NV + k] * A[k * MBS_NV + k];
+        double d = A[j * MBS_NV + j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
+        for (k = first[j]; k < j; k++) {
+            ld[k] = A[j * MBS_NV + k] * A[k * MBS_NV + k];
+            d -= A[j * MBS_NV + k] * ld[k];
+        }
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
         if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
@@ -1230,23 +1290,25 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         A[j * MBS_NV + j] = d;
         for (i = j + 1; i < m; i++) {
             double sum = A[i * MBS_NV + j];
-            for (k = 0; k < j; k++) sum -= A[i * MBS_NV + k] * A[j * MBS_NV + k] * A[k * MBS_NV + k];
+            if (first[i] > j) continue;  /* L_ij = 0 */
+            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= A[i * MBS_NV + k] * ld[k];
             A[i * MBS_NV + j] = sum / d;
         }
     }
     for (j = 0; j < m; j++)
-        for (k = 0; k < j; k++) w->a[j] -= A[j * MBS_NV + k] * w->a[k];
+        for (k = first[j]; k < j; k++) w->a[j] -= A[j * MBS_NV + k] * w->a[k];
     for (j = 0; j < m; j++) w->a[j] = A[j * MBS_NV + j] > 0.0 ? w->a[j] / A[j * MBS_NV + j] : 0.0;
     for (j = m - 1; j >= 0; j--)
-        for (k = j + 1; k < m; k++) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
+        for (k = j + 1; k < m; k++)
+            if (first[k] <= j) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
     for (j = 0; j < m; j++)
         for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
 #ifdef MBS_NLOADED
-    if (isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL))) return mbs_loop_bearing_friction(t, p, w, r, m, start);
+    if (mbs_loop_finite(w->vd, MBS_NV)) return mbs_loop_bearing_friction(t, p, w, r, m, start);
 #endif
-    return isfinite(mbs_loop_maxabs(w->vd, MBS_NV, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    return mbs_loop_finite(w->vd, MBS_NV) ? 0 : MBS_LOOP_NONFINITE;
 }
 
 /* Rows outside the partition were dropped as dependent on its rows: they must hold too.  Checked on the
@@ -1256,12 +1318,15 @@ static int mbs_loop_rows_hold(const mbs_loop_work *w)
 {
     double worst = 0.0, scale = mbs_loop_maxabs(w->h, MBS_NC, NULL), gmax = 0.0;
     double vmax = mbs_loop_maxabs(w->vd, MBS_NV, NULL);
-    int i, j;
-    for (i = 0; i < MBS_NC; i++) {
+    int i, c;
+    for (i = 0; i < MBS_NC; i++) {  /* over the row's structural nonzeros (mbs_colour_column): the rest are zeros */
         double sum = w->h[i];
-        for (j = 0; j < MBS_NV; j++) {
-            sum += w->G0[i * MBS_NV + j] * w->vd[j];
-            gmax = fmax(gmax, fabs(w->G0[i * MBS_NV + j]));
+        for (c = 0; c < MBS_NCOLOUR; c++) {
+            const int j = mbs_colour_column[i * MBS_NCOLOUR + c];
+            if (j >= 0) {
+                sum += w->G0[i * MBS_NV + j] * w->vd[j];
+                gmax = fmax(gmax, fabs(w->G0[i * MBS_NV + j]));
+            }
         }
         worst = fmax(worst, fabs(sum));
     }
