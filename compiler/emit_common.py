@@ -18,7 +18,7 @@ import sympy as sp
 
 from .fast_arith import replaced
 from .hooks import is_helper as is_hook_helper
-from .tape import symbols_of
+from .tape import count_reads, symbols_of
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -434,24 +434,15 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
 
 
 def read_counts(tape, entries, outputs) -> dict:
-    """How often each temporary is read by the other entries and the outputs of one function."""
+    """How often each temporary is read by the other entries and the outputs of one function (an entry's reads are
+    counted once per tape, Tape.reads: the functions of a file slice many of the same entries)."""
     counts = {e.symbol: 0 for e in entries}
-
-    def visit(expr, weight=1):
-        if expr in counts:
-            counts[expr] += weight
-        elif expr.is_Pow and expr.exp.is_Integer:
-            visit(expr.base, weight * abs(int(expr.exp)))  # x**2 is written x*x
-        else:
-            for arg in expr.args:
-                visit(arg, weight)
-
     for e in entries:
-        visit(e.expr)
-        if e.guard is not None:
-            visit(e.guard)
+        for symbol, n in tape.reads(e).items():
+            if symbol in counts:
+                counts[symbol] += n
     for o in outputs:
-        visit(sp.sympify(o))
+        count_reads(sp.sympify(o), counts, counts)
     return counts
 
 

@@ -39,6 +39,7 @@ class Entry:
     guard: sp.Expr | None = None
     _deps: frozenset | None = field(default=None, repr=False)
     _symbols: frozenset | None = field(default=None, repr=False)
+    _reads: dict | None = field(default=None, repr=False)
 
 
 _GENERIC_FREE_SYMBOLS = sp.Basic.free_symbols  # the property of every node that binds no symbols
@@ -64,6 +65,18 @@ def symbols_of(expr) -> set:
                 else:
                     found |= arg.free_symbols
     return found
+
+
+def count_reads(expr, symbols, counts: dict, weight: int = 1) -> None:
+    """Add to counts[s] how often `expr` reads each s of `symbols` (a container): x**n reads x |n| times (printed
+    as a product), a symbol's reads are not looked into."""
+    if expr in symbols:
+        counts[expr] = counts.get(expr, 0) + weight
+    elif expr.is_Pow and expr.exp.is_Integer:
+        count_reads(expr.base, symbols, counts, weight * abs(int(expr.exp)))
+    else:
+        for arg in expr.args:
+            count_reads(arg, symbols, counts, weight)
 
 
 def is_trivial(expr: sp.Expr) -> bool:
@@ -183,7 +196,7 @@ class Tape:
             return 1 / expr
         inv = self._by_expr.get(1 / expr) or self._add(1 / expr, name)
         entry = self._entry_of[inv]
-        entry.guard, entry._deps, entry._symbols = expr, None, None
+        entry.guard, entry._deps, entry._symbols, entry._reads = expr, None, None, None
         return inv
 
     def _add(self, expr: sp.Expr, name: str, key: tuple | None = None) -> sp.Dummy:
@@ -222,6 +235,17 @@ class Tape:
                 symbols |= symbols_of(entry.guard)
             entry._symbols = frozenset(symbols)
         return entry._symbols
+
+    def reads(self, entry: Entry) -> dict:
+        """How often `entry` reads each temporary (its expression's and its guard's; x**2 reads x twice, as it is
+        printed x*x), kept on the entry: every function that slices it counts its reads (emit_common.read_counts)."""
+        if entry._reads is None:
+            counts: dict = {}
+            count_reads(entry.expr, self._entry_of, counts)
+            if entry.guard is not None:
+                count_reads(entry.guard, self._entry_of, counts)
+            entry._reads = counts
+        return entry._reads
 
     def entries_for(self, outputs) -> list[Entry]:
         """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order."""
