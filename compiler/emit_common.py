@@ -16,7 +16,7 @@ from importlib import metadata
 
 import sympy as sp
 
-from .fast_arith import replaced
+from .fast_arith import replaced_symbols as replaced  # (its rules map the temporaries written in place)
 from .hooks import is_helper as is_hook_helper
 from .tape import count_reads, symbols_of
 from .tree import t
