@@ -81,7 +81,14 @@ def _safe(name: str) -> str:
     ok = (name.isidentifier() and name.isascii() and not name.startswith("__")
           and not (len(name) > 1 and name[0] == "_" and name[1].isupper()))
     bare = name.lstrip("_")
+    if ok and _PLAIN.fullmatch(bare) and not bare.lower().startswith(OWN_PREFIX):
+        return name  # (what identifier keeps as it is, told without its regex substitutions: every temporary)
     return name if ok and identifier(bare, capitals=False) == bare else identifier(name, capitals=False)
+
+
+#: A name identifier(name, capitals=False) keeps as it is, unless it starts with OWN_PREFIX: ASCII letters, digits
+#: and underscores, a letter first and no underscore last.
+_PLAIN = re.compile(r"[A-Za-z](?:\w*[A-Za-z0-9])?", re.ASCII)
 
 
 class Naming:
