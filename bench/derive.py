@@ -23,7 +23,9 @@ these two alone):
 * a prescribed motion's second derivative taken to find a kink even without min, max, abs or a step in it (now only
   when it may have one: lower.may_kink);
 * the parameters' values and the initial state evaluated for the loops' closed form before it refused loops with
-  extra states or quaternions, the Iltis's (now refused first: closed_form_loops.structural_refusal).
+  extra states or quaternions, the Iltis's (now refused first: closed_form_loops.structural_refusal);
+* every temporary's name put through identifier's regex substitutions (now only a name that is not plain:
+  emit_common._safe).
 
 The previous code path (the switch `previous_derivation`, before issue 12's third derivation pass; the fourth
 pass's changes switched off as well):
@@ -166,6 +168,15 @@ def _former_closed_form_of(model, lowered, constraints, equations, friction):
         return None
 
 
+def _former_safe(name: str) -> str:
+    """emit_common._safe as it was: identifier's regex substitutions for every temporary's name."""
+    ok = (name.isidentifier() and name.isascii() and not name.startswith("__")
+          and not (len(name) > 1 and name[0] == "_" and name[1].isupper()))
+    bare = name.lstrip("_")
+    return (name if ok and emit_common.identifier(bare, capitals=False) == bare
+            else emit_common.identifier(name, capitals=False))
+
+
 def _former_names_in(text: str) -> set:
     return set(ccode_parts._IDENTIFIER.findall(text))
 
@@ -174,8 +185,8 @@ def _former_names_in(text: str) -> set:
 def before_fourth_pass():
     """The code path before issue 12's fourth pass (the front end and the printer)."""
     saved = (emit_common.read_counts, tape.Tape.entries_for, emit_common.replaced, ccode_parts.names_in,
-             ccode.names_in, lower.may_kink, pipeline.closed_form_of)
-    pipeline.closed_form_of = _former_closed_form_of
+             ccode.names_in, lower.may_kink, pipeline.closed_form_of, emit_common._safe)
+    pipeline.closed_form_of, emit_common._safe = _former_closed_form_of, _former_safe
     emit_common.read_counts = _former_read_counts
     tape.Tape.entries_for = _former_entries_for
     emit_common.replaced = fast_arith.replaced
@@ -185,7 +196,7 @@ def before_fourth_pass():
         yield
     finally:
         (emit_common.read_counts, tape.Tape.entries_for, emit_common.replaced, ccode_parts.names_in, ccode.names_in,
-         lower.may_kink, pipeline.closed_form_of) = saved
+         lower.may_kink, pipeline.closed_form_of, emit_common._safe) = saved
 
 
 def _uncached(cls):
