@@ -1,7 +1,7 @@
 """The symbolic derivation alone (model text to generated C text, empty caches) with the current code path
 against the three before it, measured in the same run.
 
-    python bench/derive.py [--models iltis chain40 quarter] [--repeat 5]
+    python bench/derive.py [--models iltis chain40 quarter] [--repeat 5] [--paths current fourth ...] [--printer]
 
 Per model: `mbs.loads(text, cache_dir=<empty>).generate(scene)` (parse, lower, derive, print the C; a tree's
 NumPy module is printed when first asked for, after the timing, and compared too), its CPU seconds (this process;
@@ -9,6 +9,11 @@ the machine is shared and noisy, so CPU rather than wall time), each run in a pr
 compile: sympy's caches empty; the modules of the pipeline are imported before the clock starts), the code paths
 interleaved, medians of --repeat. Also printed: the CPU until the equations' C is handed to the C compiler
 (`equations_ready`: what a fresh compile waits for before its C compiler starts).
+
+--printer: the equations' C alone (ccode.generate_c of one derivation, in one process), printed again and again
+with the current printer and the one before the fourth pass alternating, medians of --repeat: the printer's part
+of the fourth pass, without the noise of whole fresh derivations (sympy's caches are warm for both after the
+first round, as they are for the printer in a derivation).
 
 The code path before issue 12's fourth pass (the switch `before_fourth_pass`; `--paths current fourth` compares
 these two alone):
@@ -267,6 +272,51 @@ def derive(name: str) -> tuple[float, float, str]:
     return cpu, (ready[0] - start if ready else cpu), generated.c_source + generated.numpy_source
 
 
+def printer_rounds(name: str, repeat: int) -> None:
+    """--printer: the equations' C of model `name` printed `repeat` times with each printer, alternating."""
+    text, path, scene = model_text(name)
+    captured = []
+    original = ccode.generate_c
+
+    def capture(*args, **kwargs):
+        captured.append((args, kwargs))
+        return original(*args, **kwargs)
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
+        system = mbs.loads(text, path=path, cache_dir=cache)
+        ccode.generate_c = capture
+        try:
+            pipeline.generate(system.model, system.scene(scene) if scene else None, cold_apart=True)
+        finally:
+            ccode.generate_c = original
+    args, kwargs = captured[0]
+    times: dict[str, list] = {"current": [], "fourth": []}
+    texts = set()
+
+    tapes = [args[0].tape] + ([kwargs["constraints"].tape] if kwargs.get("constraints") is not None else [])
+
+    def forget():
+        """The fourth pass's memory of the last round (each entry's reads and places, the texts' identifiers):
+        a derivation prints once."""
+        for tape_ in tapes:
+            for entry in tape_.entries:
+                entry._reads = entry._dep_places = None
+        ccode_parts.names_in.cache_clear()
+
+    @gc_pause.paused  # (as in a derivation)
+    def rounds():
+        for _ in range(repeat):
+            for label, switch in (("current", contextlib.nullcontext), ("fourth", before_fourth_pass)):
+                forget()
+                with switch():
+                    start = time.process_time()
+                    texts.add(original(*args, **kwargs))
+                    times[label].append(time.process_time() - start)
+    rounds()
+    now, before = statistics.median(times["current"]), statistics.median(times["fourth"])
+    print(f"  {name:8s} {now:7.3f}s {before:14.3f}s {before / now:22.2f}x  "
+          f"{'the same' if len(texts) == 1 else 'THE TEXTS DIFFER'}", flush=True)
+
+
 PATHS = {"current": contextlib.nullcontext, "fourth": before_fourth_pass, "previous": previous_derivation,
          "former": former_derivation}
 #: What each path is, for the table.
@@ -287,6 +337,7 @@ def main() -> None:
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--paths", nargs="+", choices=PATHS, default=list(PATHS),
                     help="the code paths to measure (default: all; the first is the one the others are divided by)")
+    ap.add_argument("--printer", action="store_true", help="the equations' C printer alone, in one process")
     ap.add_argument("--one", help=argparse.SUPPRESS)  # the child: one derivation, prints seconds and digest
     ap.add_argument("--path", choices=PATHS, default="current", help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -294,6 +345,13 @@ def main() -> None:
         with PATHS[args.path]():
             cpu, ready, text = derive(args.one)
         print(f"{cpu:.6f} {ready:.6f} {hashlib.sha256(text.encode()).hexdigest()}")
+        return
+    if args.printer:
+        print(f"the equations' C printed (ccode.generate_c, CPU seconds, one process), medians of {args.repeat}, "
+              "the current printer and the one before issue 12's fourth pass alternating")
+        print(f"  {'model':8s} {'current':>8s} {'before pass 4':>15s} {'before pass 4/current':>23s}  text")
+        for name in args.models:
+            printer_rounds(name, args.repeat)
         return
     paths = list(dict.fromkeys(args.paths))
     print(f"derivation CPU seconds (parse to C text, each in a fresh process), medians of {args.repeat}, the code "
