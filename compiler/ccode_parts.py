@@ -31,6 +31,7 @@ text's order is the order of the code.
 
 from __future__ import annotations
 
+import functools
 import itertools
 import re
 from dataclasses import dataclass
@@ -49,10 +50,12 @@ SPLIT_CHARS = 30_000
 _IDENTIFIER = re.compile(r"[A-Za-z_]\w*")
 
 
-def names_in(text: str) -> set[str]:
+@functools.lru_cache(maxsize=1 << 16)
+def names_in(text: str) -> frozenset[str]:
     """The identifiers a C expression's text mentions (numbers' exponents like the e of 1e-5 included: harmless,
-    no temporary is called e)."""
-    return set(_IDENTIFIER.findall(text))
+    no temporary is called e); remembered, since the cuts, the parts and the statements' order each read every
+    text of a long function."""
+    return frozenset(_IDENTIFIER.findall(text))
 
 
 #: A cut may move this fraction of a part's length away from where the length alone would put it, to where the
@@ -91,12 +94,12 @@ def plan_parts(steps, results, part_chars: int | None = None, split_chars: int |
         if isinstance(value, int):
             copies.append((k, value))
             continue
-        reads = [home[n] for n in _IDENTIFIER.findall(value) if n in home]
+        reads = [home[n] for n in names_in(value) if n in home]
         placed[max(reads, default=0)].append((k, value))
     needs = []
     for k, chunk in enumerate(chunks):
         texts = [s.text for s in chunk] + [s.guard for s in chunk if s.guard] + [v for _, v in placed[k]]
-        needs.append({n for text in texts for n in _IDENTIFIER.findall(text) if home.get(n, k) < k})
+        needs.append({n for text in texts for n in names_in(text) if home.get(n, k) < k})
     slots: dict[str, int] = {}
     for name in (s.name for s in steps):
         if any(name in need for need in needs):

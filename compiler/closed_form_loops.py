@@ -90,18 +90,29 @@ class _Step:
     ab: tuple | None = None         # (a, b) of a trigonometric step (sin u, cos u follow with the branch)
 
 
+def structural_refusal(constraints, equations) -> str | None:
+    """Why closed_form refuses the loops whatever the parameters' values and the initial positions (None: it may
+    not): the caller need not evaluate them (pipeline.closed_form_of)."""
+    tree = constraints.tree
+    q, v = tuple(tree.q_symbols), tuple(tree.v_symbols)
+    if tree.nz or constraints.quaternion_slots or len(q) != len(v):
+        return "extra states or quaternions"
+    if tuple(equations.qdot) != v:
+        return "qdot is not v"
+    if len(q) > MAX_COORDINATES or constraints.nc > MAX_ROWS:
+        return f"more than {MAX_COORDINATES} coordinates or {MAX_ROWS} rows"
+    return None
+
+
 def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s: float = BUDGET_S) -> ClosedForm:
     """The closed form of the loops of `constraints` (compiler/constraints.py) on the branch of the initial
     positions q0 (sequence, the tree's q order) at `parameter_values` ({symbol: float}); raises Refused."""
     deadline = time.monotonic() + budget_s
     tree = constraints.tree
     q, v = tuple(tree.q_symbols), tuple(tree.v_symbols)
-    if tree.nz or constraints.quaternion_slots or len(q) != len(v):
-        raise Refused("extra states or quaternions")
-    if tuple(equations.qdot) != v:
-        raise Refused("qdot is not v")
-    if len(q) > MAX_COORDINATES or constraints.nc > MAX_ROWS:
-        raise Refused(f"more than {MAX_COORDINATES} coordinates or {MAX_ROWS} rows")
+    reason = structural_refusal(constraints, equations)
+    if reason is not None:
+        raise Refused(reason)
     g = [sp.sympify(e) for e in constraints.tape.expand(list(constraints.position))]
     allowed = set(q) | set(parameter_values)
     for e in g:

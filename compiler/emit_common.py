@@ -16,9 +16,9 @@ from importlib import metadata
 
 import sympy as sp
 
-from .fast_arith import replaced
+from .fast_arith import replaced_symbols as replaced  # (its rules map the temporaries written in place)
 from .hooks import is_helper as is_hook_helper
-from .tape import symbols_of
+from .tape import count_reads, symbols_of
 from .tree import t
 
 #: A temporary read only once is written into its reader instead of getting a line of its own, if its text is
@@ -81,7 +81,14 @@ def _safe(name: str) -> str:
     ok = (name.isidentifier() and name.isascii() and not name.startswith("__")
           and not (len(name) > 1 and name[0] == "_" and name[1].isupper()))
     bare = name.lstrip("_")
+    if ok and _PLAIN.fullmatch(bare) and not bare.lower().startswith(OWN_PREFIX):
+        return name  # (what identifier keeps as it is, told without its regex substitutions: every temporary)
     return name if ok and identifier(bare, capitals=False) == bare else identifier(name, capitals=False)
+
+
+#: A name identifier(name, capitals=False) keeps as it is, unless it starts with OWN_PREFIX: ASCII letters, digits
+#: and underscores, a letter first and no underscore last.
+_PLAIN = re.compile(r"[A-Za-z](?:\w*[A-Za-z0-9])?", re.ASCII)
 
 
 class Naming:
@@ -434,24 +441,15 @@ def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str
 
 
 def read_counts(tape, entries, outputs) -> dict:
-    """How often each temporary is read by the other entries and the outputs of one function."""
+    """How often each temporary is read by the other entries and the outputs of one function (an entry's reads are
+    counted once per tape, Tape.reads: the functions of a file slice many of the same entries)."""
     counts = {e.symbol: 0 for e in entries}
-
-    def visit(expr, weight=1):
-        if expr in counts:
-            counts[expr] += weight
-        elif expr.is_Pow and expr.exp.is_Integer:
-            visit(expr.base, weight * abs(int(expr.exp)))  # x**2 is written x*x
-        else:
-            for arg in expr.args:
-                visit(arg, weight)
-
     for e in entries:
-        visit(e.expr)
-        if e.guard is not None:
-            visit(e.guard)
+        for symbol, n in tape.reads(e).items():
+            if symbol in counts:
+                counts[symbol] += n
     for o in outputs:
-        visit(sp.sympify(o))
+        count_reads(sp.sympify(o), counts, counts)
     return counts
 
 

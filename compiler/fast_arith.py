@@ -225,20 +225,27 @@ def replaced(expr, rule: dict):
     """expr.xreplace(rule), its changed sums and products rebuilt by `total` and `product_of` (sympy rebuilds
     every changed node with its full evaluation: the inlining of the printed temporaries spent half its time
     there)."""
-    return _replaced(expr, rule)[0] if rule else expr
+    return _replaced(expr, rule, False)[0] if rule else expr
 
 
-def _replaced(node, rule: dict) -> tuple:
-    hit = rule.get(node)
-    if hit is not None:
-        return hit, True
+def replaced_symbols(expr, rule: dict):
+    """replaced for a rule of symbols only (the printer's temporaries written in place): only the symbols of expr
+    are looked up in it (a look-up hashes its key, by a Python call for a sympy node)."""
+    return _replaced(expr, rule, True)[0] if rule else expr
+
+
+def _replaced(node, rule: dict, symbols_only: bool) -> tuple:
     args = node.args
+    if not symbols_only or not args:
+        hit = rule.get(node) if not symbols_only or node.is_Symbol else None
+        if hit is not None:
+            return hit, True
     if not args:
         return node, False
     new, changed = [], False
     for a in args:
         if isinstance(a, Basic):
-            a, c = _replaced(a, rule)
+            a, c = _replaced(a, rule, symbols_only)
             changed |= c
         new.append(a)
     if not changed:

@@ -133,7 +133,7 @@ class _Lowering:
         drive would need an impulse, which would change the speeds of the parts it carries at that instant,
         and a right-hand side cannot apply it."""
         e = self.geometry(coordinate.prescribed)
-        if sp.diff(e, t, 2).has(sp.DiracDelta):
+        if may_kink(e) and sp.diff(e, t, 2).has(sp.DiracDelta):
             raise _error(f"the prescribed motion of '{coordinate.name}' has a kink: its speed jumps at an instant, "
                          "which needs an infinite drive force; blend it, e.g. ramp * smoothstep(t, t0, t1)",
                          coordinate.span)
@@ -381,6 +381,20 @@ class _Lowering:
         states = {c.name for c in self.model.coordinates}
         return tuple((o.name, self.state(o.value)) for o in wanted
                      if not (o.name in states and o.value == X.Sym("coord", o.name)))
+
+
+#: Node types whose derivatives are made of these types again (a Piecewise's of its pieces, its conditions kept),
+#: never of a step or a DiracDelta: an expression of them alone has no kink in any derivative.
+_SMOOTH = (sp.Symbol, sp.Number, sp.NumberSymbol, sp.Add, sp.Mul, sp.Pow, sp.Piecewise, sp.sin, sp.cos, sp.tan,
+           sp.asin, sp.acos, sp.atan, sp.atan2, sp.sinh, sp.cosh, sp.tanh, sp.exp, sp.log,
+           sp.logic.boolalg.Boolean, sp.Tuple)  # (conditions, and a Piecewise's (expression, condition) pairs)
+
+
+def may_kink(expr) -> bool:
+    """Whether a derivative of `expr` may hold a DiracDelta (it has a min, max, abs, sign, step or a function of
+    unknown derivative): only then does a prescribed motion need its second derivative to show it has no kink
+    (sympy's second derivative of a long motion took a twentieth of the Iltis's lowering)."""
+    return not all(isinstance(node, _SMOOTH) for node in sp.preorder_traversal(expr))
 
 
 def _speed_index(joint: M.Joint, local: str) -> int:

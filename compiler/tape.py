@@ -39,6 +39,9 @@ class Entry:
     guard: sp.Expr | None = None
     _deps: frozenset | None = field(default=None, repr=False)
     _symbols: frozenset | None = field(default=None, repr=False)
+    _reads: dict | None = field(default=None, repr=False)
+    place: int = field(default=-1, repr=False)  # its index in the tape's entries (and in those of its forks)
+    _dep_places: tuple | None = field(default=None, repr=False)
 
 
 _GENERIC_FREE_SYMBOLS = sp.Basic.free_symbols  # the property of every node that binds no symbols
@@ -64,6 +67,19 @@ def symbols_of(expr) -> set:
                 else:
                     found |= arg.free_symbols
     return found
+
+
+def count_reads(expr, symbols, counts: dict, weight: int = 1) -> None:
+    """Add to counts[s] how often `expr` reads each s of `symbols` (a container of symbols, the temporaries): x**n
+    reads x |n| times (printed as a product)."""
+    if expr.is_Symbol:  # (only a symbol is one of `symbols`, and it reads nothing: no hash of other nodes)
+        if expr in symbols:
+            counts[expr] = counts.get(expr, 0) + weight
+    elif expr.is_Pow and expr.exp.is_Integer:
+        count_reads(expr.base, symbols, counts, weight * abs(int(expr.exp)))
+    else:
+        for arg in expr.args:
+            count_reads(arg, symbols, counts, weight)
 
 
 def is_trivial(expr: sp.Expr) -> bool:
@@ -183,13 +199,13 @@ class Tape:
             return 1 / expr
         inv = self._by_expr.get(1 / expr) or self._add(1 / expr, name)
         entry = self._entry_of[inv]
-        entry.guard, entry._deps, entry._symbols = expr, None, None
+        entry.guard, entry._deps, entry._symbols, entry._reads, entry._dep_places = expr, None, None, None, None
         return inv
 
     def _add(self, expr: sp.Expr, name: str, key: tuple | None = None) -> sp.Dummy:
         name = self._unique(name)
         symbol = sp.Dummy(name)
-        entry = Entry(symbol, expr, name, self._section)
+        entry = Entry(symbol, expr, name, self._section, place=len(self.entries))
         self.entries.append(entry)
         self._by_expr[expr] = symbol
         self._sign_keys.add(sign_key(expr) if key is None else key)
@@ -223,15 +239,34 @@ class Tape:
             entry._symbols = frozenset(symbols)
         return entry._symbols
 
+    def reads(self, entry: Entry) -> dict:
+        """How often `entry` reads each temporary (its expression's and its guard's; x**2 reads x twice, as it is
+        printed x*x), kept on the entry: every function that slices it counts its reads (emit_common.read_counts)."""
+        if entry._reads is None:
+            counts: dict = {}
+            count_reads(entry.expr, self._entry_of, counts)
+            if entry.guard is not None:
+                count_reads(entry.guard, self._entry_of, counts)
+            entry._reads = counts
+        return entry._reads
+
     def entries_for(self, outputs) -> list[Entry]:
-        """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order."""
-        needed = set()
-        for e in outputs:
-            needed |= {s for s in symbols_of(sp.sympify(e)) if s in self._entry_of}
-        for entry in reversed(self.entries):
-            if entry.symbol in needed:
-                needed |= self.dependencies(entry)
-        return [entry for entry in self.entries if entry.symbol in needed]
+        """The entries needed to evaluate `outputs` (an iterable of expressions), in tape order: found from the
+        outputs' temporaries through what each reads, by their places on the tape (not by a pass over the whole
+        tape for every function of a file)."""
+        entry_of, entries = self._entry_of, self.entries
+        todo = [entry_of[s].place for e in outputs for s in symbols_of(sp.sympify(e)) if s in entry_of]
+        found = set()
+        while todo:
+            k = todo.pop()
+            if k not in found:
+                found.add(k)
+                entry = entries[k]
+                places = entry._dep_places
+                if places is None:
+                    places = entry._dep_places = tuple(entry_of[s].place for s in self.dependencies(entry))
+                todo.extend(places)
+        return [entries[k] for k in sorted(found)]
 
     def free_symbols(self, outputs) -> set:
         """The non-temporary symbols (coordinates, parameters, t) that `outputs` depend on."""

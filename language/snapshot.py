@@ -50,6 +50,7 @@ def to_plain(root) -> dict:
     constants = _constants()
     classes: list[str] = []
     class_index: dict[type, int] = {}
+    field_names: dict[type, tuple] = {}  # (dataclasses.fields builds its tuple anew at every call)
     objects: list[list] = []
     index: dict[int, int] = {}   # id(object) -> its row in objects
     alive = []                   # what the ids refer to stays alive while they are used
@@ -66,13 +67,15 @@ def to_plain(root) -> dict:
         elif kind is tuple:
             entry = [-1, *[value(item) for item in obj]]
         else:
-            name = f"{kind.__module__}:{kind.__qualname__}"
-            if name not in ALLOWED:
-                raise NotPlain(f"a {name} is not model data")
-            if kind not in class_index:
+            names = field_names.get(kind)
+            if names is None:  # a class met for the first time
+                name = f"{kind.__module__}:{kind.__qualname__}"
+                if name not in ALLOWED:
+                    raise NotPlain(f"a {name} is not model data")
                 class_index[kind] = len(classes)
                 classes.append(name)
-            entry = [class_index[kind], *[value(getattr(obj, f.name)) for f in dataclasses.fields(kind)]]
+                names = field_names[kind] = tuple(f.name for f in dataclasses.fields(kind))
+            entry = [class_index[kind], *[value(getattr(obj, f)) for f in names]]
         index[id(obj)] = len(objects)
         objects.append(entry)
         alive.append(obj)

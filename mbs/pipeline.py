@@ -367,8 +367,12 @@ def closed_form_of(model: M.Model, lowered, constraints, equations, friction):
     """The loops closed in closed form (compiler/closed_form_loops.py) on the branch of the model's own initial
     state at its default parameters (not a scene's: scenes share one generated text), or None: no loops, friction
     in them, or the closed form refused (then the numeric loop solver alone, as before)."""
-    from mbs.compiler.closed_form_loops import Refused, closed_form
+    from mbs.compiler.closed_form_loops import Refused, closed_form, structural_refusal
     if constraints is None or friction is not None or lowered.friction_rows:
+        return None
+    reason = structural_refusal(constraints, equations)  # (before the values: the Iltis's quaternion refuses it)
+    if reason is not None:
+        _log.info("%s: loops not closed in closed form (%s)", model.name, reason)
         return None
     values = parameter_values(model)
     x0 = initial_state_of(model, None, lowered.tree, values)

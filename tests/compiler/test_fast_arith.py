@@ -56,6 +56,7 @@ def test_replaced_is_xreplace_node_for_node():
         expr = random_expr(rng) + random_expr(rng) * random_expr(rng)
         rule = {s: random_expr(rng) for s in rng.sample(SYMBOLS, 3)}
         assert sp.srepr(fast_arith.replaced(expr, rule)) == sp.srepr(expr.xreplace(rule))
+        assert sp.srepr(fast_arith.replaced_symbols(expr, rule)) == sp.srepr(expr.xreplace(rule))
         n = rng.randint(3, 5)
         operands = [random_expr(rng) for _ in range(n)]
         assert sp.srepr(fast_arith.product_of(operands)) == sp.srepr(sp.Mul(*operands))

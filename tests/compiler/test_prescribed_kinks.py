@@ -71,3 +71,20 @@ def test_a_ramp_that_starts_with_an_if_on_time_is_a_switch_of_the_prescribed_mot
     assert c_restart_tables(compiled)[0].tolist() == [1]
     res = mbs.loads(RAMP_START).simulate(t_end=0.5, sample=0.05)
     assert [e["time"] for e in res.events] == [pytest.approx(0.2, abs=1e-12)]
+
+
+def test_only_a_motion_that_may_kink_has_its_second_derivative_taken():
+    """lower.may_kink lets the compiler skip sympy's second derivative of a smooth motion: it must never call a
+    motion smooth whose second derivative holds a DiracDelta (the refusal above depends on it)."""
+    import sympy as sp
+
+    from mbs.compiler.lower import may_kink
+    t, a = sp.symbols("t a")
+    smooth = [sp.Piecewise((0, t < 0), (a * t, t < 1), (a, True)), sp.sin(2 * sp.pi * t) * sp.exp(-t) + t ** 3 / 2,
+              sp.sqrt(1 + t ** 2) * sp.atan2(t, a), sp.Float(0.5) * sp.log(1 + t ** 2) + sp.tanh(t)]
+    kinked = [a * sp.Min(t, a), sp.Max(0, t), sp.Abs(t - 1), sp.Heaviside(t), sp.sign(t), sp.Function("f")(t)]
+    for e in smooth:
+        assert not may_kink(e) and not sp.diff(e, t, 2).has(sp.DiracDelta)
+    for e in kinked:
+        assert may_kink(e)
+    assert sp.diff(kinked[0], t, 2).has(sp.DiracDelta)  # the case the check is for
