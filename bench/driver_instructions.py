@@ -10,16 +10,17 @@ workspace, the loops' assembly, the run's set-up and its results), the static eq
 around its C calls, the events C handled booked in Python (runtime/event_loop.py replay).  bench/bump_cost.py times
 the parts in CPU seconds, which wander with the machine's load; this counts them.
 
-One child process per checkout, scene and part runs under valgrind's callgrind (needs `valgrind` and
-`callgrind_annotate` on the PATH): it loads the model (from the build cache), runs the part twice untimed, then
---repeat times inside `functools.reduce`, the only C function callgrind collects in (--toggle-collect), so that the
-count holds those calls and nothing else.  The parts: `simulate` (the whole `System.simulate(scene)`) and `start`
+One child process per checkout, scene and part runs under valgrind's callgrind (needs `valgrind`, `callgrind_control`
+and `callgrind_annotate` on the PATH): it loads the model (from the build cache) and runs the part twice without
+instrumentation, switches it on (callgrind_control -i on), then runs the part --repeat times inside
+`functools.reduce`, the only C function callgrind collects in (--toggle-collect), so that the count holds those calls
+and nothing else.  The parts: `simulate` (the whole `System.simulate(scene)`) and `start`
 (`System.start(scene)`: the parameters, the workspace, the loops' assembly and the static equilibrium).  Printed per
 call: all instructions, those inside the model's C (the inclusive counts of `solver_sample`, `function_rows` and
 `function_vectorcall` of the compiled model), and the rest: Python's own (the interpreter, NumPy, LAPACK); and the
 Python function calls per simulate (cProfile, outside valgrind).  The baseline is the checkout of --baseline (a
 git revision, default the commit before the driver's cuts), exported with `git archive` into a temporary
-directory and imported from there; the ratio is current over baseline.  Takes a few minutes.
+directory and imported from there; the ratio is current over baseline.  Takes a minute or two.
 """
 
 from __future__ import annotations
@@ -45,7 +46,7 @@ PACKAGE_DIRS = {"base": "base", "language": "language", "compiler": "compiler", 
 
 #: The child: argv: checkout (None: the installed one), model, scene, part, repeat, "callgrind" or "calls".
 CHILD = """
-import cProfile, functools, pstats, sys
+import cProfile, functools, os, pstats, subprocess, sys
 if sys.argv[1] != "-":
     sys.path.insert(0, sys.argv[1])
 import mbs
@@ -54,7 +55,8 @@ assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
 system = mbs.load(model)
 run = {"simulate": lambda: system.simulate(scene), "start": lambda: system.start(scene)}[part]
 run(); run()
-if how == "callgrind":
+if how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
+    subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
     functools.reduce(lambda _, __: run(), range(repeat), None)
 else:
     profile = cProfile.Profile()
@@ -86,7 +88,8 @@ def child(tree: str, scene: str, part: str, repeat: int, how: str, workdir: Path
             raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
         return float(found.group(1))
     out = Path(tempfile.mkstemp(prefix="callgrind.", dir=workdir)[1])
-    done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=functools_reduce",
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
+                           "--toggle-collect=functools_reduce",
                            f"--callgrind-out-file={out}", *args], capture_output=True, text=True, cwd=workdir)
     found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
     if done.returncode != 0 or not found:
@@ -108,7 +111,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=2, help="calls counted per child")
     ap.add_argument("--jobs", type=int, default=2, help="children at once")
     args = ap.parse_args(argv)
-    for tool in ("valgrind", "callgrind_annotate"):
+    for tool in ("valgrind", "callgrind_control", "callgrind_annotate"):
         if shutil.which(tool) is None:
             raise SystemExit(f"{tool} is not on the PATH")
     with tempfile.TemporaryDirectory(prefix="mbs-bench-driver-") as tmp:

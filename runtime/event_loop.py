@@ -13,12 +13,47 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .derived import derived, friction_modes_of
 from .errors import EvaluationError
 from .events import (DEPARTURE_STEP, DIRECTION_NAMES, ZENO_WINDOW, EventRecord, against_motion, apply_events,
                      crossing_rows, crossings, init_switches, is_zeno, resolution_message, zeno_message)
 from .friction import is_friction_event, start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
+
+
+@dataclass(frozen=True)
+class EventTables:
+    """What the event loop reads of a model's events, per indicator, worked out once per model (event_tables)."""
+
+    directions: np.ndarray    # (intc) +1 rising, -1 falling, 0 either
+    flags: np.ndarray         # (intp) p index of a switch's branch flag, -1 for other events
+    branch_only: tuple        # a switch whose event does nothing but flip its branch
+    not_branch_only: np.ndarray  # (bool) its negation, a mask
+    smooth: np.ndarray        # (bool) a continuous switch (nothing jumps where it flips)
+    names: tuple
+    switches: np.ndarray      # (intp) the indicators of switches ...
+    switch_flags: np.ndarray  # (intp) ... and their branch flags, when no two share one (else None)
+
+    @classmethod
+    def of(cls, model) -> "EventTables":
+        specs = model.events
+        branch_only = tuple(s.switch >= 0 and not s.assignments for s in specs)
+        arrays = (np.array([s.direction for s in specs], dtype=np.intc),
+                  np.array([s.switch for s in specs], dtype=np.intp),
+                  np.array([not b for b in branch_only], dtype=bool),
+                  np.array([s.continuous for s in specs], dtype=bool))
+        for a in arrays:
+            a.flags.writeable = False
+        directions, flags, not_branch_only, smooth = arrays
+        switches = np.flatnonzero(flags >= 0)
+        switch_flags = flags[switches] if len(set(flags[switches].tolist())) == switches.size else None
+        return cls(directions, flags, branch_only, not_branch_only, smooth, tuple(s.name for s in specs),
+                   switches, switch_flags)
+
+
+def event_tables(model) -> EventTables:
+    return derived(model, "event_tables", lambda: EventTables.of(model))
 
 
 @dataclass
@@ -73,11 +108,13 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     of the samples (a number, or a function of none that tells it once the first integrator is made).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
     and data.x are left at the last state reached."""
     g = data.function("events")
-    directions = np.array([e.direction for e in model.events], dtype=np.intc)
+    directions = event_tables(model).directions
+    friction = bool(friction_modes_of(model))  # (without switched friction elements nothing to check)
     names = model.x_names
     t, x = float(data.t), data.x.copy()
     frozen = init_switches(model, data, t, x)
-    records = start_friction_modes(model, data, t, x)  # stick or slip from the start state (runtime/friction.py)
+    # stick or slip from the start state (runtime/friction.py)
+    records = start_friction_modes(model, data, t, x) if friction else []
     segments, fired_times = Segments(), []
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
@@ -151,8 +188,9 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
             # integrator had; after a jump (an impact) it chooses its own first step
             hint = None if jumped else solver.step_hint
-            new += start_friction_modes(model, data, t_event, x, moving=False,  # held beyond the limit: let go
-                                        fired=tuple(model.events[k].name for k in fired))
+            if friction:  # held beyond the limit: let go
+                new += start_friction_modes(model, data, t_event, x, moving=False,
+                                            fired=tuple(model.events[k].name for k in fired))
             records += new
             fired_times += [t_event] * len(new)
             t = t_event
@@ -184,6 +222,11 @@ C_LOG_CAPACITY = 64
 
 
 def c_restart_tables(model):
+    """_restart_tables(model), once per model (read-only arrays: C copies them)."""
+    return derived(model, "c_restart_tables", lambda: _restart_tables(model))
+
+
+def _restart_tables(model):
     """Which events the C sampling loop may apply and restart from itself (c/ode.c, mbs_ode_restart): those whose
     actions are generated C that assigns run-time values only (switch branches, modes, parameters), not a jump
     of the state and not the end of the run, and on a model with loops not a switch of a prescribed motion
@@ -204,7 +247,10 @@ def c_restart_tables(model):
         first.append(len(index))
     if not any(handled):
         return None
-    return tuple(np.array(a, dtype=np.intc) for a in (handled, flag, first, index, slot))
+    arrays = tuple(np.array(a, dtype=np.intc) for a in (handled, flag, first, index, slot))
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 #: Entries of a C log from which replay books switch-only events at once (_book_branches): its numpy calls cost
@@ -225,13 +271,13 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     if m == 0:
         return start
     nx, nev = model.nx, len(model.events)
-    directions = np.array([e.direction for e in model.events], dtype=np.intc)
+    events = event_tables(model)
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-    fired = crossing_rows(g_old, g_event, directions)  # the indicators that fired, per entry
+    fired = crossing_rows(g_old, g_event, events.directions)  # the indicators that fired, per entry
     before = segments.in_force(p_now)
     first_copy = len(segments.p)  # the values after event e are copy first_copy + e
-    if m >= BOOK_AT_ONCE and not np.any(fired[:, [not (s.switch >= 0 and not s.assignments) for s in model.events]]):
+    if m >= BOOK_AT_ONCE and not np.any(fired[:, events.not_branch_only]):
         copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
     else:  # an event that does more than flip a switch's branch: entry by entry
         copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
@@ -251,8 +297,8 @@ def _book_each(model, data, log, fired_mask, p_now, records, fired_times):
     twin = np.zeros(m, dtype=bool)
     copies = np.empty((m, p_now.size))
     specs = model.events
-    branch_only = [s.switch >= 0 and not s.assignments for s in specs]  # plain Python from here on: per event
-    smooth = [s.continuous for s in specs]
+    events = event_tables(model)
+    branch_only, smooth = events.branch_only, events.smooth.tolist()  # plain Python from here on: per event
     before_values, at_values = g_old.tolist(), g_event.tolist()
     for e, (fired, t) in enumerate(zip(fired_lists, t_event.tolist())):
         if all(branch_only[k] for k in fired):
@@ -278,10 +324,10 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     them but with the flags' values after each entry filled forward by numpy (a Python loop over the switches
     that moved, not over the entries; bump_10 books 390 crossings): (the values in force after each entry, twin
     flags); p_now ends as the last entry left it."""
-    specs = model.events
+    events = event_tables(model)
     m = len(fired_mask)
     entry, k = np.nonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
-    flag = np.array([s.switch for s in specs], dtype=np.intp)[k]
+    flag = events.flags[k]
     new = (g_event[entry, k] > g_old[entry, k]).astype(float)  # rising: the branch 1, falling: 0
     old = np.empty_like(new)
     copies = np.repeat(p_now[None, :], m, axis=0)
@@ -292,7 +338,7 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
         copies[last >= 0, f] = new[on][last[last >= 0]]
     if m:
         p_now[:] = copies[-1]
-    names = [s.name for s in specs]
+    names = events.names
     changes: dict = {}
     for t, kk, was, now in zip(t_event[entry].tolist(), k.tolist(), old.tolist(), new.tolist()):
         text = changes.get((was, now))
@@ -300,8 +346,7 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
             text = changes[(was, now)] = f"branch {was:g} -> {now:g}" if was != now else ""
         records.append(EventRecord(t, names[kk], DIRECTION_NAMES[1 if now else -1], text))
     fired_times += t_event[entry].tolist()
-    smooth = np.array([s.continuous for s in specs], dtype=bool)
-    twin = fired_mask.any(axis=1) & ~(fired_mask & ~smooth).any(axis=1)
+    twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
     return copies, twin
 
 
@@ -352,6 +397,14 @@ def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:
 def settle_switches(model, data, g_start: np.ndarray) -> bool:
     """Put every switch on the side its indicator is leaving to at a restart (a friction law's sign(v) when the
     sliding starts at v = 0, where no crossing will ever be seen); True when a branch changed."""
+    events = event_tables(model)
+    if events.switch_flags is not None:  # each switch its own flag: all at once
+        g = np.asarray(g_start)[events.switches]
+        leaving = g != 0
+        flags, new = events.switch_flags[leaving], np.where(g[leaving] > 0, 1.0, 0.0)
+        changed = bool(np.any(data.p[flags] != new))
+        data.p[flags] = new
+        return changed
     changed = False
     for k, spec in enumerate(model.events):
         if spec.switch >= 0 and g_start[k] != 0:

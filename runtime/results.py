@@ -43,9 +43,12 @@ class Results:
     holds model, integrator, tolerances, status ("finished", "failed", "stopped") and message.
     """
 
-    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None):
-        self.names = tuple(str(n) for n in names)
-        data = np.array(data, dtype=float, ndmin=2)
+    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None, *,
+                 copy: bool = True):
+        """copy=False: ``data``, when already a 2-D float64 array, is kept as it is and made read-only in place
+        (for the simulation driver, whose table is fresh and its own: no copy of every sample)."""
+        self.names = tuple(map(str, names))
+        data = np.array(data, dtype=float, ndmin=2, copy=True if copy else None)
         if data.size == 0:
             data = data.reshape(0, len(self.names))
         if data.ndim != 2 or data.shape[1] != len(self.names):
