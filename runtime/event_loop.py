@@ -34,6 +34,7 @@ class EventTables:
     names: tuple
     switches: np.ndarray      # (intp) the indicators of switches ...
     switch_flags: np.ndarray  # (intp) ... and their branch flags, when no two share one (else None)
+    switch_column: np.ndarray  # (intp) per indicator its place among the switches (-1: no switch)
 
     @classmethod
     def of(cls, model) -> "EventTables":
@@ -48,8 +49,12 @@ class EventTables:
         directions, flags, not_branch_only, smooth = arrays
         switches = np.flatnonzero(flags >= 0)
         switch_flags = flags[switches] if len(set(flags[switches].tolist())) == switches.size else None
+        switch_column = np.full(len(specs), -1, dtype=np.intp)
+        switch_column[switches] = np.arange(switches.size)
+        for a in (switches, switch_column):
+            a.flags.writeable = False
         return cls(directions, flags, branch_only, not_branch_only, smooth, tuple(s.name for s in specs),
-                   switches, switch_flags)
+                   switches, switch_flags, switch_column)
 
 
 def event_tables(model) -> EventTables:
@@ -59,12 +64,14 @@ def event_tables(model) -> EventTables:
 @dataclass
 class Segments:
     """Rows of the run: times, states, and per row the index of the p copy in force.  Blocks of sample rows and
-    single rows at events are kept as they come (views, no copies) and joined once at the end."""
+    single rows at events are kept as they come (views, no copies) and joined once at the end; so are the p
+    copies (blocks of rows: replay adds one per log, `values` joins them)."""
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
     counts: list = field(default_factory=list)  # (rows, index of the p copy, twin) per added block
-    p: list = field(default_factory=list)
+    p_blocks: list = field(default_factory=list)  # (copies, np) arrays, the copies in order
+    p_count: int = 0
 
     def add(self, times, states: np.ndarray, p: np.ndarray) -> None:
         if len(times):
@@ -72,9 +79,20 @@ class Segments:
 
     def in_force(self, p: np.ndarray) -> int:
         """The index of the p copy equal to ``p``, the last one or a new copy."""
-        if not self.p or not np.array_equal(self.p[-1], p):
-            self.p.append(p.copy())
-        return len(self.p) - 1
+        if not self.p_blocks or not np.array_equal(self.p_blocks[-1][-1], p):
+            self.add_values(p[None, :].copy())
+        return self.p_count - 1
+
+    def add_values(self, copies: np.ndarray) -> int:
+        """Appends p copies (rows, kept as they are); returns the index of the first."""
+        if len(copies):
+            self.p_blocks.append(copies)
+            self.p_count += len(copies)
+        return self.p_count - len(copies)
+
+    def values(self) -> np.ndarray:
+        """(copies, np): every p copy, by index."""
+        return self.p_blocks[0] if len(self.p_blocks) == 1 else np.concatenate(self.p_blocks)
 
     def append(self, times, states: np.ndarray, which, twin=False) -> None:
         """Rows in the p copy ``which`` (from in_force; or one per row): ``times`` a sequence, ``states`` one row
@@ -276,12 +294,11 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
     fired = crossing_rows(g_old, g_event, events.directions)  # the indicators that fired, per entry
     before = segments.in_force(p_now)
-    first_copy = len(segments.p)  # the values after event e are copy first_copy + e
     if m >= BOOK_AT_ONCE and not np.any(fired[:, events.not_branch_only]):
         copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
     else:  # an event that does more than flip a switch's branch: entry by entry
         copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
-    segments.p.extend(copies)
+    first_copy = segments.add_values(copies)  # the values after event e are copy first_copy + e
     return _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m)
 
 
@@ -321,33 +338,70 @@ def _book_each(model, data, log, fired_mask, p_now, records, fired_times):
 
 def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, fired_times):
     """replay's actions and records for a log whose events only flip switches' branches, as _book_each books
-    them but with the flags' values after each entry filled forward by numpy (a Python loop over the switches
-    that moved, not over the entries; bump_10 books 390 crossings): (the values in force after each entry, twin
-    flags); p_now ends as the last entry left it."""
+    them but with the flags' values after each entry filled forward by numpy (no Python per entry or per switch;
+    bump_10 books 390 crossings): (the values in force after each entry, twin flags); p_now ends as the last entry
+    left it."""
     events = event_tables(model)
     m = len(fired_mask)
     entry, k = np.nonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
     flag = events.flags[k]
     new = (g_event[entry, k] > g_old[entry, k]).astype(float)  # rising: the branch 1, falling: 0
-    old = np.empty_like(new)
-    copies = np.repeat(p_now[None, :], m, axis=0)
-    for f in np.unique(flag).tolist():
-        on = np.flatnonzero(flag == f)  # its crossings in order (entries non-decreasing)
-        old[on] = np.concatenate(([p_now[f]], new[on][:-1]))  # each finds what the one before it set
-        last = np.searchsorted(entry[on], np.arange(m), side="right") - 1  # its last crossing up to each entry
-        copies[last >= 0, f] = new[on][last[last >= 0]]
+    if events.switch_flags is not None:  # each switch its own flag: one crossing per flag and entry at most
+        old, copies = _filled_forward(events, k, entry, new, p_now, m)
+    else:
+        old, copies = np.empty_like(new), np.repeat(p_now[None, :], m, axis=0)
+        for f in np.unique(flag).tolist():
+            on = np.flatnonzero(flag == f)  # its crossings in order (entries non-decreasing)
+            old[on] = np.concatenate(([p_now[f]], new[on][:-1]))  # each finds what the one before it set
+            last = np.searchsorted(entry[on], np.arange(m), side="right") - 1  # its last crossing up to each entry
+            copies[last >= 0, f] = new[on][last[last >= 0]]
     if m:
         p_now[:] = copies[-1]
     names = events.names
-    changes: dict = {}
-    for t, kk, was, now in zip(t_event[entry].tolist(), k.tolist(), old.tolist(), new.tolist()):
-        text = changes.get((was, now))
-        if text is None:
-            text = changes[(was, now)] = f"branch {was:g} -> {now:g}" if was != now else ""
-        records.append(EventRecord(t, names[kk], DIRECTION_NAMES[1 if now else -1], text))
-    fired_times += t_event[entry].tolist()
+    pairs = list(zip(old.tolist(), new.tolist()))  # (branch before, after) per crossing: a few distinct ones
+    texts = {pair: f"branch {pair[0]:g} -> {pair[1]:g}" if pair[0] != pair[1] else "" for pair in set(pairs)}
+    rising, falling = DIRECTION_NAMES[1], DIRECTION_NAMES[-1]
+    times = t_event[entry].tolist()
+    records += _records(times, [names[kk] for kk in k.tolist()], [rising if now else falling for _, now in pairs],
+                        [texts[pair] for pair in pairs])
+    fired_times += times
     twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
     return copies, twin
+
+
+def _filled_forward(events: EventTables, k: np.ndarray, entry: np.ndarray, new: np.ndarray, p_now: np.ndarray,
+                    m: int):
+    """(each crossing's flag value before it, the run-time values after each of m entries) for the crossings of
+    switches k in entry order (each switch its own flag), their flags set to ``new``: a crossing finds what the
+    crossing of its switch before it set (the first finds p_now), an entry the values the last crossing of each
+    switch up to it set (no crossing yet: p_now)."""
+    if not entry.size:  # (a log whose entries show no crossing)
+        return new.copy(), np.repeat(p_now[None, :], m, axis=0)
+    column = events.switch_column[k]
+    last = np.full((m, events.switches.size), -1, dtype=np.intp)
+    last[entry, column] = np.arange(entry.size)  # a crossing's index grows with its entry:
+    np.maximum.accumulate(last, axis=0, out=last)  # the last crossing of each switch up to each entry
+    before = np.where(entry > 0, last[entry - 1, column], -1)  # the crossing of its switch before it, if any
+    old = np.where(before >= 0, new[before], p_now[events.flags[k]])
+    flags = events.switch_flags
+    copies = np.repeat(p_now[None, :], m, axis=0)
+    copies[:, flags] = np.where(last >= 0, new[last], p_now[flags])
+    return old, copies
+
+
+def _records(times: list, events: list, directions: list, changes: list) -> list[EventRecord]:
+    """EventRecord(time, event, direction, changes) for each, its fields written into the new instance's dict:
+    the frozen dataclass's __init__ sets each through object.__setattr__ (about 6,000 instructions a record, half
+    of booking bump_10's 390 crossings; this, a third of it).  The records are the same (equal, the same repr, as
+    immutable after)."""
+    make = object.__new__
+    out = []
+    for time, event, direction, change in zip(times, events, directions, changes):
+        record = make(EventRecord)
+        fields = record.__dict__
+        fields["time"], fields["event"], fields["direction"], fields["changes"] = time, event, direction, change
+        out.append(record)
+    return out
 
 
 def _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m) -> int:

@@ -223,6 +223,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
                                                                 lambda: guard.chunks or PROGRESS_CHUNKS)
     ts, all_xs, all_which, twin = segments.arrays(model.nx)
+    ps = segments.values()
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
@@ -237,12 +238,12 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         unprojected, xs = xs, np.empty_like(xs)
         if with_outputs:  # one pass: each row projected, its outputs solved from the factors of its projection
             ys = np.empty((len(own), model.ny))
-            done, error, stage = project_and_evaluate_rows(data, "outputs", segments.p, ts[own], unprojected, which,
+            done, error, stage = project_and_evaluate_rows(data, "outputs", ps, ts[own], unprojected, which,
                                                            xs, ys)
             projected = done if stage == "project" else len(own)
             fused = (done, error) if stage == "outputs" else None
         else:
-            projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
+            projected, _ = evaluate_rows(data, "project", ps, ts[own], unprojected, which, xs)
         if projected < len(own):
             ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
@@ -251,7 +252,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         own_ts = ts[own[own < len(ts)]]
         if ys is None:
             ys = np.empty((len(own), model.ny))
-            done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+            done, error = evaluate_rows(data, "outputs", ps, own_ts, xs, which[:len(own_ts)], ys)
         else:
             done, error = fused or (len(own_ts), None)
         if error is not None:
