@@ -32,6 +32,7 @@ class EventTables:
     not_branch_only: np.ndarray  # (bool) its negation, a mask
     smooth: np.ndarray        # (bool) a continuous switch (nothing jumps where it flips)
     names: tuple
+    object_names: np.ndarray  # (object) the names again, for gathering by index
     switches: np.ndarray      # (intp) the indicators of switches ...
     switch_flags: np.ndarray  # (intp) ... and their branch flags, when no two share one (else None)
     switch_column: np.ndarray  # (intp) per indicator its place among the switches (-1: no switch)
@@ -51,9 +52,11 @@ class EventTables:
         switch_flags = flags[switches] if len(set(flags[switches].tolist())) == switches.size else None
         switch_column = np.full(len(specs), -1, dtype=np.intp)
         switch_column[switches] = np.arange(switches.size)
-        for a in (switches, switch_column):
+        names = tuple(s.name for s in specs)
+        object_names = np.array(names + (None,), dtype=object)[:-1]  # (None: a 1-D array even of tuples)
+        for a in (switches, switch_column, object_names):
             a.flags.writeable = False
-        return cls(directions, flags, branch_only, not_branch_only, smooth, tuple(s.name for s in specs),
+        return cls(directions, flags, branch_only, not_branch_only, smooth, names, object_names,
                    switches, switch_flags, switch_column)
 
 
@@ -271,10 +274,11 @@ def _restart_tables(model):
     return arrays
 
 
-#: Entries of a C log from which replay books switch-only events at once (_book_branches): its numpy calls cost
-#: a fixed few hundred microseconds per log, the entry-by-entry loop about 10 us per entry (bump_5's log of 3
-#: entries: 0.2 ms by the loop, 1.0 ms at once; bump_10's 177: 5.3 ms by the loop, 2.7 ms at once).
-BOOK_AT_ONCE = 32
+#: Entries of a C log from which replay books switch-only events at once (_book_branches): its numpy calls cost a
+#: fixed 50 us or so per log and a few us per entry, the entry-by-entry loop about 12 us per entry (the best of 300
+#: on bump_10's first log cut to 4, 8 and 19 entries: 62, 99 and 144 us at once against 36, 104 and 234 us by the
+#: loop; its logs of 36 and 122 entries: 141 and 315 us against 296 and 917 us).
+BOOK_AT_ONCE = 8
 
 
 def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start: int, segments: Segments,
@@ -357,13 +361,12 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
             copies[last >= 0, f] = new[on][last[last >= 0]]
     if m:
         p_now[:] = copies[-1]
-    names = events.names
-    pairs = list(zip(old.tolist(), new.tolist()))  # (branch before, after) per crossing: a few distinct ones
-    texts = {pair: f"branch {pair[0]:g} -> {pair[1]:g}" if pair[0] != pair[1] else "" for pair in set(pairs)}
-    rising, falling = DIRECTION_NAMES[1], DIRECTION_NAMES[-1]
+    if np.all((old == 1.0) | ((old == 0.0) & ~np.signbit(old))):  # the branches' own values: texts by table
+        changes = _BRANCH_TEXTS[(2 * old + new).astype(np.intp)].tolist()
+    else:
+        changes = [f"branch {was:g} -> {now:g}" if was != now else "" for was, now in zip(old.tolist(), new.tolist())]
     times = t_event[entry].tolist()
-    records += _records(times, [names[kk] for kk in k.tolist()], [rising if now else falling for _, now in pairs],
-                        [texts[pair] for pair in pairs])
+    records += _records(times, events.object_names[k].tolist(), _DIRECTIONS[new.astype(np.intp)].tolist(), changes)
     fired_times += times
     twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
     return copies, twin
@@ -387,6 +390,12 @@ def _filled_forward(events: EventTables, k: np.ndarray, entry: np.ndarray, new: 
     copies = np.repeat(p_now[None, :], m, axis=0)
     copies[:, flags] = np.where(last >= 0, new[last], p_now[flags])
     return old, copies
+
+
+#: The texts of the records of switches' branches by 2 * before + after (the flags' values 0 and 1), and their
+#: directions by after (rising to 1, falling to 0): as apply_events writes them.
+_BRANCH_TEXTS = np.array(["", "branch 0 -> 1", "branch 1 -> 0", ""], dtype=object)
+_DIRECTIONS = np.array([DIRECTION_NAMES[-1], DIRECTION_NAMES[1]], dtype=object)
 
 
 def _records(times: list, events: list, directions: list, changes: list) -> list[EventRecord]:
