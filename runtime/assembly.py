@@ -19,6 +19,7 @@ Needs the loop functions of a C model (`constraints`, `constraint_velocity`, `co
 from __future__ import annotations
 
 import contextlib
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -105,6 +106,16 @@ def held_columns(v_names: Iterable[str], fixed: Iterable[str]) -> tuple[np.ndarr
     return np.array(positions, dtype=bool), np.array(speeds, dtype=bool)
 
 
+@functools.lru_cache(maxsize=64)
+def _held(v_names: tuple[str, ...], fixed: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """held_columns, once per model's speeds and fixed names (read-only masks): every run of a scene holds the
+    same ones."""
+    masks = held_columns(v_names, fixed)
+    for mask in masks:
+        mask.flags.writeable = False
+    return masks
+
+
 def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None = None, fixed: Iterable[str] = (),
              row_names: Iterable[str] | None = None, spans: Mapping[str, object] | None = None,
              tolerance: float = TOLERANCE) -> Assembly:
@@ -158,7 +169,7 @@ def _closed(model, data, x0, t, fixed, row_names, spans, tolerance):
     nq, nv = model.nq, model.nv
     names = list(row_names) if row_names is not None else [f"constraint {k}" for k in
                                                             range(model.backend.functions["constraints"][0])]
-    hold_q, hold_v = held_columns(model.v_names, fixed)
+    hold_q, hold_v = _held(model.v_names, fixed)
     # positions: Gauss-Newton with the least change of the free coordinates
     g = data.constraints(t, x)
     iterations, stalled = 0, False

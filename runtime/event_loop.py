@@ -419,8 +419,19 @@ def _place_rows(log, times, states, start, segments, t_event, twin, before, firs
     # sample falls on its time (that sample, filled by C after the restart, is the row after it)
     split = np.maximum(np.searchsorted(times, t_event, side="left"), start)  # first sample row at or after it
     after = (split >= times.size) | (times[np.minimum(split, times.size - 1)] != t_event)
-    afters_before = np.r_[0, np.cumsum(after)]  # after rows of the events before event e
-    copy_of = np.r_[before, first_copy + np.arange(m)]  # the p copy in force after e events
+    if m < BOOK_AT_ONCE:  # a short log: its pieces appended as they are (views), no block
+        row = start
+        for e, (stop, t, has_after) in enumerate(zip(split.tolist(), t_event.tolist(), after.tolist())):
+            copy = before if e == 0 else first_copy + e - 1  # in force before event e
+            if stop > row:
+                segments.append(times[row:stop], states[row:stop], copy)
+            segments.append([t], log[e:e + 1, 1:1 + nx], copy)
+            if has_after:
+                segments.append([t], log[e:e + 1, 1 + nx:1 + 2 * nx], first_copy + e, bool(twin[e]))
+            row = max(row, stop)
+        return int(split[-1])
+    afters_before = np.concatenate(([0], np.cumsum(after)))  # after rows of the events before event e
+    copy_of = np.concatenate(([before], first_copy + np.arange(m)))  # the p copy in force after e events
     at = split - start + np.arange(m) + afters_before[:m]  # the row before event e within the block
     samples = np.arange(start, split[-1])
     passed = np.searchsorted(split, samples, side="right")  # events before each sample row
