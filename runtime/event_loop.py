@@ -480,14 +480,7 @@ def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:
         g1 = np.asarray(g(t + dt, x + dt * data.rhs(t, x)), dtype=float)
     except EvaluationError:
         return g0
-    # np.where((np.sign(g1) != np.sign(g0)) & np.isfinite(g1), g1, g0) in plain Python (a few dozen values)
-    return np.array([b if _sign(b) != _sign(a) and math.isfinite(b) else a for a, b in zip(g0.tolist(), g1.tolist())],
-                    dtype=float)
-
-
-def _sign(v: float) -> float:
-    """np.sign of a float: -1, 0 or 1, NaN for NaN."""
-    return math.nan if v != v else (v > 0) - (v < 0)
+    return np.where((np.sign(g1) != np.sign(g0)) & np.isfinite(g1), g1, g0)
 
 
 def settle_switches(model, data, g_start: np.ndarray) -> bool:
