@@ -10,6 +10,7 @@ quaternions normalised).
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import time
@@ -449,7 +450,13 @@ def run_parameters(model: M.Model, lowered) -> list:
 def parameter_vector(p_names, values: Mapping[str, float]) -> list[float]:
     """p in run-time order from the parameters' values: the switches' branch flags and the frozen flag (not
     parameters of the model) start at 0, every comparison evaluated as written until a run freezes them."""
-    return [values[n] if not n.startswith("switch.") else values.get(n, 0.0) for n in p_names]
+    return [values.get(n, 0.0) if flag else values[n] for n, flag in zip(p_names, _run_flags(tuple(p_names)))]
+
+
+@functools.lru_cache(maxsize=64)
+def _run_flags(p_names: tuple[str, ...]) -> tuple[bool, ...]:
+    """Per name of p: whether it is a switch's flag (or the frozen flag), once per model's names."""
+    return tuple(n.startswith("switch.") for n in p_names)
 
 
 #: Log level of a compile phase that took longer than SLOW_PHASE seconds: between INFO and WARNING, shown by
@@ -489,8 +496,14 @@ def scene_overrides(scene: M.Scene | None) -> dict[str, X.E]:
 
 # ------------------------------------------------------------------------------------------ initial state
 def initial_state(generated: Generated, params: Mapping[str, float]) -> np.ndarray:
-    """x0 = [q0; v0] in state order: joint init values, then the scene's init statements."""
-    return initial_state_in(generated.model, generated.scene, generated.layout, params)
+    """x0 = [q0; v0] in state order: joint init values, then the scene's init statements (initial_state_in; the
+    expression of every state worked out once per generated code, then evaluated with these parameters; an init a
+    scene overrides is not evaluated)."""
+    from mbs.runtime.derived import derived
+    plan = derived(generated, "initial_state_plan",
+                   lambda: _initial_expressions(generated.model, generated.scene, generated.layout))
+    x = np.array([X.evaluate(e, params) for e in plan], dtype=float)
+    return _normalise_quaternions(x, generated.layout)
 
 
 def initial_state_of(model: M.Model, scene: M.Scene | None, tree, params: Mapping[str, float]) -> np.ndarray:
@@ -502,14 +515,21 @@ def initial_state_in(model: M.Model, scene: M.Scene | None, layout: StateLayout,
                      params: Mapping[str, float]) -> np.ndarray:
     """initial_state for a model, a scene (or None) and the state layout of their lowering."""
     env = dict(params)
+    x = np.array([X.evaluate(e, env) for e in _initial_expressions(model, scene, layout)], dtype=float)
+    return _normalise_quaternions(x, layout)
+
+
+def _initial_expressions(model: M.Model, scene: M.Scene | None, layout: StateLayout) -> tuple:
+    """The expression of each state's initial value, in state order (q, v, z): joint init values, then the
+    scene's init statements."""
     coords = {c.name: c for c in model.coordinates}
-    inits: dict[tuple[str, bool], float] = {}
+    inits: dict[tuple[str, bool], X.E] = {}
     for c in coords.values():
-        inits[(c.name, False)] = X.evaluate(c.init, env)
-        inits[(c.name, True)] = X.evaluate(c.init_speed, env)
+        inits[(c.name, False)] = c.init
+        inits[(c.name, True)] = c.init_speed
     if scene is not None:
         for name, is_speed, value in scene.inits:
-            inits[(name, is_speed)] = X.evaluate(value, env)
+            inits[(name, is_speed)] = value
     q0 = [inits[(name, False)] for name in layout.q_symbols]
     v0 = []
     for name in layout.v_symbols:
@@ -521,8 +541,8 @@ def initial_state_in(model: M.Model, scene: M.Scene | None, layout: StateLayout,
             v0.append(inits[(f"{head}.q{local[1]}", True)])
     declared = {s.name: s for s in model.states}  # the others are states of force elements (tyre relaxation)
     z0 = [inits[(name, False)] if (name, False) in inits
-          else X.evaluate(declared[name].init, env) if name in declared else 0.0 for name in layout.z_symbols]
-    return _normalise_quaternions(np.array(q0 + v0 + z0, dtype=float), layout)
+          else declared[name].init if name in declared else X.ZERO for name in layout.z_symbols]
+    return tuple(q0 + v0 + z0)
 
 
 def fixed_state_names(generated: Generated) -> list[str]:

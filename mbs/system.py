@@ -12,6 +12,7 @@ import functools
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Callable, Mapping
 
 import numpy as np
@@ -21,7 +22,8 @@ from mbs.language.catalog import SCENE_DEFAULTS
 from mbs.language.diagnostics import Diagnostic, MbsError
 from mbs.runtime import build as _build
 from mbs.runtime import hooks as _hooks
-from mbs.runtime.assembly import assemble
+from mbs.runtime.assembly import assemble, assembled_state
+from mbs.runtime.derived import derived
 from mbs.runtime.equilibrium import static_equilibrium
 from mbs.runtime.model import CompiledModel, load_c, load_numpy
 from mbs.runtime.results import Results
@@ -31,6 +33,10 @@ from mbs.runtime.workspace import Workspace
 from . import derivation_cache, model_cache, pipeline
 from .quantities import parameter_overrides
 from .gimbal import warn_gimbal
+
+#: Parameter bindings a System keeps, the last ones asked for (System._parameter_values): a scene run again with
+#: the same overrides binds and checks its parameters once; a sweep over many values keeps no more than these.
+KEPT_BINDINGS = 8
 
 #: Whether a compile leaves a tree's cold functions (the mass matrix and the forces, which no integrator calls)
 #: to a library of their own, derived and built the first time something calls one (mbs.pipeline.generate
@@ -47,6 +53,7 @@ class System:
     cache_dir: str | None = None
     backend: str = "auto"  # "c", "numpy", or "auto": C when a compiler runs
     _compiled: dict = field(default_factory=dict, repr=False)
+    _bindings: dict = field(default_factory=dict, repr=False, compare=False)
 
     def scene(self, name: str | None) -> M.Scene | None:
         if name is None:
@@ -131,13 +138,37 @@ class System:
         compiled = data.model
         if t_eval is not None:
             settings.pop("sample", None)
-        options.setdefault("owners", self.coordinate_owners(compiled))
+        options.setdefault("owners", self._owners(compiled))
         results = _simulate(compiled, data, settings.pop("t_end"), t_eval=t_eval, progress=progress,
                             **settings, **options)
         if binding is not None:
             _hooks.report(binding, compiled, results)
         warn_gimbal(self.model, results)
         return results
+
+    def _owners(self, compiled: CompiledModel) -> dict[str, str]:
+        """coordinate_owners, worked out once per model's coordinates (a copy: the caller may change it)."""
+        key = ("owners", compiled.q_names)
+        if key not in self._compiled:
+            self._compiled[key] = self.coordinate_owners(compiled)
+        return dict(self._compiled[key])
+
+    def _parameter_values(self, sc: M.Scene | None, params: Mapping[str, float | str] | None) -> dict[str, float]:
+        """Every parameter's value of a scene with the caller's overrides (pipeline.parameter_values: checked),
+        kept for the last KEPT_BINDINGS overrides (the model is immutable: the same overrides bind the same
+        values); a copy, which the caller may change."""
+        overrides = {**pipeline.scene_overrides(sc), **parameter_overrides(self.model, params)}
+        try:
+            key = frozenset(overrides.items())
+        except TypeError:  # an unhashable value (an array): bound afresh
+            return pipeline.parameter_values(self.model, overrides)
+        values = self._bindings.pop(key, None)
+        if values is None:
+            values = pipeline.parameter_values(self.model, overrides)
+            while len(self._bindings) >= KEPT_BINDINGS:
+                del self._bindings[next(iter(self._bindings))]
+        self._bindings[key] = values  # the most recent last
+        return dict(values)
 
     def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
         """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
@@ -162,15 +193,13 @@ class System:
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
             jacobian = True
-        # parameters checked before the (slow) first compile
-        values = pipeline.parameter_values(self.model, {**pipeline.scene_overrides(sc),
-                                                        **parameter_overrides(self.model, params)})
+        values = self._parameter_values(sc, params)  # parameters checked before the (slow) first compile
         binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
         if binding is not None:
             binding.attach(compiled)
         gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
-        data = self._workspace(compiled, gen, values)
+        data = self._start(compiled, gen, values, report=False)[0]
         if drive is not None:
             drive(data)
         if x0 is not None:
@@ -197,16 +226,22 @@ class System:
         return System._start(compiled, gen, values)[0]
 
     @staticmethod
-    def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float]):
-        """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops)."""
+    def _start(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float], report: bool = True):
+        """(workspace, Assembly or None): the initial state, and how the loops were closed (None: no loops, or
+        report False: the same state without the assembly's report)."""
         data = Workspace(compiled)
         data.p = pipeline.parameter_vector(compiled.p_names, values)
         data.x = pipeline.initial_state(gen, values)
         rows = gen.layout.constraint_rows
         if rows is None:
             return data, None
-        spans = {name: gen.model.interaction_map[name].span for name in gen.layout.cuts}
-        assembly = assemble(compiled, data, fixed=pipeline.fixed_state_names(gen), row_names=rows, spans=spans)
+        spans = derived(gen, "cut_spans", lambda: MappingProxyType({name: gen.model.interaction_map[name].span
+                                                                    for name in gen.layout.cuts}))
+        fixed = derived(gen, "fixed_state_names", lambda: tuple(pipeline.fixed_state_names(gen)))
+        if not report:
+            data.x = assembled_state(compiled, data, fixed=fixed, row_names=rows, spans=spans)
+            return data, None
+        assembly = assemble(compiled, data, fixed=fixed, row_names=rows, spans=spans)
         data.x = assembly.x
         return data, assembly
 
@@ -214,9 +249,7 @@ class System:
         """(compiled model, generated code, every parameter's value) of a scene with the caller's overrides;
         hooks: the implementations of the model's user hooks, connected to the compiled model."""
         binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
-        overrides = pipeline.scene_overrides(self.scene(scene))
-        overrides.update(parameter_overrides(self.model, params))
-        values = pipeline.parameter_values(self.model, overrides)  # checked before the (slow) first compile
+        values = self._parameter_values(self.scene(scene), params)  # checked before the (slow) first compile
         compiled = self.compile(scene, hooks=binding)
         if binding is not None:
             binding.attach(compiled)

@@ -18,6 +18,8 @@ Needs the loop functions of a C model (`constraints`, `constraint_velocity`, `co
 
 from __future__ import annotations
 
+import contextlib
+import functools
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -25,6 +27,7 @@ import numpy as np
 
 from mbs.language.diagnostics import Diagnostic, MbsError
 
+from .derived import friction_modes_of
 from .errors import UsageError
 from .friction import stick_rows_released
 from .model import CompiledModel
@@ -103,22 +106,62 @@ def held_columns(v_names: Iterable[str], fixed: Iterable[str]) -> tuple[np.ndarr
     return np.array(positions, dtype=bool), np.array(speeds, dtype=bool)
 
 
+@functools.lru_cache(maxsize=64)
+def _held(v_names: tuple[str, ...], fixed: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """held_columns, once per model's speeds and fixed names (read-only masks): every run of a scene holds the
+    same ones."""
+    masks = held_columns(v_names, fixed)
+    for mask in masks:
+        mask.flags.writeable = False
+    return masks
+
+
 def assemble(model: CompiledModel, data: Workspace, x0=None, *, t: float | None = None, fixed: Iterable[str] = (),
              row_names: Iterable[str] | None = None, spans: Mapping[str, object] | None = None,
              tolerance: float = TOLERANCE) -> Assembly:
     """A state satisfying the loop-closure constraints near x0 (default data.x) at time t (default data.t),
     holding the coordinates and speeds named in `fixed` (as in the model's state names: "j.phi",
     "der(j.phi)", "j.qw", "j.wx"). Raises AssemblyError (an MbsError) when that is impossible."""
+    _check_loops(model, data)
+    with _released(model, data):  # friction's locks are no part of the loops' geometry
+        return _assemble(model, data, x0, t, fixed, row_names, spans, tolerance)
+
+
+def assembled_state(model: CompiledModel, data: Workspace, x0=None, *, t: float | None = None,
+                    fixed: Iterable[str] = (), row_names: Iterable[str] | None = None,
+                    spans: Mapping[str, object] | None = None, tolerance: float = TOLERANCE) -> np.ndarray:
+    """assemble(...).x, the same to the bit, without the report (the rank of G and its redundant rows by an SVD,
+    the states that changed): what a run's start needs."""
+    _check_loops(model, data)
+    with _released(model, data):
+        return _closed(model, data, x0, t, fixed, row_names, spans, tolerance)[1]
+
+
+def _released(model, data):
+    """stick_rows_released, entered only for a model with switched friction elements (nothing to release else)."""
+    return stick_rows_released(model, data) if friction_modes_of(model) else contextlib.nullcontext()
+
+
+def _check_loops(model, data) -> None:
     check_workspace(model, data)
     missing = [name for name in _REQUIRED if name not in model.functions]
     if missing:
         raise UsageError(f"model {model.name} has no loop functions ({', '.join(missing)}): it has no closed "
                          "loops, or it was built with the NumPy back end")
-    with stick_rows_released(model, data):  # friction's locks are no part of the loops' geometry
-        return _assemble(model, data, x0, t, fixed, row_names, spans, tolerance)
 
 
 def _assemble(model, data, x0, t, fixed, row_names, spans, tolerance) -> Assembly:
+    given, x, residual, velocity_residual, iterations, G, names = _closed(model, data, x0, t, fixed, row_names,
+                                                                          spans, tolerance)
+    rank, dependent, idle = _rank_and_dependent_rows(G)
+    changed = tuple((name, float(a), float(b)) for name, a, b in zip(model.x_names, given, x)
+                    if abs(b - a) > REPORT_THRESHOLD * (1.0 + abs(a)))
+    return Assembly(x, changed, residual, velocity_residual, iterations, rank, model.nv - rank,
+                    tuple(names[i] for i in dependent), tuple(names[i] for i in idle))
+
+
+def _closed(model, data, x0, t, fixed, row_names, spans, tolerance):
+    """(the state given, the state closed, position residual, velocity residual, iterations, G there, row names)."""
     t = float(data.t if t is None else t)
     fixed = tuple(fixed)
     given = np.array(data.x if x0 is None else x0, dtype=float)
@@ -126,7 +169,7 @@ def _assemble(model, data, x0, t, fixed, row_names, spans, tolerance) -> Assembl
     nq, nv = model.nq, model.nv
     names = list(row_names) if row_names is not None else [f"constraint {k}" for k in
                                                             range(model.backend.functions["constraints"][0])]
-    hold_q, hold_v = held_columns(model.v_names, fixed)
+    hold_q, hold_v = _held(model.v_names, fixed)
     # positions: Gauss-Newton with the least change of the free coordinates
     g = data.constraints(t, x)
     iterations, stalled = 0, False
@@ -163,12 +206,7 @@ def _assemble(model, data, x0, t, fixed, row_names, spans, tolerance) -> Assembl
     velocity_residual = float(np.max(np.abs(gd), initial=0.0))
     if not velocity_residual <= VELOCITY_TOLERANCE * scale_v:
         raise _failure("velocity", names, spans, gd, iterations, fixed)
-
-    rank, dependent, idle = _rank_and_dependent_rows(G)
-    changed = tuple((name, float(a), float(b)) for name, a, b in zip(model.x_names, given, x)
-                    if abs(b - a) > REPORT_THRESHOLD * (1.0 + abs(a)))
-    return Assembly(x, changed, residual, velocity_residual, iterations, rank, nv - rank,
-                    tuple(names[i] for i in dependent), tuple(names[i] for i in idle))
+    return given, x, residual, velocity_residual, iterations, G, names
 
 
 #: A row takes part in a dependency when its weight in a unit left null vector of G exceeds this (round-off

@@ -24,6 +24,8 @@ damping of runtime/equilibrium.py, which slides into the nearest minimum.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .rows import evaluate_rows
@@ -68,28 +70,32 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             moved[nq:] = 0.0
             return data.project(t, moved) if loops else moved
 
+        rhs = data.function("rhs")
+
         def accelerations(state: np.ndarray) -> np.ndarray:
-            return data.rhs(t, state)[nq:]
+            return rhs(t, state)[nq:]
+
+        rows = _Rows(data, t, free.size)
+        columns = (np.arange(free.size), nq + free)
 
         def jacobian(state: np.ndarray, acc: np.ndarray) -> np.ndarray:
             """The forward differences of every independent column, as move and accelerations give them column
             by column, in one pass per function over all the probes (qdot, project, rhs: on the C back end one
             call each, runtime/rows.py) instead of three Python calls per column."""
-            n = free.size
-            probes = np.repeat(state[None, :], n, axis=0)
+            probes = np.repeat(state[None, :], free.size, axis=0)
             probes[:, nq:] = 0.0
-            probes[np.arange(n), nq + free] = DIFFERENCE_STEP
-            moved = np.repeat(state[None, :], n, axis=0)
-            moved[:, :nq] += _rows(data, "qdot", t, probes, nq)
+            probes[columns] = DIFFERENCE_STEP
+            moved = np.repeat(state[None, :], free.size, axis=0)
+            moved[:, :nq] += rows("qdot", probes, nq)
             moved[:, nq:] = 0.0
             if loops:
-                moved = _rows(data, "project", t, moved, moved.shape[1])
-            return ((_rows(data, "rhs", t, moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
+                moved = rows("project", moved, moved.shape[1])
+            return ((rows("rhs", moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
 
         acc = accelerations(x)
         J = np.zeros((nv, free.size))
         for _ in range(MAX_ITERATIONS):
-            if np.max(np.abs(acc), initial=0.0) <= TOLERANCE:
+            if _largest(acc) <= TOLERANCE:
                 return x if _stable(J, free) else None
             if free.size:
                 J = jacobian(x, acc)
@@ -98,7 +104,7 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
                 trial = move(x, dv)
                 trial_acc = accelerations(trial)
-                if np.max(np.abs(trial_acc)) < np.max(np.abs(acc)):
+                if _largest(trial_acc) < _largest(acc):
                     break
                 dv *= 0.5
             else:
@@ -113,7 +119,7 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
     """The least-squares Newton step in the independent coordinates (columns of J), exactly zero in those the null
     space of J (singular values below RCOND times the largest) moves most: one held per null direction."""
     step = np.zeros(J.shape[1])
-    if not J.size or not np.any(J):
+    if not J.size or not J.any():
         return step
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     rank = int(np.count_nonzero(s > RCOND * s[0]))
@@ -125,14 +131,25 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
     return step
 
 
-def _rows(data, name: str, t: float, states: np.ndarray, size: int) -> np.ndarray:
-    """The model function ``name`` at each of ``states`` (rows) at time t (runtime/rows.py); raises its error."""
-    out = np.empty((len(states), size))
-    done, error = evaluate_rows(data, name, [data.p], np.full(len(states), t), states,
-                                np.zeros(len(states), dtype=np.intp), out)
-    if error is not None:
-        raise error
-    return out
+class _Rows:
+    """The model function ``name`` at each of n states (rows) at time t (runtime/rows.py), raising its error: the
+    times, the p in force and the row's p index made once for the whole iteration."""
+
+    def __init__(self, data, t: float, n: int):
+        self.data, self.ts, self.which = data, np.full(n, t), np.zeros(n, dtype=np.intp)
+        self.ps = data.p.reshape(1, -1).copy()
+
+    def __call__(self, name: str, states: np.ndarray, size: int) -> np.ndarray:
+        out = np.empty((len(states), size))
+        done, error = evaluate_rows(self.data, name, self.ps, self.ts, states, self.which, out)
+        if error is not None:
+            raise error
+        return out
+
+
+def _largest(a: np.ndarray) -> float:
+    """max |a| (0 for none), as np.max(np.abs(a), initial=0.0) without its Python dispatch."""
+    return abs(a).max(initial=0.0)
 
 
 def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
@@ -144,12 +161,12 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
     for _ in range(k):
         norms = np.einsum("ij,ij->j", R, R)
         norms[chosen] = -1.0
-        j = int(np.argmax(norms))
+        j = int(norms.argmax())
         if not norms[j] > 0.0:
             break
         chosen.append(j)
-        q = R[:, j] / np.sqrt(norms[j])
-        R -= np.outer(q, q @ R)
+        q = R[:, j] / math.sqrt(norms[j])  # (both correctly rounded: the same bits as np.sqrt)
+        R -= q[:, None] * (q @ R)[None, :]  # np.outer(q, q @ R), as it computes it
     return chosen
 
 

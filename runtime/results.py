@@ -10,6 +10,7 @@ CSV layout: metadata lines ``# key: <JSON value>``, one header line of column na
 
 from __future__ import annotations
 
+import functools
 import io
 import json
 import os
@@ -36,6 +37,18 @@ def _jsonable(value):
     raise TypeError(f"cannot store {type(value).__name__} in result metadata")
 
 
+@functools.lru_cache(maxsize=64)
+def _column_index(names: tuple[str, ...]) -> dict[str, int]:
+    """{name: column} of checked column names (unique, non-empty, without commas or newlines), worked out once per
+    set of names: a model's runs all have the same columns."""
+    if len(set(names)) != len(names):
+        raise UsageError("column names must be unique")
+    for name in names:
+        if "," in name or "\n" in name or not name:
+            raise UsageError(f"column name {name!r} must be non-empty without commas or newlines")
+    return {n: i for i, n in enumerate(names)}
+
+
 class Results:
     """A table of samples: ``names`` (ncols,) column names, ``data`` (n, ncols) values in SI units.
 
@@ -43,24 +56,23 @@ class Results:
     holds model, integrator, tolerances, status ("finished", "failed", "stopped") and message.
     """
 
-    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None):
-        self.names = tuple(str(n) for n in names)
-        data = np.array(data, dtype=float, ndmin=2)
+    def __init__(self, names: Iterable[str], data, metadata: Mapping | None = None, events=None, *,
+                 copy: bool = True):
+        """copy=False: ``data``, when already a 2-D float64 array, is kept as it is and made read-only in place
+        (for the simulation driver, whose table is fresh and its own: no copy of every sample)."""
+        self.names = tuple(map(str, names))
+        data = np.array(data, dtype=float, ndmin=2, copy=True if copy else None)
         if data.size == 0:
             data = data.reshape(0, len(self.names))
         if data.ndim != 2 or data.shape[1] != len(self.names):
             raise UsageError(f"data of shape {data.shape} does not match {len(self.names)} column names")
-        if len(set(self.names)) != len(self.names):
-            raise UsageError("column names must be unique")
-        for name in self.names:
-            if "," in name or "\n" in name or not name:
-                raise UsageError(f"column name {name!r} must be non-empty without commas or newlines")
+        index = _column_index(self.names)
         data.flags.writeable = False
         self.data = data
         self.metadata = dict(metadata or {})
         #: the event log: one dict per event with time [s], event (name), direction, changes (what it set)
         self.events: list[dict] = list(events or [])
-        self._index = {n: i for i, n in enumerate(self.names)}
+        self._index = index  # (shared between results with the same columns: only read)
 
     # -- access ----------------------------------------------------------------------------------
 

@@ -11,17 +11,18 @@ from .errors import EvaluationError, MbsError
 from .workspace import Workspace
 
 
-def evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray, which: np.ndarray,
+def evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs: np.ndarray, which: np.ndarray,
                   out: np.ndarray):
     """out[i] = f(ts[i], xs[i]) of the model function ``name`` with the run-time values ps[which[i]] in force (a
     run with events: modes, switch flags and parameters change at events, and a sticking friction element is a
     constraint row only while it sticks: compiler/friction_loops.py), in one pass: p is set where it changes, and
-    a row that repeats the one before it (same time, state and p) takes its value.  Returns (rows done, None),
-    or at the first failure (its row, the MbsError: a model status, or a loop that cannot be closed)."""
+    a row that repeats the one before it (same time, state and p) takes its value.  ``ps``: p vectors, or an array
+    of them as rows (taken without a copy).  Returns (rows done, None), or at the first failure (its row, the
+    MbsError: a model status, or a loop that cannot be closed)."""
     f = data.function(name)
     if hasattr(f, "rows"):  # the C back end: every row in one call (c/mbs_glue.c), the failing one again here
         done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
-                      np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
+                      np.ascontiguousarray(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
         if done == len(ts):
             return done, None
         saved = data.p.copy()
@@ -52,7 +53,7 @@ def evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.n
     return len(ts), None
 
 
-def project_and_evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarray, xs: np.ndarray,
+def project_and_evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs: np.ndarray,
                               which: np.ndarray, projected: np.ndarray, out: np.ndarray):
     """projected[i] = the projection of xs[i] onto the closed loops' constraints, out[i] = f(ts[i], projected[i])
     (the model function ``name``, the outputs), each row with ps[which[i]] in force.  On the C back end one pass
@@ -64,7 +65,7 @@ def project_and_evaluate_rows(data: Workspace, name: str, ps: list, ts: np.ndarr
     if hasattr(f, "rows"):
         try:
             done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
-                          np.array(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp),
+                          np.ascontiguousarray(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp),
                           projected)
         except ValueError:  # a model whose outputs do not solve the loops in their own work: two passes
             done = None

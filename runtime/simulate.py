@@ -223,52 +223,65 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
                                                                 lambda: guard.chunks or PROGRESS_CHUNKS)
     ts, all_xs, all_which, twin = segments.arrays(model.nx)
+    ps = segments.values()
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
     # the rows just after an event where nothing jumps are their predecessors' twins: computed once, copied
     own = np.flatnonzero(~twin)
     source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
-    xs, which = all_xs[own], all_which[own]
+    twins = own.size < twin.size
+    xs, which = (all_xs[own], all_which[own]) if twins else (all_xs, all_which)  # (no copies without twins)
     with_outputs = bool(outputs and model.ny and "outputs" in model.functions)
     ys, fused = None, None
     if "project" in model.functions and len(own):
         unprojected, xs = xs, np.empty_like(xs)
         if with_outputs:  # one pass: each row projected, its outputs solved from the factors of its projection
             ys = np.empty((len(own), model.ny))
-            done, error, stage = project_and_evaluate_rows(data, "outputs", segments.p, ts[own], unprojected, which,
+            done, error, stage = project_and_evaluate_rows(data, "outputs", ps, ts[own], unprojected, which,
                                                            xs, ys)
             projected = done if stage == "project" else len(own)
             fused = (done, error) if stage == "outputs" else None
         else:
-            projected, _ = evaluate_rows(data, "project", segments.p, ts[own], unprojected, which, xs)
+            projected, _ = evaluate_rows(data, "project", ps, ts[own], unprojected, which, xs)
         if projected < len(own):
             ts, source = ts[:own[projected]], source[:own[projected]]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
-    columns, names = [ts[:, None], xs[source]], [TIME, *model.x_names]
+    names = [TIME, *model.x_names]
     if with_outputs:
         own_ts = ts[own[own < len(ts)]]
         if ys is None:
             ys = np.empty((len(own), model.ny))
-            done, error = evaluate_rows(data, "outputs", segments.p, own_ts, xs, which[:len(own_ts)], ys)
+            done, error = evaluate_rows(data, "outputs", ps, own_ts, xs, which[:len(own_ts)], ys)
         else:
             done, error = fused or (len(own_ts), None)
         if error is not None:
             keep, failed_at = int(own[done]), float(own_ts[done])
             ts, source = ts[:keep], source[:keep]
-            columns = [ts[:, None], xs[source]]
             status = FAILED
             message = (f"output evaluation failed at t = {failed_at:.6g} s: the model returned "
                        f"{status_text(error.status)}" if isinstance(error, EvaluationError) else str(error))
-        columns.append(ys[source])
-        names += list(model.y_names)
+        names += model.y_names
+    table = np.empty((len(ts), len(names)))  # the results' table, filled in place (no joined copies)
+    table[:, 0] = ts
+    _rows_into(table[:, 1:1 + model.nx], xs, source, twins)
+    if with_outputs:
+        _rows_into(table[:, 1 + model.nx:], ys, source, twins)
     data.stats = stats
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
-    return Results(names, np.hstack(columns), metadata, events=[r.as_row() for r in records])
+    return Results(names, table, metadata, events=[r.as_row() for r in records], copy=False)
+
+
+def _rows_into(out: np.ndarray, rows: np.ndarray, source: np.ndarray, twins: bool) -> None:
+    """out[i] = rows[source[i]]: each result row from its computed row (a twin from its predecessor's)."""
+    if twins:
+        np.take(rows, source[:len(out)], axis=0, out=out)
+    else:
+        out[...] = rows[:len(out)]
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,

@@ -135,3 +135,24 @@ def test_cli_equilibrium_reports_the_resting_state(capsys):
     assert main(["equilibrium", "library/iltis/quarter_car.mbs", "--scene", "settle"]) == 0
     out = capsys.readouterr().out
     assert "static equilibrium" in out and "tyre.radial.load" in out
+
+
+def test_a_scene_run_again_binds_its_parameters_once_and_each_run_gets_its_own_copy(monkeypatch):
+    """System keeps the last parameter bindings (mbs/system.py KEPT_BINDINGS): the same overrides are bound and
+    checked once, a caller that changes the values it got changes nothing the next run reads, and a sweep keeps
+    no more than KEPT_BINDINGS of them."""
+    import mbs.system as system_module
+    system = mbs.loads(PENDULUM)
+    bound = []
+    real = system_module.pipeline.parameter_values
+    monkeypatch.setattr(system_module.pipeline, "parameter_values", lambda *a: bound.append(1) or real(*a))
+    first = system._parameter_values(system.scene("quick"), {"l": 0.25})
+    first["l"] = 99.0
+    again = system._parameter_values(system.scene("quick"), {"l": 0.25})
+    assert len(bound) == 1 and again["l"] == 0.25 and again["l2"] == 0.5
+    for k in range(2 * system_module.KEPT_BINDINGS):
+        system._parameter_values(None, {"l": 1.0 + k})
+    assert len(system._bindings) == system_module.KEPT_BINDINGS
+    res = system.simulate("quick", params={"l": 0.25})
+    w = math.sqrt(9.81 / 0.25)
+    assert res["hinge.phi"] == pytest.approx(math.radians(5) * np.cos(w * res.t), abs=2e-4)

@@ -107,16 +107,18 @@ def test_twin_contacts_closer_than_the_departure_step_are_one_event_in_the_pytho
     assert closing[0]["time"] == pytest.approx(np.sqrt(2 * h / g), abs=1e-6)  # scipy's event location, rtol 1e-10
 
 
-def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry():
-    """replay's numpy path for logs whose events only flip branches (event_loop._book_branches) against its
-    entry-by-entry loop (_book_each, which applies any action) on a log of random crossings of three switches:
-    the same records in the same order, the same values in force after every entry, the same twins."""
+@pytest.mark.parametrize("flags", [(0, 2, 1), (0, 2, 0)], ids=["a flag each", "two switches share a flag"])
+def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
+    """replay's numpy path for logs whose events only flip branches (event_loop._book_branches: filled forward per
+    switch, or per flag where two switches share one) against its entry-by-entry loop (_book_each, which applies
+    any action) on a log of random crossings of three switches: the same records in the same order, the same
+    values in force after every entry, the same twins."""
     from types import SimpleNamespace
 
     from mbs.runtime.events import EventSpec
     rng = np.random.default_rng(7)
-    specs = (EventSpec("a", 0, switch=0, continuous=True), EventSpec("b", 1, switch=2),
-             EventSpec("c", -1, switch=1, continuous=True))
+    specs = (EventSpec("a", 0, switch=flags[0], continuous=True), EventSpec("b", 1, switch=flags[1]),
+             EventSpec("c", -1, switch=flags[2], continuous=True))
     model = SimpleNamespace(events=specs, nx=1)
     m, nev = 60, len(specs)
     g_old = rng.choice([-1.0, 1.0], size=(m, nev))
@@ -136,3 +138,30 @@ def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry():
             assert np.array_equal(each, at_once)
         else:
             assert each == at_once
+
+
+def test_the_python_loops_crossings_are_those_of_events_crossings():
+    """event_loop._crossed (plain Python over a model's indicators) against events.crossings (numpy) on random
+    indicator pairs with zeros of both signs, NaN and infinities in every direction."""
+    from mbs.runtime.events import crossings
+    rng = np.random.default_rng(3)
+    values = np.array([-2.0, -0.0, 0.0, 1.5, np.nan, np.inf, -np.inf, 1e-300])
+    for _ in range(500):
+        g_old, g_new = rng.choice(values, 30), rng.choice(values, 30)
+        directions = rng.choice([-1, 0, 1], 30).astype(np.intc)
+        expected, found = crossings(g_old, g_new, directions), event_loop._crossed(g_old, g_new, directions)
+        assert found.dtype == expected.dtype and np.array_equal(found, expected)
+
+
+def test_booked_records_are_the_records_their_constructor_makes():
+    """event_loop._records writes the fields into each new record's dict (the frozen dataclass's __init__ costs
+    four object.__setattr__ calls a record): equal to EventRecord(...), the same repr and row, and immutable."""
+    import dataclasses
+
+    from mbs.runtime.events import EventRecord
+    made = event_loop._records([0.5, 1.0], ["a", "b"], ["rising", "falling"], ["branch 0 -> 1", ""])
+    expected = [EventRecord(0.5, "a", "rising", "branch 0 -> 1"), EventRecord(1.0, "b", "falling", "")]
+    assert made == expected and [repr(r) for r in made] == [repr(r) for r in expected]
+    assert [r.as_row() for r in made] == [r.as_row() for r in expected]
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        made[0].time = 2.0

@@ -97,3 +97,18 @@ def test_bad_tables_are_rejected():
         Results(["time", "a,b"], np.zeros((3, 2)))
     with pytest.raises(UsageError):
         Results(["time", "time"], np.zeros((3, 2)))
+
+
+def test_results_without_a_copy_keep_the_drivers_table_read_only_and_check_names_as_ever():
+    """copy=False (the simulation driver's fresh table) keeps the array itself, made read-only; a user's array is
+    copied and left writable; bad names are errors either way (checked once per set of names)."""
+    table = np.arange(6.0).reshape(3, 2)
+    kept = Results(["time", "x"], table, copy=False)
+    assert kept.data is table and not table.flags.writeable
+    mine = np.arange(6.0).reshape(3, 2)
+    copied = Results(["time", "x"], mine)
+    assert copied.data is not mine and mine.flags.writeable
+    np.testing.assert_array_equal(kept["x"], copied["x"])
+    for names in (["time", "time"], ["time", "a,b"]):
+        with pytest.raises(UsageError):
+            Results(names, np.zeros((3, 2)), copy=False)

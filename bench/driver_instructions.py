@@ -1,0 +1,146 @@
+"""What Python does around the C integration of a warm Iltis bump run, counted in instructions (load-independent),
+against a baseline checkout in the same run.
+
+    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2]
+
+A warm `System.simulate(scene)` of library/iltis/vehicle.mbs spends most of its time inside the model's C: the
+integration (`Solver.sample`), the results' rows (`Function.rows`: the equilibrium's difference columns, the
+outputs) and single calls of model functions.  Everything else is Python and NumPy: the driver (parameters, the
+workspace, the loops' assembly, the run's set-up and its results), the static equilibrium's Newton iteration
+around its C calls, the events C handled booked in Python (runtime/event_loop.py replay).  bench/bump_cost.py times
+the parts in CPU seconds, which wander with the machine's load; this counts them.
+
+One child process per checkout, scene and part runs under valgrind's callgrind (needs `valgrind`, `callgrind_control`
+and `callgrind_annotate` on the PATH): it loads the model (from the build cache) and runs the part twice without
+instrumentation, switches it on (callgrind_control -i on), then runs the part --repeat times inside
+`functools.reduce`, the only C function callgrind collects in (--toggle-collect), so that the count holds those calls
+and nothing else.  The parts: `simulate` (the whole `System.simulate(scene)`) and `start`
+(`System.start(scene)`: the parameters, the workspace, the loops' assembly and the static equilibrium).  Printed per
+call: all instructions, those inside the model's C (the inclusive counts of `solver_sample`, `function_rows` and
+`function_vectorcall` of the compiled model), and the rest: Python's own (the interpreter, NumPy, LAPACK); and the
+Python function calls per simulate (cProfile, outside valgrind).  The baseline is the checkout of --baseline (a
+git revision, default the commit before the driver's cuts), exported with `git archive` into a temporary
+directory and imported from there; the ratio is current over baseline.  Takes a minute or two.
+"""
+
+from __future__ import annotations
+
+import argparse
+import concurrent.futures
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
+#: The driver before this bench's cuts (the commit the work started from).
+BASELINE = "1abfa02"
+#: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
+MODEL_C = ("solver_sample", "function_rows", "function_vectorcall")
+#: pyproject.toml's package-dir: the import names of the checkout's folders.
+PACKAGE_DIRS = {"base": "base", "language": "language", "compiler": "compiler", "runtime": "runtime",
+                "library": "library"}
+
+#: The child: argv: checkout (None: the installed one), model, scene, part, repeat, "callgrind" or "calls".
+CHILD = """
+import cProfile, functools, os, pstats, subprocess, sys
+if sys.argv[1] != "-":
+    sys.path.insert(0, sys.argv[1])
+import mbs
+model, scene, part, repeat, how = sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]), sys.argv[6]
+assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
+system = mbs.load(model)
+run = {"simulate": lambda: system.simulate(scene), "start": lambda: system.start(scene)}[part]
+run(); run()
+if how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
+    subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
+    functools.reduce(lambda _, __: run(), range(repeat), None)
+else:
+    profile = cProfile.Profile()
+    profile.enable()
+    for _ in range(repeat):
+        run()
+    profile.disable()
+    print("calls", pstats.Stats(profile).total_calls / repeat)
+"""
+
+
+def export(revision: str, into: Path) -> Path:
+    """The checkout of a git revision in `into`, importable as `mbs` from there (the package's folders linked
+    into mbs/ as pyproject.toml maps them)."""
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", revision], capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(into)], input=archive, check=True)
+    for name, folder in PACKAGE_DIRS.items():
+        (into / "mbs" / name).symlink_to(into / folder, target_is_directory=True)
+    return into
+
+
+def child(tree: str, scene: str, part: str, repeat: int, how: str, workdir: Path) -> float:
+    """Instructions per call inside the model's C and in all ((model C, all)), or Python calls per call."""
+    args = [sys.executable, "-c", CHILD, tree, str(MODEL), scene, part, str(repeat), how]
+    if how == "calls":
+        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
+        found = re.search(r"calls (\S+)", done.stdout)
+        if done.returncode != 0 or not found:
+            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
+        return float(found.group(1))
+    out = Path(tempfile.mkstemp(prefix="callgrind.", dir=workdir)[1])
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
+                           "--toggle-collect=functools_reduce",
+                           f"--callgrind-out-file={out}", *args], capture_output=True, text=True, cwd=workdir)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or not found:
+        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
+    annotated = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", str(out)],
+                               capture_output=True, text=True).stdout
+    inside = 0
+    for line in annotated.splitlines():
+        match = re.match(r"\s*([\d,]+)\s.*\?\?\?:(\w+) \[.*mbs_model_", line)
+        if match and match.group(2) in MODEL_C:
+            inside += int(match.group(1).replace(",", ""))
+    return inside / repeat, int(found.group(1)) / repeat
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
+    ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline checkout")
+    ap.add_argument("--repeat", type=int, default=2, help="calls counted per child")
+    ap.add_argument("--jobs", type=int, default=2, help="children at once")
+    args = ap.parse_args(argv)
+    for tool in ("valgrind", "callgrind_control", "callgrind_annotate"):
+        if shutil.which(tool) is None:
+            raise SystemExit(f"{tool} is not on the PATH")
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-driver-") as tmp:
+        tmp = Path(tmp)
+        (tmp / "baseline").mkdir()
+        trees = {"current": "-", "baseline": str(export(args.baseline, tmp / "baseline"))}
+        jobs = [(label, scene, part, how) for scene in args.scenes for part in ("simulate", "start")
+                for label in trees for how in ("callgrind",)]
+        jobs += [(label, scene, "simulate", "calls") for scene in args.scenes for label in trees]
+        with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
+            futures = {job: pool.submit(child, trees[job[0]], job[1], job[2],
+                                        args.repeat if job[3] == "callgrind" else 5, job[3], tmp) for job in jobs}
+            counts = {job: future.result() for job, future in futures.items()}
+    print(f"Python around the C of a warm Iltis run, instructions per call (callgrind), current checkout against "
+          f"{args.baseline} in the same run; Python's own: all but the model's C ({', '.join(MODEL_C)})")
+    for scene in args.scenes:
+        print(f"\n{scene}:")
+        for part, what in (("simulate", "System.simulate (whole run)"),
+                           ("start", "System.start (parameters, workspace, assembly, equilibrium)")):
+            (c_now, all_now), (c_then, all_then) = (counts[(label, scene, part, "callgrind")] for label in trees)
+            own_now, own_then = all_now - c_now, all_then - c_then
+            print(f"  {what}: all {all_now / 1e6:.2f} M (baseline {all_then / 1e6:.2f} M); model C "
+                  f"{c_now / 1e6:.2f} M ({c_then / 1e6:.2f} M); Python's own {own_now / 1e6:.2f} M against "
+                  f"{own_then / 1e6:.2f} M, ratio {own_now / own_then:.2f}")
+        calls_now, calls_then = (counts[(label, scene, "simulate", "calls")] for label in trees)
+        print(f"  Python function calls per simulate (cProfile): {calls_now:,.0f} against {calls_then:,.0f}, ratio "
+              f"{calls_now / calls_then:.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
