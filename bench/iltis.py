@@ -20,8 +20,9 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
   the compile;
 * other outputs: text to loaded library of a scene that asks for other outputs than S (--other, default settle)
   when S was derived and compiled before (the equations and their code taken from the derivation cache, the
-  model lowered and the outputs derived on the lowering, the equations of motion not derived again; only
-  outputs.c compiled, the other objects from the build cache), against the same scene's fresh compile (whole
+  model lowered, the equations of motion derived again but not printed, since the outputs share their
+  temporaries (mbs/pipeline.py generate_outputs), the outputs derived on the lowering; only outputs.c compiled,
+  the other objects from the build cache), against the same scene's fresh compile (whole
   derivation, every unit) in this run; with --only-other nothing else after the first compile;
 * rhs per call inside C (no Python, `backend.time_call`) at the scene's equilibrium state: the right-hand side
   the integrators call (`rhs`: the state projected onto the loop-closure constraints, then the constrained
@@ -290,32 +291,21 @@ def one_unit_build(code: str) -> float:
 
 
 def print_other_outputs(cache: str, scene: str, before: str) -> None:
-    other, former, other_fresh = other_outputs_times(cache, scene)
+    other, other_fresh = other_outputs_times(cache, scene)
     print(f"other outputs (scene {scene} after {before}): {other:.1f} s to the loaded library, "
-          f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x; the former way "
-          f"(the equations of motion derived again, then the outputs) {former:.1f} s: {former / other:.2f} x")
+          f"against its fresh compile {other_fresh:.1f} s (baseline): {other_fresh / other:.1f} x")
 
 
-def other_outputs_times(cache: str, scene: str) -> tuple[float, float, float]:
+def other_outputs_times(cache: str, scene: str) -> tuple[float, float]:
     """Seconds from text to loaded library of `scene` (its outputs differ from the scene compiled before in
-    `cache`): with that cache, with a copy of it taken before and the equations of motion derived again (the
-    former way, pipeline._derive told to), and with an empty one (the fresh compile, the baseline)."""
-    from mbs import pipeline
+    `cache`): with that cache, and with an empty one (the fresh compile, the baseline)."""
     times = []
-    with tempfile.TemporaryDirectory() as copy:
-        shutil.copytree(cache, copy, dirs_exist_ok=True)
-        for folder, former in ((cache, False), (copy, True), (None, False)):
-            with tempfile.TemporaryDirectory() as empty:
-                real = pipeline._derive
-                if former:
-                    pipeline._derive = lambda *a, **k: real(*a, **{**k, "equations": True})
-                try:
-                    start = time.perf_counter()
-                    mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
-                    times.append(time.perf_counter() - start)
-                finally:
-                    pipeline._derive = real
-    return times[0], times[1], times[2]
+    for folder in (cache, None):
+        with tempfile.TemporaryDirectory() as empty:
+            start = time.perf_counter()
+            mbs.load(MODEL, cache_dir=folder or empty).compile(scene)
+            times.append(time.perf_counter() - start)
+    return times[0], times[1]
 
 
 def cli_times(cache: str, scene: str, repeat: int) -> dict[str, tuple[float, float]]:

@@ -18,11 +18,11 @@ The equations and a scene's outputs are kept apart. pipeline.generate writes the
 outputs, lowered onto the end of the lowering's tape, as the last part of the file; the equations' entry is keyed
 by all of the above but the outputs, an outputs entry by the equations' key and the outputs. A scene asking for
 other outputs finds the equations' entry, lowers the model again (the outputs are expressions on its tape) and
-writes only its outputs' part: the same text a whole derivation gives. With loops it does not derive the equations
-of motion (the outputs read the loop solver's accelerations and multipliers at run time, and generate writes their
-part with the same stand-in, pipeline.outputs_equations, whichever wrote the file); a tree derives them again
-without writing their code (its NumPy module holds the outputs and the equations in one), as does bearing
-friction in loops.
+writes only its outputs' part: the same text a whole derivation gives, whichever scene came first. It derives the
+equations of motion again without writing their code, since the outputs share their temporaries on the tape (with
+loops the outputs' part is written with a stand-in for them, pipeline.outputs_equations, as generate writes it: the
+outputs read the loop solver's accelerations and multipliers at run time; a tree's NumPy module holds the outputs
+and the equations in one).
 The build compiles that part as a unit of its own (runtime/translation_units.py), so nothing else recompiles.
 Outputs that cannot stand apart (they call a user hook or add a switch) are kept with the whole file under the
 outputs' key.

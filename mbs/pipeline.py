@@ -226,9 +226,10 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
                      ) -> tuple[str, str, tuple[str, ...], Symbolic]:
     """(outputs part, the NumPy module's printer, output names, symbolic stages or None) of a scene whose equations part
     (generate's c_source up to outputs_at, with the same options) is `equations_source`: the model is lowered
-    again (the outputs are expressions on its tape); with loops the equations of motion are not derived
-    (outputs_equations; symbolic stages None), a tree's are for its NumPy module, not written into the C; the
-    text is the one generate gives.
+    again (the outputs are expressions on its tape) and its equations of motion derived, as generate has them
+    on the tape when it lowers the outputs, but not printed: with loops the outputs' part is written with
+    outputs_equations (symbolic stages None), a tree's equations serve its NumPy module; the text is the one
+    generate gives, whichever scene the cache met first.
     Raises compiler.ccode.NotSeparable when the outputs cannot stand apart. (closed_form: as for generate; the
     outputs do not depend on it: they read the loop solver's rates.)"""
     del closed_form, cold_apart  # (nor on whether the cold functions are in the equations' part)
@@ -236,8 +237,13 @@ def generate_outputs(model: M.Model, scene: M.Scene | None, equations_source: st
     from mbs.compiler.lower import lower_outputs
     from mbs.compiler.pycode import generate_numpy
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else "") + " (outputs only)")
-    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock,
-                                                                    equations=False)
+    # the equations of motion are derived (not printed) as generate derives them before it lowers the outputs:
+    # the outputs share their temporaries on the tape (inertias, positions); without them the outputs' text, and
+    # its round-off, depended on the scene the cache had met first (the Iltis's bump_5 after settle, and its
+    # quarter car's: other parts and carries, the vehicle's bearing reactions 1.9e-12 apart)
+    lowered, constraints, equations, parameters, friction = _derive(model, scene, dynamics, clock)
+    if constraints is not None and friction is None:
+        equations = None  # the outputs' part reads the loop solver's accelerations at run time (outputs_equations)
     if equations is None:  # loops: no NumPy module, and the outputs read the accelerations at run time
         options = {}
     else:  # what generate does before it lowers the outputs, so that the tape they share is the same
@@ -292,12 +298,9 @@ def outputs_equations(lowered):
                      (zero,) * tree.nq, None, (zero,) * len(lowered.state_rates))
 
 
-def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False,
-            equations: bool = True):
+def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, outputs: bool = False):
     """(lowered, constraints, equations, parameters, friction): the model lowered (with its outputs only if
-    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None).
-    `equations` False: a model with loops and no bearing friction in them is not derived further (equations
-    None; what the outputs' part alone needs)."""
+    `outputs`), its equations of motion derived, and the routines of bearing friction in loops (or None)."""
     from mbs.compiler.constraints import derive_constraints
     from mbs.compiler.equations import derive_equations
     from mbs.compiler.friction_loops import with_friction_rows
@@ -311,9 +314,6 @@ def _derive(model: M.Model, scene: M.Scene | None, dynamics: bool, clock, *, out
         constraints = with_friction_rows(constraints, lowered.friction_rows)
     if constraints is not None and not constraints.nc:  # a free joint closing a "loop" constrains nothing
         constraints = None
-    if not equations and constraints is not None and lowered.bearing_friction is None:
-        parameters = run_parameters(model, lowered)
-        return lowered, constraints, None, parameters, None
     # with loops the articulated-body vdot is not used (and divides by zero for massless parts)
     if lowered.tree.states and dynamics:
         where = model.states[0].span if model.states else model.span
