@@ -663,5 +663,6 @@ def generate_loop_c(equations: Equations, constraints: Constraints, parameters: 
     if emitter.outputs:
         names.append(name_table("mbs_output_name", "output i", [name for name, _ in emitter.outputs]))
     helpers = emitter._helpers(printer.used, printer.hook_calls)
-    return "\n".join([header, loop_definitions(constraints, np=len(emitter.parameters), mass_matrix=equations.mass_matrix), *helpers, *functions, *names,
+    definitions = loop_definitions(constraints, np=len(emitter.parameters), mass_matrix=equations.mass_matrix)
+    return "\n".join([header, definitions, *helpers, *functions, *names,
                       loop_functions(constraints)])

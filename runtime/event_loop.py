@@ -16,7 +16,7 @@ import numpy as np
 from .derived import derived, friction_modes_of
 from .errors import EvaluationError
 from .events import (DEPARTURE_STEP, DIRECTION_NAMES, ZENO_WINDOW, EventRecord, against_motion, apply_events,
-                     crossing_rows, init_switches, is_zeno, resolution_message, zeno_message)
+                     crossing_rows, crossings, init_switches, is_zeno, resolution_message, zeno_message)
 from .friction import is_friction_event, start_friction_modes
 from .integrators import FAILED, FINISHED
 from .integrators.base import EVENT
@@ -190,12 +190,12 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
                 break
             t_event, y_event = float(solver.t), np.asarray(solver.y, dtype=float)
             g_event = g(t_event, y_event)
-            fired = _crossed(solver.g_old, g_event, directions)
+            fired = crossings(solver.g_old, g_event, directions)
             # a switch crossing within the departure step of this event is this event too (the mirror-image wheels
             # of a symmetric vehicle cross 1e-14 s apart): else the restart's look-ahead (departing,
             # settle_switches) would take its flag over without an event, as c/ode.c mbs_ode_find_event says
             g_ahead = departing(data, g, t_event, y_event)
-            twins = [k for k in _crossed(solver.g_old, g_ahead, directions)
+            twins = [k for k in crossings(solver.g_old, g_ahead, directions)
                      if k not in fired and not any(a == "x" for a, _, _ in model.events[k].assignments)]
             if twins:
                 g_event[twins] = g_ahead[twins]
@@ -460,14 +460,6 @@ def continuous(model, fired) -> bool:
     """Whether nothing jumps at an event where the indicators ``fired`` crossed: all are continuous switches (the
     state stays, and every expression reading their flags takes the same value on both sides)."""
     return bool(len(fired)) and all(model.events[k].continuous for k in fired)
-
-
-def _crossed(g_old: np.ndarray, g_new: np.ndarray, directions: np.ndarray) -> np.ndarray:
-    """events.crossings of one pair of indicator vectors, the same comparisons in plain Python: for a model's few
-    dozen indicators a tenth of the instructions of numpy's eleven calls."""
-    return np.array([k for k, (a, b, d) in enumerate(zip(np.asarray(g_old).tolist(), np.asarray(g_new).tolist(),
-                                                         directions.tolist()))
-                     if (a < 0 and b >= 0 and d >= 0) or (a > 0 and b <= 0 and d <= 0)], dtype=np.intp)
 
 
 def departing(data, g, t: float, x: np.ndarray) -> np.ndarray:

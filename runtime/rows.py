@@ -21,8 +21,7 @@ def evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs: np.ndarray
     MbsError: a model status, or a loop that cannot be closed)."""
     f = data.function(name)
     if hasattr(f, "rows"):  # the C back end: every row in one call (c/mbs_glue.c), the failing one again here
-        done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
-                      np.ascontiguousarray(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
+        done = f.rows(*_c_rows_arguments(ts, xs, out, ps, which))
         if done == len(ts):
             return done, None
         saved = data.p.copy()
@@ -53,6 +52,13 @@ def evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs: np.ndarray
     return len(ts), None
 
 
+def _c_rows_arguments(ts, xs, out, ps, which) -> tuple:
+    """The arguments of a C function's `rows` (c/mbs_glue.c): contiguous arrays of the right types, the p copies as
+    rows (an array of them taken without a copy)."""
+    return (np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
+            np.ascontiguousarray(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp))
+
+
 def project_and_evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs: np.ndarray,
                               which: np.ndarray, projected: np.ndarray, out: np.ndarray):
     """projected[i] = the projection of xs[i] onto the closed loops' constraints, out[i] = f(ts[i], projected[i])
@@ -64,9 +70,7 @@ def project_and_evaluate_rows(data: Workspace, name: str, ps, ts: np.ndarray, xs
     f = data.function(name)
     if hasattr(f, "rows"):
         try:
-            done = f.rows(np.ascontiguousarray(ts, dtype=float), np.ascontiguousarray(xs, dtype=float), out,
-                          np.ascontiguousarray(ps, dtype=float).reshape(len(ps), -1), np.ascontiguousarray(which, dtype=np.intp),
-                          projected)
+            done = f.rows(*_c_rows_arguments(ts, xs, out, ps, which), projected)
         except ValueError:  # a model whose outputs do not solve the loops in their own work: two passes
             done = None
         if done is not None:

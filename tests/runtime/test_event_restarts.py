@@ -140,16 +140,17 @@ def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
             assert each == at_once
 
 
-def test_the_python_loops_crossings_are_those_of_events_crossings():
-    """event_loop._crossed (plain Python over a model's indicators) against events.crossings (numpy) on random
+def test_one_pair_s_crossings_are_those_of_the_rows_mask():
+    """events.crossings (plain Python over a model's indicators) against events.crossing_rows (numpy) on random
     indicator pairs with zeros of both signs, NaN and infinities in every direction."""
-    from mbs.runtime.events import crossings
+    from mbs.runtime.events import crossing_rows, crossings
     rng = np.random.default_rng(3)
     values = np.array([-2.0, -0.0, 0.0, 1.5, np.nan, np.inf, -np.inf, 1e-300])
     for _ in range(500):
         g_old, g_new = rng.choice(values, 30), rng.choice(values, 30)
         directions = rng.choice([-1, 0, 1], 30).astype(np.intc)
-        expected, found = crossings(g_old, g_new, directions), event_loop._crossed(g_old, g_new, directions)
+        expected = np.flatnonzero(crossing_rows(g_old, g_new, directions))
+        found = crossings(g_old, g_new, directions)
         assert found.dtype == expected.dtype and np.array_equal(found, expected)
 
 
