@@ -10,6 +10,9 @@ The objects of split builds (``mbs_object_<key>.o``, runtime/build.py) have reco
 checked the same way before they are linked. Derived equations (``mbs_derived_<key>.json``,
 mbs/derivation_cache.py) and validated models (``mbs_checked_<key>.json``, mbs/model_cache.py) are JSON files
 that carry their record in their first line; both caches key their entries with `digest` and `code_fingerprint`.
+
+The cache has a size bound (runtime/cache_bound.py): the checks before a use (`problem`, `read_derived`) record
+the use when they pass, the stores (`record`, `write_derived`) tell the bound what they added.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from mbs.base.atomic import write_text_atomic
+
+from . import cache_bound as _bound
 
 EXT_SUFFIX = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
 PREFIX = "mbs_model_"
@@ -44,17 +49,16 @@ class Entry:
 
     @property
     def kind(self) -> str:
-        """'build' (a compiled model), 'object' (a compiled unit of one), 'derivation' (derived equations and
-        generated code) or 'model' (a file's validated models)."""
-        if self.name.startswith(OBJECT_PREFIX):
-            return "object"
-        if self.name.startswith(CHECKED_PREFIX):
-            return "model"
-        return "derivation" if self.name.startswith(DERIVED_PREFIX) else "build"
+        return kind_of(self.name)
 
     @property
     def size(self) -> int:
         return sum(p.stat().st_size for p in self.files if p.exists())
+
+    @property
+    def used(self) -> float:
+        """Last use (seconds since the epoch): the newest modification time of its files (a hit touches one)."""
+        return max((p.stat().st_mtime for p in self.files if p.exists()), default=0.0)
 
     @property
     def built(self) -> float:
@@ -66,6 +70,26 @@ class Entry:
     @property
     def model(self) -> str:
         return str((self.record or {}).get("model") or "?")
+
+
+def kind_of(name: str) -> str:
+    """The kind of the entry named `name`: 'build' (a compiled model), 'object' (a compiled unit of one),
+    'derivation' (derived equations and generated code) or 'model' (a file's validated models)."""
+    if name.startswith(OBJECT_PREFIX):
+        return "object"
+    if name.startswith(CHECKED_PREFIX):
+        return "model"
+    return "derivation" if name.startswith(DERIVED_PREFIX) else "build"
+
+
+def entry_stem(name: str) -> str | None:
+    """The name of the entry a file of the cache folder belongs to (None: none, e.g. a temporary): a module,
+    its record and its C copy share one, an object and its record one; a JSON entry is one file."""
+    if name.startswith((DERIVED_PREFIX, CHECKED_PREFIX)):
+        return name[:-5] if name.endswith(".json") else None
+    if name.startswith((PREFIX, OBJECT_PREFIX)):
+        return name[: -len(EXT_SUFFIX)] if name.endswith(EXT_SUFFIX) else name.rsplit(".", 1)[0]
+    return None
 
 
 def record_path(module: Path) -> Path:
@@ -96,7 +120,14 @@ def record(module: Path, key: str, unit: str, label: str | None = None) -> None:
     """Write the record of a module (or object) just built (atomically, after the file is in place)."""
     data = {"key": key, "size": module.stat().st_size, "sha256": sha256(module), "built": time.time(),
             "model": label or model_label(unit)}
-    write_text_atomic(record_path(module), json.dumps(data, indent=1) + "\n")
+    text = json.dumps(data, indent=1) + "\n"
+    write_text_atomic(record_path(module), text)
+    stem = entry_stem(module.name) or module.stem
+    try:
+        copy = module.with_name(stem + ".c").stat().st_size  # a module's C copy, stored just before it
+    except OSError:
+        copy = 0
+    _bound.stored(module.parent, stem, data["size"] + len(text) + copy)
 
 
 def object_path(cache: Path, key: str) -> Path:
@@ -118,8 +149,9 @@ def read_record(module: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-def problem(module: Path) -> str | None:
-    """Why the cached module must not be loaded (None: it is what was built)."""
+def problem(module: Path, used: bool = True) -> str | None:
+    """Why the cached module must not be loaded (None: it is what was built, and with `used` its use is recorded:
+    this is the check before it is loaded or linked)."""
     data = read_record(module)
     if data is None:
         return "it has no build record"
@@ -135,6 +167,8 @@ def problem(module: Path) -> str | None:
         return f"it cannot be read ({exc.strerror})"
     if digest != data.get("sha256"):
         return "its content differs from what was built (SHA-256 mismatch)"
+    if used:
+        _bound.touch(module)
     return None
 
 
@@ -145,13 +179,13 @@ def entries(cache: Path) -> list[Entry]:
     groups: dict[str, list[Path]] = {}
     derived = []
     for path in cache.iterdir():
-        if path.name.startswith((DERIVED_PREFIX, CHECKED_PREFIX)) and path.name.endswith(".json") and path.is_file():
-            derived.append(Entry(path.name[:-5], path, read_derived_record(path), (path,)))
+        stem = entry_stem(path.name)
+        if stem is None or not path.is_file():
             continue
-        if not path.name.startswith((PREFIX, OBJECT_PREFIX)) or not path.is_file():
-            continue
-        stem = path.name[: -len(EXT_SUFFIX)] if path.name.endswith(EXT_SUFFIX) else path.name.rsplit(".", 1)[0]
-        groups.setdefault(stem, []).append(path)
+        if stem.startswith((DERIVED_PREFIX, CHECKED_PREFIX)):
+            derived.append(Entry(stem, path, read_derived_record(path), (path,)))
+        else:
+            groups.setdefault(stem, []).append(path)
     main = {stem: cache / (stem + (".o" if stem.startswith(OBJECT_PREFIX) else EXT_SUFFIX)) for stem in groups}
     out = [Entry(stem, main[stem], read_record(main[stem]), tuple(sorted(files))) for stem, files in groups.items()]
     return sorted(out + derived, key=lambda e: e.built)
@@ -160,8 +194,8 @@ def entries(cache: Path) -> list[Entry]:
 def entry_problem(entry: Entry) -> str | None:
     """Why an entry of either kind must not be loaded (None: it is what was written)."""
     if entry.kind in ("derivation", "model"):
-        return read_derived(entry.module)[1]
-    return problem(entry.module) if entry.module.exists() else "the compiled module is missing"
+        return read_derived(entry.module, used=False)[1]
+    return problem(entry.module, used=False) if entry.module.exists() else "the compiled module is missing"
 
 
 # ------------------------------------------------------------------------------------------ keys
@@ -217,7 +251,9 @@ def write_derived(path: Path, payload: dict, model: str) -> None:
     """Write a derivation entry atomically: the record line, then the payload as JSON."""
     body = json.dumps(payload, separators=(",", ":")).encode()
     head = {"size": len(body), "sha256": hashlib.sha256(body).hexdigest(), "built": time.time(), "model": model}
-    write_text_atomic(path, json.dumps(head) + "\n" + body.decode())
+    text = json.dumps(head) + "\n" + body.decode()
+    write_text_atomic(path, text)
+    _bound.stored(path.parent, entry_stem(path.name) or path.stem, len(text.encode()))
 
 
 def read_derived_record(path: Path) -> dict | None:
@@ -230,8 +266,9 @@ def read_derived_record(path: Path) -> dict | None:
     return data if isinstance(data, dict) else None
 
 
-def read_derived(path: Path) -> tuple[dict | None, str | None]:
-    """(payload, None) of an intact derivation entry that only its owner can write, else (None, why not)."""
+def read_derived(path: Path, used: bool = True) -> tuple[dict | None, str | None]:
+    """(payload, None) of an intact derivation entry that only its owner can write, else (None, why not); with
+    `used` the use of an intact one is recorded (this is the check before it is used)."""
     try:
         owner_problem = _foreign(path)
         if owner_problem:
@@ -253,7 +290,11 @@ def read_derived(path: Path) -> tuple[dict | None, str | None]:
         payload = json.loads(body)
     except ValueError:
         return None, "its content is not valid JSON"
-    return (payload, None) if isinstance(payload, dict) else (None, "its content is not a derivation")
+    if not isinstance(payload, dict):
+        return None, "its content is not a derivation"
+    if used:
+        _bound.touch(path)
+    return payload, None
 
 
 def _foreign(path: Path) -> str | None:
@@ -270,8 +311,13 @@ def _foreign(path: Path) -> str | None:
 
 def remove(entry: Entry) -> int:
     """Delete an entry's files (the record last: a half-removed entry is never trusted); bytes freed."""
+    return remove_files(entry.files)
+
+
+def remove_files(files) -> int:
+    """Delete the files of an entry, the record (.json) last; bytes freed."""
     freed = 0
-    for path in sorted(entry.files, key=lambda p: p.suffix == ".json"):
+    for path in sorted(files, key=lambda p: p.suffix == ".json"):
         try:
             freed += path.stat().st_size
             os.unlink(path)
