@@ -73,7 +73,8 @@ def parse_size(text: str) -> int:
     if not unit and match.group(3) and number != int(number):
         raise ValueError(f"{text!r} is not a whole number of bytes")
     if not unit and not match.group(3) and number != 0:
-        raise ValueError(f"{text!r} has no unit (500M, 2G: K, M, G, T are powers of 1000, Ki, Mi, Gi of 1024; bytes: 12345B)")
+        raise ValueError(f"{text!r} has no unit (500M, 2G: K, M, G, T are powers of 1000, Ki, Mi, Gi of 1024; "
+                         "bytes: 12345B)")
     return int(number * _UNITS[unit])
 
 

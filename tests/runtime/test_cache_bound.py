@@ -58,7 +58,8 @@ def test_sizes_are_read_as_ccache_writes_them(text, size):
     assert cache_bound.parse_size(text) == size
 
 
-@pytest.mark.parametrize("text, why", [("abc", "is not a size"), ("500", "has no unit"), ("1.5B", "not a whole number of bytes"), ("-1G", "is not a size"),
+@pytest.mark.parametrize("text, why", [("abc", "is not a size"), ("500", "has no unit"), ("-1G", "is not a size"),
+                                       ("1.5B", "not a whole number of bytes"),
                                        ("5X", "is not a size"), ("", "is not a size"), ("1e3M", "is not a size")])
 def test_a_bad_size_says_what_is_wrong(text, why):
     with pytest.raises(ValueError, match=why):
