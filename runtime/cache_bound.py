@@ -207,9 +207,14 @@ class Stored:
 
     name: str                       #: the entry's stem (runtime/cache.py entry_stem)
     kind: str                       #: runtime/cache.py kind_of
-    files: tuple[Path, ...]
+    folder: Path
+    names: tuple[str, ...]          #: of its files (paths are made only for those removed: a walk makes none)
     size: int
     used: float                     #: the newest modification time of its files
+
+    @property
+    def files(self) -> tuple[Path, ...]:
+        return tuple(self.folder / name for name in self.names)
 
 
 @dataclass(frozen=True)
@@ -237,25 +242,34 @@ def is_temporary(name: str) -> bool:
 def scan(folder: Path) -> Scan:
     """Every entry of the cache folder with its size and last use, and the temporaries (one stat a file)."""
     from . import cache  # (it records hits and stores through this module)
-    groups: dict[str, list[tuple[Path, os.stat_result]]] = {}
+    groups: dict[str, list] = {}  # stem -> [names, bytes, last use]
     temporaries = []
     try:
         listing = list(os.scandir(folder))
     except FileNotFoundError:
         return Scan((), ())
     for item in listing:
+        name = item.name
         try:
-            if is_temporary(item.name):
+            if name[:1] == "." and is_temporary(name):
                 st = item.stat(follow_symlinks=False)
                 temporaries.append((Path(item.path), st.st_mtime, st.st_size if item.is_file() else 0))
                 continue
-            stem = cache.entry_stem(item.name)
-            if stem is not None and item.is_file():
-                groups.setdefault(stem, []).append((Path(item.path), item.stat()))
+            stem = cache.entry_stem(name)
+            if stem is None or not item.is_file():
+                continue
+            st = item.stat()
         except FileNotFoundError:  # removed by another process meanwhile
             continue
-    entries = [Stored(stem, cache.kind_of(stem), tuple(p for p, _ in files), sum(st.st_size for _, st in files),
-                      max(st.st_mtime for _, st in files)) for stem, files in groups.items()]
+        group = groups.get(stem)
+        if group is None:
+            groups[stem] = [[name], st.st_size, st.st_mtime]
+        else:
+            group[0].append(name)
+            group[1] += st.st_size
+            group[2] = max(group[2], st.st_mtime)
+    entries = [Stored(stem, cache.kind_of(stem), folder, tuple(names), size, used)
+               for stem, (names, size, used) in groups.items()]
     return Scan(tuple(sorted(entries, key=lambda e: e.used)), tuple(temporaries))
 
 
