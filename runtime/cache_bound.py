@@ -245,32 +245,38 @@ def scan(folder: Path) -> Scan:
     groups: dict[str, list] = {}  # stem -> [names, bytes, last use]
     temporaries = []
     try:
-        listing = list(os.scandir(folder))
+        listing = os.scandir(folder)
     except FileNotFoundError:
         return Scan((), ())
-    for item in listing:
-        name = item.name
-        try:
-            if name[:1] == "." and is_temporary(name):
-                st = item.stat(follow_symlinks=False)
-                temporaries.append((Path(item.path), st.st_mtime, st.st_size if item.is_file() else 0))
-                continue
-            stem = cache.entry_stem(name)
-            if stem is None or not item.is_file():
-                continue
-            st = item.stat()
-        except FileNotFoundError:  # removed by another process meanwhile
-            continue
-        group = groups.get(stem)
-        if group is None:
-            groups[stem] = [[name], st.st_size, st.st_mtime]
-        else:
-            group[0].append(name)
-            group[1] += st.st_size
-            group[2] = max(group[2], st.st_mtime)
+    with listing:
+        for item in listing:
+            _add(item, groups, temporaries, cache.entry_stem)
     entries = [Stored(stem, cache.kind_of(stem), folder, tuple(names), size, used)
                for stem, (names, size, used) in groups.items()]
     return Scan(tuple(sorted(entries, key=lambda e: e.used)), tuple(temporaries))
+
+
+def _add(item: os.DirEntry, groups: dict, temporaries: list, entry_stem) -> None:
+    """Count one file of the folder in its entry's group (or as a temporary)."""
+    name = item.name
+    try:
+        if name[:1] == "." and is_temporary(name):
+            st = item.stat(follow_symlinks=False)
+            temporaries.append((Path(item.path), st.st_mtime, st.st_size if item.is_file() else 0))
+            return
+        stem = entry_stem(name)
+        if stem is None or not item.is_file():
+            return
+        st = item.stat()
+    except FileNotFoundError:  # removed by another process meanwhile
+        return
+    group = groups.get(stem)
+    if group is None:
+        groups[stem] = [[name], st.st_size, st.st_mtime]
+    else:
+        group[0].append(name)
+        group[1] += st.st_size
+        group[2] = max(group[2], st.st_mtime)
 
 
 def evict(found: Scan, down_to: int, *, keep: tuple[str, ...] = (), grace: float = 0.0,
