@@ -169,6 +169,10 @@ def test_what_is_in_use_is_never_evicted(tmp_path, monkeypatch):
     assert recent.exists() and new.exists() and not old.exists()
     result = cache_bound.evict(cache_bound.scan(tmp_path), 1, keep=(f"{cache.DERIVED_PREFIX}new",))
     assert not recent.exists() and new.exists() and result.left == new.stat().st_size
+    walks = []
+    monkeypatch.setattr(cache_bound, "scan", lambda folder: walks.append(folder))
+    _derived(tmp_path, "small", 10, used_days_ago=0)
+    assert walks == []  # still past the bound, but not by what an eviction frees since the last walk: no walk
 
 
 def test_temporaries_in_progress_are_spared_and_stale_ones_removed(tmp_path, monkeypatch):
