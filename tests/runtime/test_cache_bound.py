@@ -202,6 +202,40 @@ def test_one_process_walks_at_a_time(tmp_path, monkeypatch):
     assert cache_bound.enforce(tmp_path, 1).removed == 1
 
 
+_STORING = """
+import sys
+from pathlib import Path
+from mbs.runtime import cache, cache_bound
+cache_bound.GRACE = 0.0  # (every entry may go: the races below happen at once, not after ten minutes)
+folder, me, damaged, read = Path(sys.argv[1]), sys.argv[2], [], 0
+for i in range(120):
+    cache.write_derived(folder / f"{cache.DERIVED_PREFIX}{me}{i:04d}.json", {"blob": "x" * 3000}, me)
+    for j in range(max(0, i - 10), i + 1):
+        for who in "ab":
+            payload, why = cache.read_derived(folder / f"{cache.DERIVED_PREFIX}{who}{j:04d}.json")
+            read += payload is not None
+            if payload is None and "No such file" not in why:
+                damaged.append(why)
+print(read, damaged)
+"""
+
+
+def test_two_processes_storing_and_reading_at_once_never_see_half_an_entry(tmp_path):
+    """Two processes store past a small bound and read each other's entries while both evict: a read finds an
+    entry whole or not at all (writes and removals are atomic), and neither process fails."""
+    env = dict(os.environ, MBS_CACHE_MAX_SIZE="100k")
+    procs = [subprocess.Popen([sys.executable, "-c", _STORING, str(tmp_path), who], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for who in "ab"]
+    for proc in procs:
+        out, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err
+        read, damaged = out.split(" ", 1)
+        assert damaged.strip() == "[]" and int(read) > 120
+    found = cache_bound.scan(tmp_path)
+    # (a store appended to the ledger while the other process replaced it is not counted: an entry or two over)
+    assert found.size <= 110_000 and len(found.entries) >= 20 and found.temporaries == ()
+
+
 def test_an_eviction_error_never_fails_the_store(tmp_path, monkeypatch, caplog):
     monkeypatch.setenv(cache_bound.MAX_SIZE_ENV, "1k")
 
