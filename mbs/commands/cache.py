@@ -34,8 +34,8 @@ class Cache:
 
         from mbs.runtime import build
         folder = Path(args.dir).expanduser() if args.dir else build.default_cache_dir()
-        return {None: _info, "info": _info, "list": _list, "clean": _clean, "verify": _verify}[args.action](folder,
-                                                                                                          args)
+        action = {None: _info, "info": _info, "list": _list, "clean": _clean, "verify": _verify}[args.action]
+        return action(folder, args)
 
 
 def _size(n: float) -> str:
