@@ -1,7 +1,6 @@
 """The build cache's size bound (runtime/cache_bound.py): parsed from $MBS_CACHE_MAX_SIZE, enforced after a store
 when the ledger says the cache is past it, least recently used entries first, never what is in use."""
 
-import fcntl
 import logging
 import os
 import subprocess
@@ -192,6 +191,7 @@ def test_temporaries_in_progress_are_spared_and_stale_ones_removed(tmp_path, mon
 
 
 def test_one_process_walks_at_a_time(tmp_path, monkeypatch):
+    fcntl = pytest.importorskip("fcntl")
     _derived(tmp_path, "a", 10_000, used_days_ago=1)
     fd = os.open(tmp_path, os.O_RDONLY)  # another process's lock (flock: per open file, so this process's too)
     try:
