@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import collections
-import dataclasses
 import re
 import subprocess
 import sys
@@ -36,6 +35,9 @@ from pathlib import Path
 import numpy as np
 
 MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
+# the flagged build and the run with it: the tests' helper (the tests compare the same two builds)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
+from former_builds import flagged_build, simulate_with  # noqa: E402
 FORMER_FLAGS = ("-DMBS_ODE_STEPS_FORMER=1",)
 TRACE_FLAGS = ("-DMBS_ODE_TRACE=1",)
 KEYS = ("nsteps", "nreject", "nfev", "nevents")
@@ -63,28 +65,6 @@ stats = system.simulate(scene).metadata["stats"]
 sys.stderr.flush()
 print("STATS", stats["nsteps"], stats["nreject"], stats["nfev"], stats["nevents"], flush=True)
 """
-
-
-def flagged(system, scene: str, flags: tuple[str, ...]):
-    """The scene's compiled model built with `flags`."""
-    from mbs.runtime import build
-    from mbs.runtime.backends import CBackend
-    compiled = system.compile(scene)
-    return dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
-        system.generate(scene).c_source, extra_flags=flags))))
-
-
-def simulate_with(system, scene: str, model, **kwargs):
-    """system.simulate with the scene's compiled model replaced by `model` for the call."""
-    compiled = system.compile(scene)
-    keys = [key for key, value in system._compiled.items() if value is compiled]
-    for key in keys:
-        system._compiled[key] = model
-    try:
-        return system.simulate(scene, **kwargs)
-    finally:
-        for key in keys:
-            system._compiled[key] = compiled
 
 
 def speed_of(scene: str) -> float:
@@ -254,7 +234,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     import mbs
     system = mbs.load(MODEL)
-    former = {scene: flagged(system, scene, FORMER_FLAGS) for scene in args.scenes}
+    former = {scene: flagged_build(system, scene, FORMER_FLAGS) for scene in args.scenes}
     print("Iltis bump scenes, DOPRI5 (rtol 1e-7, atol 1e-9): the retry that measures the order (current) against "
           "the former retry (-DMBS_ODE_STEPS_FORMER=1), same run")
     counts(system, former, args.scenes, args.speeds)
