@@ -6,6 +6,9 @@
  */
 #include <math.h>
 #include <stdlib.h>
+#ifdef MBS_ODE_TRACE
+#include <stdio.h>
+#endif
 
 #include "mbs_runtime.h"
 
@@ -39,9 +42,33 @@ static const double DP_D1 = -12715105075.0 / 11282082432.0, DP_D3 = 87487479700.
 #define DP_STIFF_STEPS 15
 #define DP_NONSTIFF_STEPS 6
 
+/* A retry after a rejection shrinks h by err^EXPO1 / SAFE (the 5th-order model of the error) -- at least: after
+ * two rejections in a row from the same t the two attempts measure the order q at which the error falls with h,
+ * and when it is DP_ORDER_MIN or more but below the method's the retry takes the smaller size that order asks for.
+ * Where the solution is smooth q is about 5 and nothing changes; where the right-hand side changes fast at the
+ * step's start (the Iltis's tyre just after touch-down: its lateral force law ramps from 0 to full over the first
+ * newton of load, a few microseconds, a kink that is no switch) the error falls about like h, and err^0.17 took up
+ * to a dozen rejections in a row (six evaluations of f each) where the measured order takes two to four.  An error
+ * that hardly falls with h (q < DP_ORDER_MIN: a feature somewhere inside the step, which a step just short of it
+ * leaves out at once) keeps the 5th-order shrink: the measured order would overshoot by orders of magnitude there.
+ * The error test is the same: only the size of the next attempt differs.  -DMBS_ODE_STEPS_FORMER=1 builds the
+ * former retry (bench/restart_steps.py compares the two in one run).  -DMBS_ODE_TRACE=1 writes every attempt to
+ * stderr (its analysis: the same bench, --where). */
+#ifdef MBS_ODE_STEPS_FORMER
+#define DP_MEASURED_ORDER 0
+#else
+#define DP_MEASURED_ORDER 1
+#endif
+/* The least order taken as measured.  A jump of f just after the step's start makes the error estimate proportional
+ * to h (order 1); the Iltis's touch-downs measured 0.8 to 1 (the ramp is not yet negligible against the step) and
+ * errors that hardly fall (below 0.8) are mostly a feature inside the step.  Over the bump scenes at their speeds and
+ * +-0.3, +-0.6 m/s, 0.8 took 0.2 % fewer rhs calls than 1.0 and as many as 0.6 (bench/restart_steps.py --speeds). */
+#define DP_ORDER_MIN 0.8
+
 typedef struct {
     double facold;  /* previous accepted error, for the PI controller */
     int reject;     /* the last attempt was rejected: do not grow h on the next accepted step */
+    double rejected_t, rejected_h, rejected_err;  /* the last rejected attempt (t NaN: none to compare with) */
     int iasti, nonsti;  /* stiffness test: steps at the stability boundary, ordinary steps since */
     double *k2, *k3, *k4, *k5, *k6, *k7, *y1, *ysti;
 } dp_mem;
@@ -73,6 +100,21 @@ static void dp_stiffness(mbs_ode *o, dp_mem *m, double h, double hlamb)
     } else if (++m->nonsti == DP_NONSTIFF_STEPS) {
         m->iasti = 0;
     }
+}
+
+/* The factor a rejected attempt (t, h, err) divides h by, at least `shrink` (the 5th-order model's); remembers the
+ * attempt for the next rejection.  See DP_MEASURED_ORDER. */
+static double dp_retry_shrink(dp_mem *m, double t, double h, double err, double shrink)
+{
+    if (DP_MEASURED_ORDER && m->reject && m->rejected_t == t && h < m->rejected_h && isfinite(err)
+        && isfinite(m->rejected_err)) {
+        double q = log(m->rejected_err / err) / log(m->rejected_h / h);
+        if (q >= DP_ORDER_MIN) shrink = fmax(shrink, pow(err, 1.0 / fmin(q, 1.0 / DP_EXPO1)) / DP_SAFE);
+    }
+    m->rejected_t = t;
+    m->rejected_h = h;
+    m->rejected_err = err;
+    return shrink;
 }
 
 static int dp_step(mbs_ode *o)
@@ -115,6 +157,7 @@ static int dp_step(mbs_ode *o)
         }
         if (s != MBS_OK) {  /* model failed inside the step: retry smaller (it may have left its domain) */
             o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
+            m->rejected_t = NAN;
             o->nreject++;
             m->reject = 1;
             continue;
@@ -125,6 +168,9 @@ static int dp_step(mbs_ode *o)
             m->ysti[i] = h * (DP_E1 * k1[i] + DP_E3 * m->k3[i] + DP_E4 * m->k4[i] + DP_E5 * m->k5[i]
                               + DP_E6 * m->k6[i] + DP_E7 * m->k7[i]);
         err = mbs_ode_error_norm(o, m->ysti, y, m->y1);
+#ifdef MBS_ODE_TRACE
+        fprintf(stderr, "STEP %.17g %.17g %.6g %d %.6g %d\n", t, h, err, err <= 1.0, m->facold, m->reject);
+#endif
         fac11 = pow(err, DP_EXPO1);
         fac = fac11 / pow(m->facold, DP_BETA);
         fac = fmax(1.0 / MBS_ODE_MAX_GROWTH, fmin(1.0 / DP_FAC_MIN, fac / DP_SAFE));
@@ -152,7 +198,8 @@ static int dp_step(mbs_ode *o)
             break;
         }
         /* rejected (err > 1 or non-finite) */
-        o->h = h / fmin(1.0 / DP_FAC_MIN, fac11 / DP_SAFE);  /* err = inf gives the full shrink */
+        /* err = inf gives the full shrink */
+        o->h = h / fmin(1.0 / DP_FAC_MIN, dp_retry_shrink(m, t, h, err, fac11 / DP_SAFE));
         o->nreject++;
         m->reject = 1;
     }
@@ -187,8 +234,12 @@ static int mbs_dopri5_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double
     m->k2 = a; m->k3 = a + n; m->k4 = a + 2 * n; m->k5 = a + 3 * n; m->k6 = a + 4 * n; m->k7 = a + 5 * n;
     m->y1 = a + 6 * n; m->ysti = a + 7 * n;
     m->facold = 1e-4;
+    m->rejected_t = NAN;
     o->step = dp_step;
     o->dense = dp_dense;
     if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, 5, m->y1);
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "INIT %.17g h %.17g\n", t0, o->h);
+#endif
     return 0;
 }

@@ -4,6 +4,9 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef MBS_ODE_TRACE  /* -DMBS_ODE_TRACE=1: each restart and each event handed back written to stderr (dopri5.c) */
+#include <stdio.h>
+#endif
 
 #include "mbs_runtime.h"
 
@@ -645,6 +648,10 @@ static int mbs_ode_restart(mbs_ode *o)
     o->trials->event_ready = 0;
     for (k = 0; k < nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
+#ifdef MBS_ODE_TRACE
+            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t)))
+                fprintf(stderr, "HANDBACK %.17g k %d handled %d\n", o->t, k, r->handled[k]);
+#endif
             if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) return 0;
             fired++;
         }
@@ -682,6 +689,14 @@ static int mbs_ode_restart(mbs_ode *o)
     else if (h_step > 0 && o->h > h_step) o->h = h_step;
     r->h_resume = 0;
     mbs_ode_first_step(o, entry + 1 + 2 * (size_t)n, g_event);
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "RESTART %.17g h %.17g h_cut %.17g t_next %.17g learning %d fev %ld fired", o->t, o->h, r->h_cut,
+            r->t_next, r->learning, o->nfev);
+    for (k = 0; k < nev; k++)
+        if (mbs_ode_crossed(o, k, entry[1 + 2 * (size_t)n + k], g_event[k]))
+            fprintf(stderr, " %d%c", k, g_event[k] > entry[1 + 2 * (size_t)n + k] ? '+' : '-');
+    fprintf(stderr, "\n");
+#endif
     /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
      * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
      * branch (rejected) and then be cut short by it */

@@ -7,15 +7,13 @@ time), both must end on the same two adjacent doubles, so the runs agree to the 
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import mbs
-from mbs.runtime import build
-from mbs.runtime.backends import CBackend
+from former_builds import flagged_build, simulate_with
 
 TWIN_DROPS = Path(__file__).parent / "models" / "twin_drops.mbs"
 G, H = 9.81, 1.0
@@ -23,21 +21,7 @@ G, H = 9.81, 1.0
 
 def former_build(system, scene: str):
     """The scene's compiled model with the former root finding."""
-    compiled = system.compile(scene)
-    result = build.build(system.generate(scene).c_source, extra_flags=("-DMBS_ODE_EVENTS_FORMER=1",))
-    return dataclasses.replace(compiled, backend=CBackend(build.load(result)))
-
-
-def simulate_with(system, scene: str, model, **kwargs):
-    compiled = system.compile(scene)
-    keys = [key for key, value in system._compiled.items() if value is compiled]
-    for key in keys:
-        system._compiled[key] = model
-    try:
-        return system.simulate(scene, **kwargs)
-    finally:
-        for key in keys:
-            system._compiled[key] = compiled
+    return flagged_build(system, scene, ("-DMBS_ODE_EVENTS_FORMER=1",))
 
 
 @pytest.fixture(scope="module")

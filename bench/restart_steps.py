@@ -1,0 +1,256 @@
+"""Where the Iltis bump scenes' DOPRI5 steps are rejected, and the retry that measures the order (c/dopri5.c).
+
+    python bench/restart_steps.py [--scenes bump_5 bump_10 anti_5 anti_10] [--speeds 0.3 0.6] [--where]
+                                  [--accuracy] [--instructions]
+
+Each scene's run (DOPRI5 in C, the scene's rtol 1e-7, atol 1e-9, events restarted in C) with the current c/dopri5.c
+against the former retry, the same model built with -DMBS_ODE_STEPS_FORMER=1 (after a rejection the step always
+shrinks by err^0.17 / 0.9, the 5th-order model of the error), both in the same run: steps (accepted + rejected),
+rejected steps, rhs calls and events, with the ratios current / former.  Step counts do not depend on the machine's
+load; a scene's trajectory does change a little with any change of its step sequence (the switches' events come
+in a different order at times), so --speeds adds the scenes at their speed v +- those offsets (m/s) as a sample.
+
+--where: the trace build (-DMBS_ODE_TRACE=1, every attempt and restart written to stderr) of either retry, and where
+its rejections are: by the accepted steps since the last restart in C (0: the first step after it), the first
+steps' by the indicators that fired (tyre touch-down, leaf spring stop, damper kinks), runs of rejections in a row,
+and the rhs calls they and the restarts cost.
+
+--accuracy: each output column of both runs against a reference of the same scene at rtol 1e-11 (atol 1e-13), the
+largest difference relative to the column's largest magnitude (absolute below 1), and the two runs' difference.
+
+--instructions: the instructions of one run's integration (Solver.sample) under callgrind, as
+bench/event_instructions.py --machinery counts them, for both builds (valgrind on the PATH; a few minutes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
+# the flagged build and the run with it: the tests' helper (the tests compare the same two builds)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
+from former_builds import flagged_build, simulate_with  # noqa: E402
+FORMER_FLAGS = ("-DMBS_ODE_STEPS_FORMER=1",)
+TRACE_FLAGS = ("-DMBS_ODE_TRACE=1",)
+KEYS = ("nsteps", "nreject", "nfev", "nevents")
+#: the DOPRI5 stages a rejected step costs (first same as last: the seventh is the next step's first)
+STAGES = 6
+
+#: The child of --where: one run of the scene built with the trace flags (and the former retry's if given).
+TRACE_CHILD = """
+import dataclasses, sys
+from pathlib import Path
+import mbs
+from mbs.runtime import build
+from mbs.runtime.backends import CBackend
+path, scene, flags = Path(sys.argv[1]), sys.argv[2], tuple(sys.argv[3:])
+system = mbs.load(path)
+compiled = system.compile(scene)
+model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
+    system.generate(scene).c_source, extra_flags=flags))))
+for key in [key for key, value in system._compiled.items() if value is compiled]:
+    system._compiled[key] = model
+print("\\n".join(spec.name for spec in compiled.events), flush=True)
+sys.stderr.write("BEGIN\\n")
+sys.stderr.flush()
+stats = system.simulate(scene).metadata["stats"]
+sys.stderr.flush()
+print("STATS", stats["nsteps"], stats["nreject"], stats["nfev"], stats["nevents"], flush=True)
+"""
+
+
+def speed_of(scene: str) -> float:
+    """The scene's speed v (m/s) from its name (bump_10: 10)."""
+    return float(scene.rsplit("_", 1)[1])
+
+
+def counts(system, former, scenes, speeds) -> None:
+    """The step counts of both builds, per run and summed, with the ratios current / former."""
+    total = {label: dict.fromkeys(KEYS, 0) for label in ("current", "former")}
+    print(f"{'run':<18}{'':>9}{'steps':>8}{'rejected':>10}{'rhs':>8}{'events':>8}")
+    for scene in scenes:
+        for dv in (0.0, *[s for d in speeds for s in (-d, d)]):
+            params = {"v": speed_of(scene) + dv} if dv else {}
+            runs = {"current": system.simulate(scene, params=params).metadata["stats"],
+                    "former": simulate_with(system, scene, former[scene], params=params).metadata["stats"]}
+            label = scene if not dv else f"{scene} v{dv:+.1f}"
+            for which in ("former", "current"):
+                s = runs[which]
+                for key in KEYS:
+                    total[which][key] += s[key]
+                print(f"{label if which == 'former' else '':<18}{which:>9}" + "".join(
+                    f"{s[key]:>{w}d}" for key, w in zip(KEYS, (8, 10, 8, 8))))
+            now, was = runs["current"], runs["former"]
+            print(f"{'':<18}{'ratio':>9}{now['nsteps'] / was['nsteps']:>8.3f}"
+                  f"{now['nreject'] / max(1, was['nreject']):>10.3f}{now['nfev'] / was['nfev']:>8.3f}")
+    now, was = total["current"], total["former"]
+    print(f"{'all runs':<18}{'former':>9}" + "".join(f"{was[k]:>{w}d}" for k, w in zip(KEYS, (8, 10, 8, 8))))
+    print(f"{'':<18}{'current':>9}" + "".join(f"{now[k]:>{w}d}" for k, w in zip(KEYS, (8, 10, 8, 8))))
+    print(f"{'':<18}{'ratio':>9}{now['nsteps'] / was['nsteps']:>8.3f}{now['nreject'] / was['nreject']:>10.3f}"
+          f"{now['nfev'] / was['nfev']:>8.3f}")
+
+
+def kind(name: str, rising: bool) -> str:
+    """The force law an indicator's switch belongs to and its comparison, from its name, and the direction."""
+    found = re.match(r"\S+ \((\S+) in ", name)
+    for key, label in (("radial.contact", "tyre contact"), ("leaf_spring", "leaf spring stop"),
+                       ("damper", "damper kink"), ("prescribed", "steering rack")):
+        if key in name:
+            return f"{label} {found.group(1) if found else ''} {'rising' if rising else 'falling'}"
+    return name
+
+
+def where(scene: str, former: bool) -> None:
+    """--where: the trace build's rejections, by steps since the last restart and by the events before them."""
+    flags = TRACE_FLAGS + (FORMER_FLAGS if former else ())
+    done = subprocess.run([sys.executable, "-c", TRACE_CHILD, str(MODEL), scene, *flags], capture_output=True,
+                          text=True)
+    if done.returncode != 0:
+        raise SystemExit(f"trace run failed:\n{done.stderr[-2000:]}")
+    out = done.stdout.splitlines()
+    names = out[:-1]
+    nsteps, nreject, nfev, nevents = (int(v) for v in out[-1].split()[1:])
+    since = None  # accepted steps since the last restart in C (None: none yet in this solver)
+    fired = ""
+    attempts, rejected = collections.Counter(), collections.Counter()
+    first_by, runs = collections.Counter(), collections.Counter()
+    restarts = solvers = handbacks = run = 0
+    used, last_step = [], None
+    for line in done.stderr.split("BEGIN\n", 1)[1].splitlines():
+        words = line.split()
+        if not words:
+            continue
+        if words[0] == "RESTART":
+            restarts += 1
+            since = 0
+            fired = ", ".join(sorted({kind(names[int(w[:-1])], w[-1] == "+")
+                                      for w in words[words.index("fired") + 1:]}))
+            if last_step is not None:  # the step the event cut short: the share of it that was used
+                used.append((float(words[1]) - last_step[0]) / last_step[1])
+        elif words[0] == "INIT":
+            solvers += 1
+            since = None
+        elif words[0] == "HANDBACK":
+            handbacks += 1
+        elif words[0] == "STEP":
+            ok = words[4] == "1"
+            last_step = (float(words[1]), float(words[2])) if ok else last_step
+            key = "before any restart" if since is None else min(since, 5)
+            attempts[key] += 1
+            if not ok:
+                rejected[key] += 1
+                run += 1
+                if since == 0:
+                    first_by[fired] += 1
+            else:
+                if run:
+                    runs[run] += 1
+                run = 0
+                if since is not None:
+                    since += 1
+    total = sum(rejected.values())
+    label = "former retry (-DMBS_ODE_STEPS_FORMER=1)" if former else "current retry"
+    print(f"\n{scene}, {label}: {nsteps} steps, {nreject} rejected, {nfev} rhs, {nevents} events; "
+          f"{restarts} restarts in C, {solvers} solver(s) started ({handbacks // 2} events handed back to Python)")
+    print(f"  rejected steps cost {STAGES * total} rhs ({STAGES * total / nfev:.1%}); the restarts' own f "
+          f"{restarts} rhs ({restarts / nfev:.1%})")
+    print(f"  the steps an event cut short: on average {np.mean(used):.2f} of each used (the rest, "
+          f"{STAGES * (len(used) - np.sum(used)):.0f} rhs or {STAGES * (len(used) - np.sum(used)) / nfev:.1%}, "
+          "integrated past the event on the old branch)")
+    print("  attempts and rejections by accepted steps since the last restart (0: its first step):")
+    for key in ["before any restart", 0, 1, 2, 3, 4, 5]:
+        if attempts[key]:
+            label = f"{key}" if key != 5 else "5 or more"
+            print(f"    {label:<20} {attempts[key]:6d} attempts {rejected[key]:5d} rejected "
+                  f"({rejected[key] / attempts[key]:.1%}; {STAGES * rejected[key] / nfev:.1%} of the rhs)")
+    print("  first steps rejected, by the events of their restart:")
+    for key, count in first_by.most_common():
+        print(f"    {count:4d}  {key}")
+    print("  runs of rejections in a row (length: how many): "
+          + ", ".join(f"{length}: {count}" for length, count in sorted(runs.items())))
+
+
+def accuracy(system, former, scenes) -> None:
+    """--accuracy: both runs against a reference at rtol 1e-11."""
+    print("\nlargest difference per run against the scene at rtol 1e-11, atol 1e-13 (relative to a column's largest "
+          "magnitude, absolute below 1):")
+    for scene in scenes:
+        reference = system.simulate(scene, rtol=1e-11, atol=1e-13)
+        runs = {"current": system.simulate(scene), "former": simulate_with(system, scene, former[scene])}
+        gaps = {}
+        for which, run in [*runs.items(), ("current - former", None)]:
+            worst, column = 0.0, ""
+            for name in reference.names:
+                if name == "t":
+                    continue
+                a = runs["current"][name] if run is None else run[name]
+                b = runs["former"][name] if run is None else reference[name]
+                if len(a) != len(b):
+                    continue
+                gap = float(np.max(np.abs(a - b))) / max(1.0, float(np.max(np.abs(b))))
+                if gap > worst:
+                    worst, column = gap, name
+            gaps[which] = (worst, column)
+        print(f"  {scene}: current {gaps['current'][0]:.2e} ({gaps['current'][1]}), former {gaps['former'][0]:.2e} "
+              f"({gaps['former'][1]}), ratio {gaps['current'][0] / gaps['former'][0]:.2f}; current - former "
+              f"{gaps['current - former'][0]:.2e} ({gaps['current - former'][1]})")
+
+
+def instructions(scenes) -> None:
+    """--instructions: callgrind's count of one run's integration, both builds (bench/event_instructions.py)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import event_instructions as counting
+    print("\ninstructions of one run's integration (Solver.sample, callgrind; its libm differs from the machine's in "
+          "the last bits, so its step counts a little too):")
+    with tempfile.TemporaryDirectory() as tmp:
+        for scene in scenes:
+            found = {}
+            for label, flags in (("current", ()), ("former", FORMER_FLAGS)):
+                subprocess.run([sys.executable, "-c", counting.MACHINERY_CHILD, str(MODEL), scene, *flags],
+                               check=True, capture_output=True)  # the build, outside valgrind
+                found[label] = counting.integration_instructions(scene, flags, Path(tmp))
+            now, was = found["current"], found["former"]
+            print(f"  {scene}: current {now['integration'] / 1e6:9.1f} M ({now['rhs calls']} rhs), former "
+                  f"{was['integration'] / 1e6:9.1f} M ({was['rhs calls']} rhs), ratio "
+                  f"{now['integration'] / was['integration']:.3f}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10", "anti_5", "anti_10"])
+    parser.add_argument("--speeds", nargs="*", type=float, default=[],
+                        help="also run each scene at v +- these offsets (m/s)")
+    parser.add_argument("--where", action="store_true", help="where the rejections are (trace builds)")
+    parser.add_argument("--accuracy", action="store_true", help="both runs against a reference at rtol 1e-11")
+    parser.add_argument("--instructions", action="store_true", help="callgrind counts of the integration")
+    args = parser.parse_args(argv)
+    import mbs
+    system = mbs.load(MODEL)
+    former = {scene: flagged_build(system, scene, FORMER_FLAGS) for scene in args.scenes}
+    print("Iltis bump scenes, DOPRI5 (rtol 1e-7, atol 1e-9): the retry that measures the order (current) against "
+          "the former retry (-DMBS_ODE_STEPS_FORMER=1), same run")
+    counts(system, former, args.scenes, args.speeds)
+    if args.where:
+        for scene in args.scenes:
+            for was in (True, False):
+                where(scene, was)
+    if args.accuracy:
+        accuracy(system, former, args.scenes)
+    if args.instructions:
+        if subprocess.run(["which", "valgrind"], capture_output=True).returncode != 0:
+            print("valgrind is not on the PATH: no instructions counted")
+        else:
+            instructions(args.scenes)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
