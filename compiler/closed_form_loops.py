@@ -31,6 +31,7 @@ Units: the model's (m, rad, s).
 
 from __future__ import annotations
 
+import contextlib
 import itertools
 import math
 import time
@@ -38,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
+import sympy.core.random as sympy_random
 
 #: Compile-time budget of the attempt [s]; past it the attempt is refused (the numeric path stays).
 BUDGET_S = 10.0
@@ -54,6 +56,23 @@ RESIDUAL_TOL = 1e-10
 #: Random states of the residual check, and angle samples of the singularity check.
 CHECK_STATES = 20
 ANGLE_SAMPLES = 720
+#: The seed of sympy's random generator during an attempt (restored after it). trigsimp factors by Wang's
+#: algorithm, whose evaluation points sympy draws from a generator seeded by the operating system at import: the
+#: four-bar of tests/compiler/models/four_bar.mbs took 2.8 s, 28 s or more than 2 minutes by the draw, to the
+#: same result. Seeded, an attempt takes the same time in every process (`python bench/derive.py` measures it).
+SYMPY_SEED = 0
+
+
+@contextlib.contextmanager
+def _seeded_sympy():
+    """sympy's random generators seeded with SYMPY_SEED inside, their former states restored after."""
+    states = sympy_random.rng.getstate(), sympy_random._assumptions_rng.getstate()
+    sympy_random.seed(SYMPY_SEED)
+    try:
+        yield
+    finally:
+        sympy_random.rng.setstate(states[0])
+        sympy_random._assumptions_rng.setstate(states[1])
 
 
 class Refused(Exception):
@@ -107,6 +126,11 @@ def structural_refusal(constraints, equations) -> str | None:
 def closed_form(constraints, equations, parameter_values: dict, q0, *, budget_s: float = BUDGET_S) -> ClosedForm:
     """The closed form of the loops of `constraints` (compiler/constraints.py) on the branch of the initial
     positions q0 (sequence, the tree's q order) at `parameter_values` ({symbol: float}); raises Refused."""
+    with _seeded_sympy():
+        return _closed_form(constraints, equations, parameter_values, q0, budget_s)
+
+
+def _closed_form(constraints, equations, parameter_values: dict, q0, budget_s: float) -> ClosedForm:
     deadline = time.monotonic() + budget_s
     tree = constraints.tree
     q, v = tuple(tree.q_symbols), tuple(tree.v_symbols)

@@ -241,3 +241,29 @@ def test_a_parallelogram_through_its_flat_positions_is_refused():
     from tests.runtime.fourbar_chain import fourbar_chain
     with pytest.raises(Refused, match="singular|triangle"):
         attempt(fourbar_chain(1))
+
+
+def test_an_attempt_draws_from_sympy_seeded_and_leaves_its_generator_as_it_found_it(monkeypatch):
+    """trigsimp factors by Wang's algorithm at random evaluation points from sympy's generator, which the
+    operating system seeds at import: the four-bar's attempt took 2.8 s or minutes by the draw. Inside an
+    attempt the generator starts from SYMPY_SEED whatever the process drew before; after it, the caller's
+    sequence goes on as if no attempt had run."""
+    import sympy.core.random as sympy_random
+    from mbs.compiler import closed_form_loops
+    inside = []
+    real = closed_form_loops._closed_form
+
+    def recording(*args):
+        inside.append(sympy_random.rng.random())
+        return real(*args)
+
+    monkeypatch.setattr(closed_form_loops, "_closed_form", recording)
+    text = SLIDER_CRANK.read_text()
+    after = []
+    for seed in (1, 2):
+        sympy_random.seed(seed)
+        expected = sympy_random.rng.random()
+        sympy_random.seed(seed)
+        attempt(text)
+        after.append(sympy_random.rng.random() == expected)
+    assert inside[0] == inside[1] and after == [True, True]
