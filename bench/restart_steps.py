@@ -11,8 +11,8 @@ load; a scene's trajectory does change a little with any change of its step sequ
 in a different order at times), so --speeds adds the scenes at their speed v +- those offsets (m/s) as a sample.
 
 --former handback: the baseline is the former hand-back instead, the same model built with
--DMBS_ODE_HANDBACK_FORMER=1: an event handed back to Python (a prescribed motion's switch on a model with loops: the
-steering rack's, at the start and the end of its ramp) went on in a new solver that had learned nothing, where now
+-DMBS_ODE_HANDBACK_FORMER=1: an event handed back to Python without a jump of the state (a prescribed motion's switch
+on a model with loops: the steering rack's, at the start and the end of its ramp) went on in a new solver that had learned nothing, where now
 it takes over the first-step fractions, the indicators' last events, the step a restart in C takes and DOPRI5's
 controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted as a restart (its first step: 0).
 

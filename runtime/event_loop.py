@@ -147,7 +147,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
     solver, stats, hint = None, {}, None
-    handed = None  # (the solver that handed its event back, g before it, g at it, whether the state did not jump)
+    handed = None  # (the solver that handed back an event without a jump of x, g before it, g at it)
     tables = c_restart_tables(model)
     actions = data.function("event_actions") if "event_actions" in model.functions else None
     try:
@@ -220,7 +220,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
             # integrator had; after a jump (an impact) it chooses its own first step
             hint = None if jumped else solver.step_hint
-            handed = (solver, solver.g_old, g_event, not jumped)
+            handed = None if jumped else (solver, solver.g_old, g_event)  # (after a jump: afresh, as the FMU)
             if friction:  # held beyond the limit: let go
                 new += start_friction_modes(model, data, t_event, x, moving=False,
                                             fired=tuple(model.events[k].name for k in fired))
