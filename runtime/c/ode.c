@@ -725,7 +725,7 @@ static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const doubl
 }
 
 #ifdef MBS_ODE_TRACE
-/* The trace line of a restart (RESTART) or a take-over (RESUME): time, step and the indicators that fired. */
+/* The trace line of a restart (RESTART) or a take-over (RESUME): the time and the indicators that fired. */
 static void mbs_ode_trace_restart(const mbs_ode *o, const char *what, const double *g_before, const double *g_event)
 {
     int k;
