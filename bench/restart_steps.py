@@ -1,7 +1,7 @@
 """Where the Iltis bump scenes' DOPRI5 steps are rejected, and the retry that measures the order (c/dopri5.c).
 
     python bench/restart_steps.py [--scenes bump_5 bump_10 anti_5 anti_10] [--speeds 0.3 0.6] [--where]
-                                  [--accuracy] [--instructions]
+                                  [--accuracy] [--instructions] [--former steps|handback]
 
 Each scene's run (DOPRI5 in C, the scene's rtol 1e-7, atol 1e-9, events restarted in C) with the current c/dopri5.c
 against the former retry, the same model built with -DMBS_ODE_STEPS_FORMER=1 (after a rejection the step always
@@ -9,6 +9,12 @@ shrinks by err^0.17 / 0.9, the 5th-order model of the error), both in the same r
 rejected steps, rhs calls and events, with the ratios current / former.  Step counts do not depend on the machine's
 load; a scene's trajectory does change a little with any change of its step sequence (the switches' events come
 in a different order at times), so --speeds adds the scenes at their speed v +- those offsets (m/s) as a sample.
+
+--former handback: the baseline is the former hand-back instead, the same model built with
+-DMBS_ODE_HANDBACK_FORMER=1: an event handed back to Python without a jump of the state (a prescribed motion's switch
+on a model with loops: the steering rack's, at the start and the end of its ramp) went on in a new solver that had learned nothing, where now
+it takes over the first-step fractions, the indicators' last events, the step a restart in C takes and DOPRI5's
+controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted as a restart (its first step: 0).
 
 --where: the trace build (-DMBS_ODE_TRACE=1, every attempt and restart written to stderr) of either retry, and where
 its rejections are: by the accepted steps since the last restart in C (0: the first step after it), the first
@@ -38,7 +44,11 @@ MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.
 # the flagged build and the run with it: the tests' helper (the tests compare the same two builds)
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
 from former_builds import flagged_build, simulate_with  # noqa: E402
-FORMER_FLAGS = ("-DMBS_ODE_STEPS_FORMER=1",)
+#: --former: the former behaviour a flag builds back, and what it is
+FORMERS = {"steps": (("-DMBS_ODE_STEPS_FORMER=1",), "the former retry (-DMBS_ODE_STEPS_FORMER=1)"),
+           "handback": (("-DMBS_ODE_HANDBACK_FORMER=1",), "the former hand-back (-DMBS_ODE_HANDBACK_FORMER=1: the "
+                        "solver after an event handed back to Python has learned nothing)")}
+FORMER_FLAGS = FORMERS["steps"][0]
 TRACE_FLAGS = ("-DMBS_ODE_TRACE=1",)
 KEYS = ("nsteps", "nreject", "nfev", "nevents")
 #: the DOPRI5 stages a rejected step costs (first same as last: the seventh is the next step's first)
@@ -108,9 +118,9 @@ def kind(name: str, rising: bool) -> str:
     return name
 
 
-def where(scene: str, former: bool) -> None:
+def where(scene: str, former: bool, former_flags=FORMER_FLAGS, former_label=FORMERS["steps"][1]) -> None:
     """--where: the trace build's rejections, by steps since the last restart and by the events before them."""
-    flags = TRACE_FLAGS + (FORMER_FLAGS if former else ())
+    flags = TRACE_FLAGS + (former_flags if former else ())
     done = subprocess.run([sys.executable, "-c", TRACE_CHILD, str(MODEL), scene, *flags], capture_output=True,
                           text=True)
     if done.returncode != 0:
@@ -122,18 +132,19 @@ def where(scene: str, former: bool) -> None:
     fired = ""
     attempts, rejected = collections.Counter(), collections.Counter()
     first_by, runs = collections.Counter(), collections.Counter()
-    restarts = solvers = handbacks = run = 0
+    restarts = solvers = handbacks = resumes = run = 0
     used, last_step = [], None
     for line in done.stderr.split("BEGIN\n", 1)[1].splitlines():
         words = line.split()
         if not words:
             continue
-        if words[0] == "RESTART":
-            restarts += 1
+        if words[0] in ("RESTART", "RESUME"):  # a restart in C, or a new solver going on from a handed-back event
+            restarts += words[0] == "RESTART"
+            resumes += words[0] == "RESUME"
             since = 0
             fired = ", ".join(sorted({kind(names[int(w[:-1])], w[-1] == "+")
                                       for w in words[words.index("fired") + 1:]}))
-            if last_step is not None:  # the step the event cut short: the share of it that was used
+            if last_step is not None and words[0] == "RESTART":  # the step the event cut short: its share used
                 used.append((float(words[1]) - last_step[0]) / last_step[1])
         elif words[0] == "INIT":
             solvers += 1
@@ -157,9 +168,10 @@ def where(scene: str, former: bool) -> None:
                 if since is not None:
                     since += 1
     total = sum(rejected.values())
-    label = "former retry (-DMBS_ODE_STEPS_FORMER=1)" if former else "current retry"
+    label = former_label if former else "current"
     print(f"\n{scene}, {label}: {nsteps} steps, {nreject} rejected, {nfev} rhs, {nevents} events; "
-          f"{restarts} restarts in C, {solvers} solver(s) started ({handbacks // 2} events handed back to Python)")
+          f"{restarts} restarts in C, {solvers} solver(s) started ({handbacks // 2} events handed back to Python, "
+          f"{resumes} runs going on from them)")
     print(f"  rejected steps cost {STAGES * total} rhs ({STAGES * total / nfev:.1%}); the restarts' own f "
           f"{restarts} rhs ({restarts / nfev:.1%})")
     print(f"  the steps an event cut short: on average {np.mean(used):.2f} of each used (the rest, "
@@ -204,7 +216,7 @@ def accuracy(system, former, scenes) -> None:
               f"{gaps['current - former'][0]:.2e} ({gaps['current - former'][1]})")
 
 
-def instructions(scenes) -> None:
+def instructions(scenes, former_flags=FORMER_FLAGS) -> None:
     """--instructions: callgrind's count of one run's integration, both builds (bench/event_instructions.py)."""
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     import event_instructions as counting
@@ -213,7 +225,7 @@ def instructions(scenes) -> None:
     with tempfile.TemporaryDirectory() as tmp:
         for scene in scenes:
             found = {}
-            for label, flags in (("current", ()), ("former", FORMER_FLAGS)):
+            for label, flags in (("current", ()), ("former", former_flags)):
                 subprocess.run([sys.executable, "-c", counting.MACHINERY_CHILD, str(MODEL), scene, *flags],
                                check=True, capture_output=True)  # the build, outside valgrind
                 found[label] = counting.integration_instructions(scene, flags, Path(tmp))
@@ -231,24 +243,26 @@ def main(argv=None) -> int:
     parser.add_argument("--where", action="store_true", help="where the rejections are (trace builds)")
     parser.add_argument("--accuracy", action="store_true", help="both runs against a reference at rtol 1e-11")
     parser.add_argument("--instructions", action="store_true", help="callgrind counts of the integration")
+    parser.add_argument("--former", choices=sorted(FORMERS), default="steps",
+                        help="the baseline: the former retry (steps) or the former hand-back (handback)")
     args = parser.parse_args(argv)
     import mbs
     system = mbs.load(MODEL)
-    former = {scene: flagged_build(system, scene, FORMER_FLAGS) for scene in args.scenes}
-    print("Iltis bump scenes, DOPRI5 (rtol 1e-7, atol 1e-9): the retry that measures the order (current) against "
-          "the former retry (-DMBS_ODE_STEPS_FORMER=1), same run")
+    flags, label = FORMERS[args.former]
+    former = {scene: flagged_build(system, scene, flags) for scene in args.scenes}
+    print(f"Iltis scenes, DOPRI5 (the scenes' rtol and atol): the current build against {label}, same run")
     counts(system, former, args.scenes, args.speeds)
     if args.where:
         for scene in args.scenes:
             for was in (True, False):
-                where(scene, was)
+                where(scene, was, flags, label)
     if args.accuracy:
         accuracy(system, former, args.scenes)
     if args.instructions:
         if subprocess.run(["which", "valgrind"], capture_output=True).returncode != 0:
             print("valgrind is not on the PATH: no instructions counted")
         else:
-            instructions(args.scenes)
+            instructions(args.scenes, flags)
     return 0
 
 

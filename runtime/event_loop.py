@@ -147,6 +147,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
     solver, stats, hint = None, {}, None
+    handed = None  # (the solver that handed back an event without a jump of x, g before it, g at it)
     tables = c_restart_tables(model)
     actions = data.function("event_actions") if "event_actions" in model.functions else None
     try:
@@ -161,6 +162,9 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             if in_c:
                 solver.restart_events_in_c(actions, tables, C_LOG_CAPACITY, ZENO_WINDOW)
                 p_now = data.p.copy()
+                if handed is not None and hasattr(solver, "take_over"):  # what the old solver learned goes on
+                    solver.take_over(*handed)
+            handed = None
             start = i
             while i < times.size and solver.status not in (FAILED, EVENT):
                 stop = min(times.size, i + chunk) if progress is not None else times.size
@@ -216,6 +220,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the
             # integrator had; after a jump (an impact) it chooses its own first step
             hint = None if jumped else solver.step_hint
+            handed = None if jumped else (solver, solver.g_old, g_event)  # (after a jump: afresh, as the FMU)
             if friction:  # held beyond the limit: let go
                 new += start_friction_modes(model, data, t_event, x, moving=False,
                                             fired=tuple(model.events[k].name for k in fired))

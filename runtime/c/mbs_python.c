@@ -347,6 +347,8 @@ typedef struct {
     int busy;            /* a call is running with the GIL released */
 } SolverObject;
 
+static PyTypeObject SolverType;
+
 static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
 {
     static char *kwlist[] = {"method", "rhs", "t0", "y0", "t_bound", "rtol", "atol", "first_step",
@@ -599,6 +601,82 @@ done:
     Py_RETURN_NONE;
 }
 
+/* -DMBS_ODE_HANDBACK_FORMER=1 builds the former hand-back: a run handed back to the caller at an event goes on in a
+ * new solver that has learned nothing (mbs_ode_take_over and dp_take_over do nothing), the same-run baseline of
+ * bench/restart_steps.py --handback. */
+#ifdef MBS_ODE_HANDBACK_FORMER
+#define MBS_ODE_CARRY 0
+#else
+#define MBS_ODE_CARRY 1
+#endif
+
+/* A run handed back to the caller at an event C does not handle without a jump of the state (on a model with loops a
+ * prescribed motion's switch, whose speeds the caller projects; a friction law's event, after which the caller checks
+ * the held forces) goes on in a new solver `to`, set up from the state after the event with its events and restarts,
+ * before its first step.  What `from`, the solver that handed the event back, learned goes over, as a restart in C
+ * keeps it: the first-step fractions per indicator and direction, the times of the indicators' last events (the
+ * chattering window; the indicators that fired at this event among them) and the step as mbs_ode_restart_step takes
+ * it after a restart in C, from `from`'s controller and the step that found the event, instead of the caller's first
+ * step.  g_before and g_event: the indicators at the start of the step that found the event and at it, as the caller
+ * took them (twins that crossed with it included).  (After a jump of the state the caller starts afresh, as the FMU
+ * does.)  Nothing changes with -DMBS_ODE_HANDBACK_FORMER=1 (the same-run baseline of bench/restart_steps.py) or
+ * without restarts in either solver. */
+static void mbs_ode_take_over(mbs_ode *to, const mbs_ode *from, const double *g_before, const double *g_event)
+{
+    mbs_ode_restarts *r = to->restarts;
+    const mbs_ode_restarts *q = from->restarts;
+    int k, nev = to->nev;
+#ifdef MBS_ODE_TRACE
+    mbs_ode_trace_restart(to, "RESUME", g_before, g_event);
+#endif
+    if (!MBS_ODE_CARRY || !r || !q || from->nev != nev || to->naccept > 0 || to->nsteps > 0) return;
+    memcpy(r->first_step, q->first_step, 2 * (size_t)nev * sizeof(double));
+    for (k = 0; k < nev; k++)
+        r->last_t[k] = mbs_ode_crossed(to, k, g_before[k], g_event[k]) ? from->t : q->last_t[k];
+    if (to->status != MBS_ODE_RUNNING) return;
+    to->h = from->h;
+    r->h_cut = q->h_cut;
+    r->h_resume = q->h_resume;
+    r->t_next = q->t_next;
+    mbs_ode_restart_step(to, g_before, g_event);
+}
+
+/* DOPRI5's controller memory that a restart in C keeps and a new solver would start afresh: the PI controller's
+ * last accepted error and the stiffness test's counts (c/dopri5.c). */
+static void dp_take_over(mbs_ode *to, const mbs_ode *from)
+{
+    dp_mem *m = to->impl;
+    const dp_mem *was = from->impl;
+    if (!MBS_ODE_CARRY || to->step != dp_step || from->step != dp_step) return;
+    m->facold = was->facold;
+    m->iasti = was->iasti;
+    m->nonsti = was->nonsti;
+}
+
+/* s.take_over(old, g_before, g_event): before the first step, go on from the event `old` handed back without a jump
+ * of the state (runtime/event_loop.py) with what `old` had learned, as a restart in C would (mbs_ode_take_over,
+ * dp_take_over) */
+static PyObject *solver_take_over(SolverObject *self, PyObject *args)
+{
+    PyObject *old_obj, *gb_obj, *ge_obj, *gb_tmp = NULL, *ge_tmp = NULL;
+    const double *gb, *ge;
+    SolverObject *old;
+    int nev = self->ode.nev;
+    if (!PyArg_ParseTuple(args, "O!OO:take_over", &SolverType, &old_obj, &gb_obj, &ge_obj)) return NULL;
+    old = (SolverObject *)old_obj;
+    if (old == self || !self->events || old->ode.nev != nev || self->ode.nsteps > 0 || old->busy) {
+        PyErr_SetString(PyExc_RuntimeError, "take_over: another solver of the same events, before the first step");
+        return NULL;
+    }
+    if (!(gb = as_vector(gb_obj, nev, "g_before", &gb_tmp))) return NULL;
+    if (!(ge = as_vector(ge_obj, nev, "g_event", &ge_tmp))) { Py_XDECREF(gb_tmp); return NULL; }
+    mbs_ode_take_over(&self->ode, &old->ode, gb, ge);
+    if (self->ode.restarts && old->ode.restarts) dp_take_over(&self->ode, &old->ode);
+    Py_XDECREF(gb_tmp);
+    Py_XDECREF(ge_tmp);
+    Py_RETURN_NONE;
+}
+
 /* s.take_event_log() -> array (events, width): the events handled in C since the last call (see
  * mbs_ode_restarts for the layout of a row), and the log emptied */
 static PyObject *solver_take_event_log(SolverObject *self, PyObject *unused)
@@ -676,6 +754,8 @@ static PyMethodDef solver_methods[] = {
      "set_events(events, directions): locate zero crossings of a model function after every step"},
     {"set_restarts", (PyCFunction)solver_set_restarts, METH_VARARGS,
      "set_restarts(actions, handled, flag, first, index, slot, capacity, window): events restarted in C"},
+    {"take_over", (PyCFunction)solver_take_over, METH_VARARGS,
+     "take_over(old, g_before, g_event): go on from the event old handed back with what it learned"},
     {"take_event_log", (PyCFunction)solver_take_event_log, METH_NOARGS,
      "take_event_log() -> (events, width) array of the events handled in C since the last call"},
     {"sample", (PyCFunction)solver_sample, METH_VARARGS,

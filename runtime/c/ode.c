@@ -534,6 +534,10 @@ static int mbs_ode_settle(mbs_ode *o, const double *g)
 }
 
 static int mbs_ode_restart(mbs_ode *o);
+static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const double *g_event);
+#ifdef MBS_ODE_TRACE
+static void mbs_ode_trace_restart(const mbs_ode *o, const char *what, const double *g_before, const double *g_event);
+#endif
 
 /* The first step after a restart at a switch into stiffer dynamics (a leaf spring's stop engaging) must be smaller
  * than the step the controller proposed on the other side: there it was rejected once in three restarts, at six
@@ -637,7 +641,7 @@ static int mbs_ode_restart(mbs_ode *o)
 {
     mbs_ode_restarts *r = o->restarts;
     int k, j, n = o->n, nev = o->nev, fired = 0, pass;
-    double *entry, *g_event, *values, h_step;
+    double *entry, *g_event, *values;
     if (!r || mbs_ode_log_room(r)) return 0;
     entry = r->log + (size_t)r->count * r->width;
     g_event = entry + 1 + 2 * (size_t)n + nev;
@@ -672,7 +676,6 @@ static int mbs_ode_restart(mbs_ode *o)
      * old side and fire again within 1e-11 s. */
     memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
     r->count++;
-    h_step = r->h_resume > 0 ? r->h_resume : r->h_cut;
     o->t_old = o->t;
     for (pass = 0;; pass++) {
         if (mbs_ode_eval(o, o->t, o->y, o->f) != MBS_OK) {
@@ -682,35 +685,57 @@ static int mbs_ode_restart(mbs_ode *o)
         mbs_ode_depart(o, o->g_old);
         if (pass == 1 || !mbs_ode_settle(o, o->g_old)) break;
     }
-    /* the method goes on with the step size it had: the one its controller proposed, but no larger than the step
-     * just taken (that proposal was made across the switch, where the solution's derivatives jump); after a short
-     * step to a second crossing, the step size from before it */
+    o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
+#ifdef MBS_ODE_TRACE
+    mbs_ode_trace_restart(o, "RESTART", entry + 1 + 2 * (size_t)n, g_event);
+#endif
+    mbs_ode_restart_step(o, entry + 1 + 2 * (size_t)n, g_event);
+    return 1;
+}
+
+/* The step the method goes on with after a restart at an event where g_before (the step's start) -> g_event fired,
+ * f and the departing indicators evaluated there and the status set: the one its controller proposed, but no larger
+ * than the step just taken (that proposal was made across the switch, where the solution's derivatives jump); after
+ * a short step to a second crossing, the step size from before it; times the learned fraction of the indicators
+ * that fired (mbs_ode_first_step).  When another indicator crossed a moment later in the same step (the left and
+ * the right wheel over one bump): a short step to just beyond it finds it there, instead of a full step that would
+ * run over its kink with the old branch (rejected) and then be cut short by it (or the Euler bridge to it, within
+ * sampling in C).  The restarts in C and the run taken over from a solver that handed its event back
+ * (mbs_ode_take_over) both go on this way. */
+static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const double *g_event)
+{
+    mbs_ode_restarts *r = o->restarts;
+    double h_step = r->h_resume > 0 ? r->h_resume : r->h_cut;
     if (r->h_resume > 0) o->h = r->h_resume;
     else if (h_step > 0 && o->h > h_step) o->h = h_step;
     r->h_resume = 0;
-    mbs_ode_first_step(o, entry + 1 + 2 * (size_t)n, g_event);
+    mbs_ode_first_step(o, g_before, g_event);
 #ifdef MBS_ODE_TRACE
-    fprintf(stderr, "RESTART %.17g h %.17g h_cut %.17g t_next %.17g learning %d fev %ld fired", o->t, o->h, r->h_cut,
+    fprintf(stderr, "STEPSIZE %.17g h %.17g h_cut %.17g t_next %.17g learning %d fev %ld\n", o->t, o->h, r->h_cut,
             r->t_next, r->learning, o->nfev);
-    for (k = 0; k < nev; k++)
-        if (mbs_ode_crossed(o, k, entry[1 + 2 * (size_t)n + k], g_event[k]))
-            fprintf(stderr, " %d%c", k, g_event[k] > entry[1 + 2 * (size_t)n + k] ? '+' : '-');
-    fprintf(stderr, "\n");
 #endif
-    /* another indicator crossed a moment later in the same step (the left and the right wheel over one bump): a
-     * short step to just beyond it finds it there, instead of a full step that would run over its kink with the old
-     * branch (rejected) and then be cut short by it */
-    o->status = o->t >= o->t_bound ? MBS_ODE_FINISHED : MBS_ODE_RUNNING;
     if (r->t_next < HUGE_VAL && 2.0 * (r->t_next - o->t) < o->h && r->t_next > o->t && o->status == MBS_ODE_RUNNING) {
-        if (r->t_next - o->t <= MBS_ODE_BRIDGE_GAP * fmax(1.0, fabs(o->t)) && mbs_ode_bridge(o)) return 1;
+        if (r->t_next - o->t <= MBS_ODE_BRIDGE_GAP * fmax(1.0, fabs(o->t)) && mbs_ode_bridge(o)) return;
         if (2.0 * (r->t_next - o->t) >= o->h_min) {
             r->learning = -1;  /* the short step tells nothing about the step the switch needs */
             r->h_resume = o->h;
             o->h = 2.0 * (r->t_next - o->t);
         }
     }
-    return 1;
 }
+
+#ifdef MBS_ODE_TRACE
+/* The trace line of a restart (RESTART) or a take-over (RESUME): the time and the indicators that fired. */
+static void mbs_ode_trace_restart(const mbs_ode *o, const char *what, const double *g_before, const double *g_event)
+{
+    int k;
+    fprintf(stderr, "%s %.17g fired", what, o->t);
+    for (k = 0; k < o->nev; k++)
+        if (mbs_ode_crossed(o, k, g_before[k], g_event[k]))
+            fprintf(stderr, " %d%c", k, g_event[k] > g_before[k] ? '+' : '-');
+    fprintf(stderr, "\n");
+}
+#endif
 
 /* Fill out[i*n .. i*n+n) with y(t_eval[i]) for i from *index on, stepping as needed.  Stops when all
  * samples are filled (returns the status, RUNNING or FINISHED) or the run fails (returns the failure;

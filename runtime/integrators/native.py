@@ -123,6 +123,16 @@ class NativeSolver(OdeSolver):
         sampling loop; ``take_event_log()`` returns what happened there."""
         self._c.set_restarts(actions, *tables, capacity, window)
 
+    def take_over(self, old, g_before, g_event) -> None:
+        """Before the first step: go on from the event ``old`` (a solver of the same events) handed back without a
+        jump of the state, with what it had learned, as a restart in C would (c/mbs_python.c, mbs_ode_take_over):
+        the first-step fractions per indicator and direction, the indicators' last events, the step a restart in C
+        takes and DOPRI5's controller memory.  ``g_before``, ``g_event``: the indicators at the start of the step
+        that found the event and at it (the ones that fired cross between them)."""
+        if isinstance(old, NativeSolver) and type(old._c) is type(self._c):
+            self._c.take_over(old._c, np.ascontiguousarray(g_before, dtype=float),
+                              np.ascontiguousarray(g_event, dtype=float))
+
     def take_event_log(self) -> np.ndarray:
         return self._c.take_event_log()
 
