@@ -16,10 +16,10 @@ CUT = SLIDER_CRANK[SLIDER_CRANK.index("    interact wrist_pin"):SLIDER_CRANK.rst
 
 
 @pytest.fixture(scope="module")
-def models(tmp_path_factory):
+def models():
     gravity = SLIDER_CRANK.replace("gravity = (0, 0, 0) m/s^2", "gravity = (0, 0, -9.81) m/s^2")
-    closed = mbs.loads(gravity, path="slider_crank.mbs", cache_dir=tmp_path_factory.mktemp("closed"))
-    tree = mbs.loads(gravity.replace(CUT, ""), path="tree.mbs", cache_dir=tmp_path_factory.mktemp("tree"))
+    closed = mbs.loads(gravity, path="slider_crank.mbs")
+    tree = mbs.loads(gravity.replace(CUT, ""), path="tree.mbs")
     return closed, tree
 
 

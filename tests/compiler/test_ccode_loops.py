@@ -43,8 +43,8 @@ def test_runs_of_a_hand_written_matrix():
     np.testing.assert_array_equal(pattern_of(text), np.array([[e != 0 for e in row] for row in upper]))
 
 
-def test_the_quarter_car_s_mass_matrix_is_zero_outside_its_pattern(tmp_path):
-    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs", cache_dir=tmp_path)
+def test_the_quarter_car_s_mass_matrix_is_zero_outside_its_pattern():
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
     pattern = pattern_of(system.generate().c_source)
     from mbs.runtime.workspace import Workspace
     data = Workspace(system.compile())
@@ -71,12 +71,12 @@ def test_the_iltis_corners_share_no_inertia(corner):
     assert pattern[np.ix_(mine, body)].all()  # (a suspension's motion moves the body's mass centre: coupled)
 
 
-def test_without_the_pattern_the_solver_reads_whole_rows_to_the_same_result(tmp_path):
+def test_without_the_pattern_the_solver_reads_whole_rows_to_the_same_result():
     """loops.c's fallback for a model without the table (every entry of M counted) against the table's path: the
     same products in the same order, plus products with M's exact zeros, so the same right-hand side."""
     from mbs.runtime.model import load_c
     from mbs.runtime.workspace import Workspace
-    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs", cache_dir=tmp_path)
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")  # (the default cache: the other tests' build)
     generated = system.generate()
     source = generated.c_source
     start = source.index("#define MBS_MASS_PATTERN 1")
@@ -86,7 +86,7 @@ def test_without_the_pattern_the_solver_reads_whole_rows_to_the_same_result(tmp_
     info = dict(q_names=list(generated.q_names), v_names=list(generated.v_names), p_names=list(generated.p_names))
     compiled = system.compile()
     patterned = Workspace(compiled)
-    fallback = Workspace(load_c(code=whole, cache_dir=tmp_path, name="whole_rows",
+    fallback = Workspace(load_c(code=whole, name="whole_rows",
                                 p_default=list(compiled.p_default), **info))
     rng = np.random.default_rng(11)
     f, g = patterned.function("loop_rhs"), fallback.function("loop_rhs")

@@ -116,7 +116,7 @@ def _compile_model(text_or_path, scene, tmp_path):
     py_path = tmp_path / f"{model.name}_numpy.py"
     py_path.write_text(generate_numpy(eqs, params, model.name, **kw))
     info = dict(name=model.name, y_names=[n for n, _ in lowered.outputs] or None)
-    return (model, lowered, eqs, params, load_c(code=c_source, cache_dir=tmp_path / "cache", **info),
+    return (model, lowered, eqs, params, load_c(code=c_source, **info),
             load_numpy(py_path, **info))
 
 

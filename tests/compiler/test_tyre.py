@@ -14,8 +14,8 @@ R0, K, V_LOW = 0.36, 460000.0, 0.5
 
 
 @pytest.fixture(scope="module")
-def probe(tmp_path_factory):
-    return mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
+def probe():
+    return mbs.load(MODEL)
 
 
 def at_start(system, **params):

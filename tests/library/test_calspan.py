@@ -39,8 +39,8 @@ def fade(vx):
 
 
 @pytest.fixture(scope="module")
-def probe(tmp_path_factory):
-    return mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
+def probe():
+    return mbs.load(MODEL)
 
 
 def test_light_load_point_with_camber(probe):

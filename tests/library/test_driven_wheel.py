@@ -12,8 +12,8 @@ MOVING_MASS = 400.0 + 15.0   # body and wheel (the carrier is massless)
 
 
 @pytest.fixture(scope="module")
-def run(tmp_path_factory):
-    system = mbs.load("library/examples/driven_wheel.mbs", cache_dir=str(tmp_path_factory.mktemp("cache")))
+def run():
+    system = mbs.load("library/examples/driven_wheel.mbs")
     res = system.simulate("accelerate")
     assert res.success, res.message
     return res

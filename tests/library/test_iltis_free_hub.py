@@ -26,8 +26,8 @@ TYRES = ("fl", "fr", "rl", "rr")
 
 
 @pytest.fixture(scope="module")
-def system(tmp_path_factory):
-    return mbs.load("library/iltis/free_hub.mbs", cache_dir=str(tmp_path_factory.mktemp("cache")))
+def system():
+    return mbs.load("library/iltis/free_hub.mbs")
 
 
 def run(system, scene):

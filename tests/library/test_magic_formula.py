@@ -48,8 +48,8 @@ def peak_position(B, C, E):
 
 
 @pytest.fixture(scope="module")
-def tyre(tmp_path_factory):
-    system = mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
+def tyre():
+    system = mbs.load(MODEL)
     return TyreProbe(system, **{"tyre.v_low": 1e-4})
 
 
@@ -120,8 +120,8 @@ def test_pneumatic_trail_is_D_t_at_zero_slip_and_vanishes_at_the_x_m_of_its_B_C_
     assert before["mz"] > 0.0 > after["mz"]
 
 
-def test_camber_thrust_at_zero_slip(tmp_path_factory):
-    system = mbs.load(MODEL, cache_dir=str(tmp_path_factory.mktemp("cache")))
+def test_camber_thrust_at_zero_slip():
+    system = mbs.load(MODEL)
     tilted = TyreProbe(system, **{"tyre.v_low": 1e-4, "tilt": 0.05})
     rho = tilted(vx=VX)["rho"]
     out = tilted(vx=VX, spin=VX / (R0 - rho / 3))              # rolling freely: no longitudinal slip

@@ -14,8 +14,8 @@ pytest.importorskip("sksundae")
 
 
 @pytest.fixture(scope="module")
-def slider_crank(tmp_path_factory):
-    system = mbs.load("library/examples/slider_crank.mbs", cache_dir=str(tmp_path_factory.mktemp("cache")))
+def slider_crank():
+    system = mbs.load("library/examples/slider_crank.mbs")
     return system.start(None)
 
 

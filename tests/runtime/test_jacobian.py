@@ -22,8 +22,8 @@ def _central_differences(f, t, x, h=1e-6):
 
 
 @pytest.fixture(scope="module")
-def stiff_mount(tmp_path_factory):
-    system = mbs.load(MODELS / "stiff_mount.mbs", cache_dir=str(tmp_path_factory.mktemp("cache")))
+def stiff_mount():
+    system = mbs.load(MODELS / "stiff_mount.mbs")  # (the default cache: test_stiffness's build of it)
     return system
 
 
@@ -34,8 +34,8 @@ def test_only_the_stiff_scene_gets_a_jacobian(stiff_mount):
 
 
 @pytest.mark.parametrize("path", ["library/examples/double_pendulum.mbs", "library/examples/two_mass_quarter_car.mbs"])
-def test_generated_jacobian_equals_central_differences_in_c_and_numpy(path, tmp_path):
-    system = mbs.load(path, cache_dir=str(tmp_path))
+def test_generated_jacobian_equals_central_differences_in_c_and_numpy(path):
+    system = mbs.load(path)
     gen = system.generate(None, jacobian=True)
     data = system._workspace(system.compile(None, jacobian=True), gen, pipeline.parameter_values(system.model))
     rng = np.random.default_rng(1)

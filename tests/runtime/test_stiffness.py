@@ -12,8 +12,8 @@ MODELS = Path(__file__).parent / "models"
 
 
 @pytest.fixture(scope="module")
-def stiff_mount(tmp_path_factory):
-    return mbs.load(MODELS / "stiff_mount.mbs", cache_dir=str(tmp_path_factory.mktemp("cache")))
+def stiff_mount():
+    return mbs.load(MODELS / "stiff_mount.mbs")  # (the default cache: test_jacobian's build of it)
 
 
 def test_dopri5_warns_once_naming_the_mount(stiff_mount):

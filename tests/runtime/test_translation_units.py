@@ -146,13 +146,16 @@ def test_the_cold_library_has_the_cold_functions_of_a_whole_tree_file_alone(gene
 @pytest.mark.parametrize("path", [SLIDER_CRANK, TABLES], ids=lambda p: p.stem)
 def test_a_split_build_computes_what_one_unit_computes(path, tmp_path, monkeypatch):
     """Both libraries built from the same text, without a compiler warning; rhs, outputs and the loop solver's
-    results agree to the last bit at a few states."""
+    results agree to the last bit at a few states. (One fresh cache for both: the split build links the runtime
+    object the single one compiled, and compiles every unit of its own.)"""
     system = mbs.load(path)
     gen = system.generate()
-    single = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path / "one")
+    single = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path)
     monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
     monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
-    split = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path / "split")
+    split = build.build(gen.c_source, filename=path.stem + ".c", cache_dir=tmp_path)
+    assert not single.cached and build.RUNTIME_UNIT in single.compiled
+    assert not split.cached and split.reused == (build.RUNTIME_UNIT,)
     assert split.key != single.key and split.warnings == "" and single.warnings == ""
     assert "/* ==== glue.c ==== */" in (split.path.parent / (split.module_name + ".c")).read_text()
     a, b = build.load(single), build.load(split)
