@@ -152,11 +152,24 @@ def eager_cold():
 
 
 @contextlib.contextmanager
+def former_overlap():
+    """As before the early starts: the runtime unit (with an empty cache, --empty) not started as the derivation
+    starts (runtime/build.py Prebuilds.derivation_started) but with the equations' units."""
+    started = build.Prebuilds.derivation_started
+    build.Prebuilds.derivation_started = lambda self: 0
+    try:
+        yield
+    finally:
+        build.Prebuilds.derivation_started = started
+
+
+@contextlib.contextmanager
 def former_settings(baseline: str = "former"):
-    """The printer, the derivation's helpers and the build flags as they were before, and the cold functions
-    compiled with the rest: the baseline ("eager": the cold functions alone)."""
-    if baseline == "eager":
-        with eager_cold():
+    """The printer, the derivation's helpers and the build flags as they were before, the cold functions
+    compiled with the rest and the compiler's former start: the baseline ("eager": the cold functions alone;
+    "overlap": the former start alone)."""
+    if baseline in ("eager", "overlap"):
+        with eager_cold() if baseline == "eager" else former_overlap():
             yield
         return
     _EAGER_NUMPY[0] = True
@@ -169,7 +182,7 @@ def former_settings(baseline: str = "former"):
     differentiate.sympy_diff = lambda expr, a, memo: emit_common.sp.diff(expr, a)
     build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
-        with eager_cold():
+        with eager_cold(), former_overlap():
             yield
     finally:
         _EAGER_NUMPY[0] = False
@@ -203,12 +216,73 @@ def runtime_cpu() -> float:
         return _children_cpu() - cpu
 
 
-def fresh_compile(name: str, cache: str) -> dict:
+class Timeline:
+    """When each compiler process of a compile ran and when each phase of the derivation ended (the pipeline's
+    phase clock, mbs/pipeline.py _Phases, read off its log records), in seconds from the compile's start:
+    --timeline prints it."""
+
+    def __init__(self):
+        self.start = time.perf_counter()
+        self.events: list[tuple[float, float, str]] = []   # (start, end, what) of the compiler processes
+        self.phases: list[tuple[float, str]] = []           # (end, phase) of the derivation
+        self.lock = __import__("threading").Lock()
+
+    @contextlib.contextmanager
+    def recording(self):
+        import logging
+        run, log = build._run, logging.getLogger("mbs.pipeline")
+        timeline = self
+
+        def timed_run(command, cwd, filename):
+            began = time.perf_counter()
+            try:
+                return run(command, cwd, filename)
+            finally:
+                what = command[command.index("-c") + 1] if "-c" in command else "link"
+                with timeline.lock:
+                    timeline.events.append((began - timeline.start, time.perf_counter() - timeline.start, what))
+
+        class Phases(logging.Handler):
+            def emit(self, record):
+                message = record.getMessage()
+                if ": " in message and " in " in message:
+                    timeline.phases.append((record.created - time.time() + time.perf_counter() - timeline.start,
+                                            message.split(": ", 1)[1].rsplit(" in ", 1)[0]))
+
+        handler, level = Phases(level=logging.INFO), log.level
+        build._run = timed_run
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+        try:
+            yield self
+        finally:
+            build._run = run
+            log.removeHandler(handler)
+            log.setLevel(level)
+
+    def lines(self, total: float) -> list[str]:
+        """The phases and the compiler processes, one a line, with a bar over the compile's wall time."""
+        width, out = 60, []
+        scale = width / max(total, 1e-9)
+        for end, phase in self.phases:
+            out.append(f"    {end:6.2f} s  derivation: {phase}")
+        for began, ended, what in sorted(self.events):
+            bar = " " * int(began * scale) + "#" * max(1, int((ended - began) * scale))
+            out.append(f"    {began:6.2f} - {ended:5.2f} s  {what:12s} |{bar:{width}s}|")
+        out.append(f"    {total:6.2f} s  loaded")
+        return out
+
+
+def fresh_compile(name: str, cache: str, *, empty: bool = False, timeline: bool = False) -> dict:
     """Seconds of a fresh compile of model `name` into the folder `cache`, empty but for the runtime object
-    (seed_runtime), split at the derivation's end."""
-    seed_runtime(cache)
+    (seed_runtime; `empty`: not even that), split at the derivation's end; `timeline`: with its Timeline."""
+    if not empty:
+        seed_runtime(cache)
     text, path, scene, _ = model_text(name)
     marks = {}
+    clock = Timeline()
+    recording = clock.recording() if timeline else contextlib.nullcontext()
+    recording.__enter__()
     start, cpu, cc_cpu = time.perf_counter(), time.process_time(), _children_cpu()
     system = mbs.loads(text, path=path, cache_dir=cache)
     generate = system.generate
@@ -222,22 +296,28 @@ def fresh_compile(name: str, cache: str) -> dict:
         return result
 
     system.generate = timed_generate
-    compiled = system.compile(scene)
+    try:
+        compiled = system.compile(scene)
+    finally:
+        recording.__exit__(None, None, None)
     end = time.perf_counter()
     system.generate = generate
     return {"total": end - start, "derive": marks["derived"] - start, "cc": end - marks["derived"],
             "derive cpu": marks["derived cpu"] - cpu, "cc cpu": _children_cpu() - cc_cpu,
+            "timeline": clock.lines(end - clock.start) if timeline else None,
             "system": system, "compiled": compiled, "code": system.generate(scene).c_source}
 
 
-def compare_compiles(name: str, repeat: int, baseline: str = "former") -> tuple[dict, dict]:
-    """{setting: [runs]} of fresh compiles with the current and the former settings (`baseline`), interleaved."""
+def compare_compiles(name: str, repeat: int, baseline: str = "former", empty: bool = False,
+                     timeline: bool = False) -> tuple[dict, dict]:
+    """{setting: [runs]} of fresh compiles with the current and the former settings (`baseline`), interleaved;
+    `empty`, `timeline`: as for fresh_compile."""
     runs: dict[str, list] = {"current": [], "former": []}
     for _ in range(repeat):
         for setting in runs:
             with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
                 with (former_settings(baseline) if setting == "former" else contextlib.nullcontext()):
-                    run = {**fresh_compile(name, cache), "cache": cache}
+                    run = {**fresh_compile(name, cache, empty=empty, timeline=timeline), "cache": cache}
                     runs[setting].append({**run, **first_cold_call(run, name)})
     return runs["current"], runs["former"]
 
@@ -366,9 +446,16 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40", "fourbar40"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
-    ap.add_argument("--baseline", choices=("former", "eager"), default="former",
+    ap.add_argument("--baseline", choices=("former", "eager", "overlap"), default="former",
                     help="former: every former setting (the default); eager: the current settings with a tree's cold "
-                         "functions compiled with the rest")
+                         "functions compiled with the rest; overlap: the current settings with the compiler started as "
+                         "before the early starts (bench/compile_time.py former_overlap)")
+    ap.add_argument("--empty", action="store_true",
+                    help="compile into a cache without the runtime object every model shares (a user's very first "
+                         "compile: the runtime unit is compiled too)")
+    ap.add_argument("--timeline", action="store_true",
+                    help="print when each compiler process ran against the derivation's phases (each setting's "
+                         "last run)")
     args = ap.parse_args()
     same = "(those of the model units)"
     print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, the outputs' unit and the "
@@ -377,11 +464,14 @@ def main() -> None:
           f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
     print(f"the runtime object every model shares (the Python bindings, the integrators; in every fresh compile's "
           f"cache): compiler cpu {runtime_cpu():.2f} s, once per compiler and flags")
+    if args.baseline == "overlap":
+        print("baseline: the current settings with the C compiler started as before (the runtime unit with the "
+              "equations' units; bench/compile_time.py former_overlap)")
     if args.baseline == "eager":
         print("baseline: the current settings with a tree's cold functions (mass matrix, forces) derived and compiled "
               "with the rest (mbs/system.py COLD_APART False) and prebuild as before (bench/compile_time.py eager_cold)")
     for name in args.models:
-        current, former = compare_compiles(name, args.repeat, args.baseline)
+        current, former = compare_compiles(name, args.repeat, args.baseline, args.empty, args.timeline)
         same = all(same_but_cold(r["code"], former[0]["code"]) for r in current + former)
         print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB, the baseline's "
               f"{len(former[0]['code']) / 1024:.0f} KiB ({'the same text but the cold functions' if same else 'THE TEXTS DIFFER'}); "
@@ -390,6 +480,10 @@ def main() -> None:
         for label, runs in (("current", current), (args.baseline, former)):
             print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
                   f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
+        if args.timeline:
+            for label, runs in (("current", current), (args.baseline, former)):
+                print(f"  timeline of the {label} settings' last compile (seconds from its start):")
+                print("\n".join(runs[-1]["timeline"]))
         ratio = lambda key: median(former, key) / median(current, key)  # noqa: E731
         target = TARGETS.get(name)
         print(f"  {args.baseline} / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "

@@ -439,16 +439,55 @@ def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str |
     files = _build_files(equations_code + "\n" + _units.OUTPUTS_MARKER + "\n", filename)
     files.pop(_units.OUTPUTS_UNIT, None)
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    return _submit(_unit_jobs(files, flags, model_flags, cc, cache), files, cache, filename)
+
+
+def prebuild_runtime(*, cache_dir: str | os.PathLike | None = None, extra_flags: tuple[str, ...] = ()) -> int:
+    """Start compiling, in the background, the runtime unit's object (the Python bindings and the integrators,
+    which depend on no model) when the cache has none yet: a model's derivation calls this as it starts
+    (mbs/system.py), so that the first compile into an empty cache makes it on the core the derivation leaves
+    idle, not after the equations' C is written. Returns 1 when started, else 0 (no compiler, already in the cache
+    or being compiled). Never raises: build() compiles what is not there and reports it."""
+    try:
+        cc = tuple(compiler_command())
+        compiler_version(cc)
+    except BuildError:
+        return 0
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    files = {RUNTIME_UNIT: _runtime_unit()}
+    return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, RUNTIME_UNIT)
+
+
+def _submit(jobs, files: dict[str, str], cache: Path, filename: str) -> int:
+    """Queue the jobs whose objects are neither in the cache nor being compiled on prebuild's pool (one compiler
+    process less than build() runs, so the derivation keeps a core); how many were queued."""
     started = 0
     with _PREBUILD_LOCK:
         if not _PREBUILD_POOL:
             _PREBUILD_POOL.append(ThreadPoolExecutor(max_workers=max(1, build_jobs() - 1)))
-        for job in _unit_jobs(files, flags, model_flags, cc, cache):
+        for job in jobs:
             if job[2] in _PREBUILDS or job[2].exists():
                 continue
             _PREBUILDS[job[2]] = _PREBUILD_POOL[0].submit(_prebuild_one, job, files, cache, filename)
             started += 1
     return started
+
+
+@dataclass(frozen=True)
+class Prebuilds:
+    """What a compile hands the derivation (pipeline.generate's `equations_ready`), so that the C compiler starts
+    on each unit as soon as what the unit is compiled from is known: called with the equations' C, prebuild; its
+    `derivation_started` (called when a derivation begins, not when the generated code comes from the derivation
+    cache) starts the runtime unit (prebuild_runtime), which depends on no model."""
+
+    cache_dir: str | os.PathLike | None = None
+
+    def __call__(self, equations_code: str) -> int:
+        return prebuild(equations_code, cache_dir=self.cache_dir)
+
+    def derivation_started(self) -> int:
+        return prebuild_runtime(cache_dir=self.cache_dir)
 
 
 def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> None:
