@@ -262,3 +262,29 @@ def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, mon
     layout = units.read_layout(code)
     helper = next(h for h in layout.helpers if h.name == tables[0])
     assert helper.text.startswith("/* Lookup table") and f"{tables[0]}_y[" in helper.text
+
+
+def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_printed(tmp_path, monkeypatch):
+    """The glue unit of a split file with loops includes the file's head and fixed declarations alone
+    (translation_units.GLUE_HEADER), known before a function is printed: prebuild_head compiles it then, under the
+    key build() later gives it (the head read off the whole file is the text handed over early), so build takes its
+    object from the cache: the glue unit is compiled once (what the split computes: the test above, whose slider-crank
+    glue unit includes GLUE_HEADER too)."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    monkeypatch.setattr(build, "HEAD_MIN_ENTRIES", 0)
+    text = SLIDER_CRANK.read_text().rstrip().removesuffix("}") + "    output crank_angle = main_bearing.phi\n}\n"
+    heads, compiled, events = [], [], []
+    prebuild_head, prebuild, run = build.prebuild_head, build.prebuild, build._run
+    monkeypatch.setattr(build, "prebuild_head", lambda head, entries, **options: heads.append(head) or events.append(
+        "head") or prebuild_head(head, entries, **options))
+    monkeypatch.setattr(build, "prebuild", lambda code, **options: events.append("equations") or prebuild(code, **options))
+    monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(
+        command[command.index("-c") + 1] if "-c" in command else "link") or run(command, *a))
+    system = mbs.loads(text, cache_dir=tmp_path)
+    model = system.compile()
+    gen = system.generate()
+    files = build._build_files(gen.c_source, "model.c")
+    assert events == ["head", "equations"] and heads == [units.file_head(gen.c_source)]
+    assert units.GLUE_HEADER in files and f'#include "{units.GLUE_HEADER}"' in files[units.GLUE_UNIT]
+    assert compiled.count(units.GLUE_UNIT) == 1 and units.OUTPUTS_UNIT in compiled and not build._PREBUILDS
