@@ -154,13 +154,15 @@ def eager_cold():
 @contextlib.contextmanager
 def former_overlap():
     """As before the early starts: the runtime unit (with an empty cache, --empty) not started as the derivation
-    starts (runtime/build.py Prebuilds.derivation_started) but with the equations' units."""
-    started = build.Prebuilds.derivation_started
+    starts (runtime/build.py Prebuilds.derivation_started) and the glue unit not from the file's head before the
+    functions are printed (Prebuilds.head_written), both with the equations' units."""
+    started, head = build.Prebuilds.derivation_started, build.Prebuilds.head_written
     build.Prebuilds.derivation_started = lambda self: 0
+    build.Prebuilds.head_written = lambda self, text, entries: 0
     try:
         yield
     finally:
-        build.Prebuilds.derivation_started = started
+        build.Prebuilds.derivation_started, build.Prebuilds.head_written = started, head
 
 
 @contextlib.contextmanager
