@@ -1,7 +1,8 @@
 """A model's fresh compile (text to loaded library, empty caches) with the current settings against the former ones,
 and what the settings cost the compiled model at run time.
 
-    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units] [--baseline eager]
+    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units]
+                                 [--baseline former|eager|overlap] [--empty] [--timeline]
 
 Per model, all measured in this run, the two settings' runs interleaved (medians of --repeat; the machine is shared
 and noisy, so CPU seconds are printed beside wall seconds):
@@ -34,6 +35,12 @@ and noisy, so CPU seconds are printed beside wall seconds):
   runtime/backends.py ColdLibrary), the same in a new process's view (a new System on the same cache: nothing
   derived nor compiled again), and whether the right-hand side and the mass matrix of both builds are the same to
   the bit at random states.
+* --baseline overlap: the baseline is the current settings with the C compiler started as before the early starts
+  (runtime/build.py Prebuilds: the runtime unit as the derivation starts, the glue unit from the file's head before
+  the functions are printed; before, both with the equations' units). The default baseline has it so too.
+* --empty: the cache is empty, without the runtime object (a user's very first compile), for both settings.
+* --timeline: when each compiler process of each setting's last compile ran against the derivation's phases
+  (mbs/pipeline.py _Phases), in seconds from the compile's start.
 
 Issue 12's targets: a fresh compile of the Iltis under 5 s, of the 40-link chain under 10 s.
 """
