@@ -20,7 +20,9 @@ and noisy, so CPU seconds are printed beside wall seconds):
   outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
   level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS) and a tree's NumPy module printed with every
   derivation (now only when the NumPy back end asks for it). Printed: wall time, and of it the derivation (to the generated C)
-  and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
+  and the C build after it; the CPU time of this process (the derivation) and of the compiler processes, and of
+  theirs what the processes that ended before the derivation did (the compiler's work taken off the build after
+  it: a figure the load of a shared machine moves less than the wall times);
 * same text: the generated C of both settings is compared (the settings must not change it);
 * run time, 15 interleaved rounds inside C (`backend.time_call`, no Python; the fastest round of each): the
   right-hand side the integrators call, the outputs and the mass matrix at the start state (the model units, and
@@ -321,6 +323,7 @@ def fresh_compile(name: str, cache: str, *, empty: bool = False, timeline: bool 
             result.numpy_source  # noqa: B018 (printed here, as the former derivation did with every compile)
         marks.setdefault("derived", time.perf_counter())
         marks.setdefault("derived cpu", time.process_time())
+        marks.setdefault("derived cc cpu", _children_cpu())
         return result
 
     system.generate = timed_generate
@@ -332,6 +335,7 @@ def fresh_compile(name: str, cache: str, *, empty: bool = False, timeline: bool 
     system.generate = generate
     return {"total": end - start, "derive": marks["derived"] - start, "cc": end - marks["derived"],
             "derive cpu": marks["derived cpu"] - cpu, "cc cpu": _children_cpu() - cc_cpu,
+            "cc cpu during": marks["derived cc cpu"] - cc_cpu,
             "timeline": clock.lines(end - clock.start) if timeline else None,
             "system": system, "compiled": compiled, "code": system.generate(scene).c_source}
 
@@ -504,10 +508,12 @@ def main() -> None:
         print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB, the baseline's "
               f"{len(former[0]['code']) / 1024:.0f} KiB ({'the same text but the cold functions' if same else 'THE TEXTS DIFFER'}); "
               f"medians of {args.repeat}")
-        print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s}")
+        print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s} "
+              f"{'of it during the derivation':>28s}")
         for label, runs in (("current", current), (args.baseline, former)):
             print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
-                  f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
+                  f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s "
+                  f"{median(runs, 'cc cpu during'):27.1f}s")
         if args.timeline:
             for label, runs in (("current", current), (args.baseline, former)):
                 print(f"  timeline of the {label} settings' last compile (seconds from its start):")
