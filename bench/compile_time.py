@@ -179,17 +179,21 @@ def _former_helpers_for(body, helpers):
 def former_overlap():
     """As before the early starts: the runtime unit (with an empty cache, --empty) not started as the derivation
     starts (runtime/build.py Prebuilds.derivation_started) and the glue unit not from the file's head before the
-    functions are printed (Prebuilds.head_written), both with the equations' units; and the split's former search
+    functions are printed (Prebuilds.head_written), both with the equations' units, whose glue unit declared the
+    outputs whether the scene had any (a scene without them compiled it again); and the split's former search
     for the helpers a unit calls (translation_units._helpers_for: 0.5 s of the Iltis's CPU before the first unit)."""
-    started, head = build.Prebuilds.derivation_started, build.Prebuilds.head_written
+    started, head, equations = (build.Prebuilds.derivation_started, build.Prebuilds.head_written,
+                                build.Prebuilds.__call__)
     helpers_for = translation_units._helpers_for
     build.Prebuilds.derivation_started = lambda self: 0
     build.Prebuilds.head_written = lambda self, text, entries: 0
+    build.Prebuilds.__call__ = lambda self, code: build.prebuild(code, cache_dir=self.cache_dir)  # (outputs or not)
     translation_units._helpers_for = _former_helpers_for
     try:
         yield
     finally:
         build.Prebuilds.derivation_started, build.Prebuilds.head_written = started, head
+        build.Prebuilds.__call__ = equations
         translation_units._helpers_for = helpers_for
 
 

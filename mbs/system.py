@@ -94,7 +94,9 @@ class System:
             c_back_end = self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler())
             # the C compiler starts on the runtime unit as the derivation starts and on the equations while the
             # outputs are derived (runtime/build.py Prebuilds)
-            prebuild = _build.Prebuilds(self.cache_dir) if c_back_end else None
+            sc = self.scene(scene)  # (a scene without outputs: its file has no outputs' part, its glue unit differs)
+            wanted = sc.outputs if sc is not None and sc.outputs else self.model.outputs
+            prebuild = _build.Prebuilds(self.cache_dir, bool(wanted)) if c_back_end else None
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                                 frames=frames, equations_ready=prebuild, closed_form=closed_form)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))

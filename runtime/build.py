@@ -440,7 +440,8 @@ if hasattr(os, "register_at_fork"):
 
 
 def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
-             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> int:
+             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None,
+             outputs: bool = True) -> int:
     """Start compiling, in the background, the units of a file whose equations' part is known and whose outputs'
     part is not yet (pipeline.generate writes the equations' C, then lowers the outputs): the model units and
     the glue unit of a split build do not depend on the outputs, so their objects can be made while the outputs
@@ -448,14 +449,15 @@ def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str |
     runtime unit's object, when the cache has none yet. One compiler process less than build() runs, so the
     derivation keeps a core. Returns how many units were started (0 without a compiler, or with every object
     cached; at most 1, the runtime unit, for a model built as one unit). Never raises for the model's sake: a unit
-    that fails is compiled again by build(), which reports it."""
+    that fails is compiled again by build(), which reports it. outputs: whether the file will have an outputs'
+    part (the glue unit then declares them; a scene without outputs has none)."""
     try:
         cc = tuple(compiler_command())
         model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     except BuildError:
         return 0
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    files = _build_files(equations_code + "\n" + _units.OUTPUTS_MARKER + "\n", filename)
+    files = _build_files(equations_code + ("\n" + _units.OUTPUTS_MARKER + "\n" if outputs else ""), filename)
     files.pop(_units.OUTPUTS_UNIT, None)
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     return _submit(_unit_jobs(files, flags, model_flags, cc, cache), files, cache, filename)
@@ -486,15 +488,14 @@ HEAD_MIN_ENTRIES = 400
 
 
 def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
-                  extra_flags: tuple[str, ...] = ()) -> int:
+                  extra_flags: tuple[str, ...] = (), outputs: bool = True) -> int:
     """Start compiling, in the background, the glue unit of a file of which only the head is written
     (compiler/ccode.py CEmitter.head: sizes, tables, declarations) and whose functions are being printed (`entries`
     temporaries on the tape): the glue unit of a split file with loops (the loop solver: as long a compile as a
     model unit) includes the head and the declarations of translation_units.GLUE_HEADER alone, so build() (with
     the same options) takes its object from the cache, or waits for it. Returns 1 when started, else 0 (no
     compiler, no loops, too small a tape for a split file, a head that glue_header refuses, or the object already
-    there). As prebuild, it assumes the file will have an outputs' part (a scene without outputs compiles its glue
-    unit in build()). Never raises."""
+    there). outputs: as for prebuild. Never raises."""
     if entries < HEAD_MIN_ENTRIES or not _units.has_loops(head):
         return 0
     header = _units.glue_header(head, filename)
@@ -505,7 +506,7 @@ def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_d
         return 0
     if header is None:
         return 0
-    files = {_units.GLUE_HEADER: header, _units.GLUE_UNIT: _glue_unit(_units.GLUE_HEADER, True)}
+    files = {_units.GLUE_HEADER: header, _units.GLUE_UNIT: _glue_unit(_units.GLUE_HEADER, outputs)}
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
     return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, filename)
@@ -531,18 +532,21 @@ class Prebuilds:
     """What a compile hands the derivation (pipeline.generate's `equations_ready`), so that the C compiler starts
     on each unit as soon as what the unit is compiled from is known: called with the equations' C, prebuild; its
     `derivation_started` (called when a derivation begins, not when the generated code comes from the derivation
-    cache) starts the runtime unit (prebuild_runtime), which depends on no model."""
+    cache) starts the runtime unit (prebuild_runtime), which depends on no model; its `head_written` (called with
+    the file's head before its functions are printed) the glue unit (prebuild_head). outputs: whether the scene
+    asks for outputs (the file then has an outputs' part, which the glue unit declares)."""
 
     cache_dir: str | os.PathLike | None = None
+    outputs: bool = True
 
     def __call__(self, equations_code: str) -> int:
-        return prebuild(equations_code, cache_dir=self.cache_dir)
+        return prebuild(equations_code, cache_dir=self.cache_dir, outputs=self.outputs)
 
     def derivation_started(self) -> int:
         return prebuild_runtime(cache_dir=self.cache_dir)
 
     def head_written(self, head: str, entries: int) -> int:
-        return prebuild_head(head, entries, cache_dir=self.cache_dir)
+        return prebuild_head(head, entries, cache_dir=self.cache_dir, outputs=self.outputs)
 
 
 def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> None:

@@ -264,16 +264,19 @@ def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, mon
     assert helper.text.startswith("/* Lookup table") and f"{tables[0]}_y[" in helper.text
 
 
-def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_printed(tmp_path, monkeypatch):
+@pytest.mark.parametrize("outputs", [True, False], ids=["outputs", "no outputs"])
+def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_printed(outputs, tmp_path, monkeypatch):
     """The glue unit of a split file with loops includes the file's head and fixed declarations alone
     (translation_units.GLUE_HEADER), known before a function is printed: prebuild_head compiles it then, under the
     key build() later gives it (the head read off the whole file is the text handed over early), so build takes its
-    object from the cache: the glue unit is compiled once (what the split computes: the test above, whose slider-crank
-    glue unit includes GLUE_HEADER too)."""
+    object from the cache: the glue unit is compiled once, whether the scene has outputs (which it declares) or
+    not (what the split computes: the test above, whose slider-crank glue unit includes GLUE_HEADER too)."""
     monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
     monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
     monkeypatch.setattr(build, "HEAD_MIN_ENTRIES", 0)
-    text = SLIDER_CRANK.read_text().rstrip().removesuffix("}") + "    output crank_angle = main_bearing.phi\n}\n"
+    text = SLIDER_CRANK.read_text()
+    if outputs:
+        text = text.rstrip().removesuffix("}") + "    output crank_angle = main_bearing.phi\n}\n"
     heads, compiled, events = [], [], []
     prebuild_head, prebuild, run = build.prebuild_head, build.prebuild, build._run
     monkeypatch.setattr(build, "prebuild_head", lambda head, entries, **options: heads.append(head) or events.append(
@@ -287,4 +290,5 @@ def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_prin
     files = build._build_files(gen.c_source, "model.c")
     assert events == ["head", "equations"] and heads == [units.file_head(gen.c_source)]
     assert units.GLUE_HEADER in files and f'#include "{units.GLUE_HEADER}"' in files[units.GLUE_UNIT]
-    assert compiled.count(units.GLUE_UNIT) == 1 and units.OUTPUTS_UNIT in compiled and not build._PREBUILDS
+    assert compiled.count(units.GLUE_UNIT) == 1 and (units.OUTPUTS_UNIT in compiled) == outputs
+    assert not build._PREBUILDS and model.ny == outputs
