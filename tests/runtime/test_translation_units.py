@@ -292,3 +292,20 @@ def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_prin
     assert units.GLUE_HEADER in files and f'#include "{units.GLUE_HEADER}"' in files[units.GLUE_UNIT]
     assert compiled.count(units.GLUE_UNIT) == 1 and (units.OUTPUTS_UNIT in compiled) == outputs
     assert not build._PREBUILDS and model.ny == outputs
+
+
+def test_a_file_with_a_function_the_glue_header_does_not_declare_keeps_model_h(generated, monkeypatch):
+    """glue.h declares a fixed list of functions: a file that defines another one (which the glue might call), or
+    whose head declares one of them otherwise, gets none, and its glue unit includes model.h as before."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    code = generated["slider_crank"]
+    head = units.file_head(code)
+    assert head.startswith("/* Equations of motion") and "int mbs_qdot(" not in head
+    assert units.glue_header(head, "s.c") is not None
+    assert units.glue_header(head, "s.c", ("int mbs_custom(double t, const double *x)",)) is None
+    assert units.glue_header(head + "\nint mbs_rhs(double t);", "s.c") is None
+    assert units.GLUE_HEADER in build._build_files(code, "s.c")
+    extra = code.replace("\nint mbs_qdot(", "\nint mbs_custom(int i)\n{\n    return i;\n}\nint mbs_qdot(", 1)
+    files = build._build_files(extra, "s.c")
+    assert "int mbs_custom(int i);" in files["model.h"]
+    assert units.GLUE_HEADER not in files and '#include "model.h"' in files[units.GLUE_UNIT]
