@@ -281,7 +281,8 @@ def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_prin
     prebuild_head, prebuild, run = build.prebuild_head, build.prebuild, build._run
     monkeypatch.setattr(build, "prebuild_head", lambda head, entries, **options: heads.append(head) or events.append(
         "head") or prebuild_head(head, entries, **options))
-    monkeypatch.setattr(build, "prebuild", lambda code, **options: events.append("equations") or prebuild(code, **options))
+    monkeypatch.setattr(build, "prebuild", lambda code, **options: events.append("equations") or prebuild(
+        code, **options))
     monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(
         command[command.index("-c") + 1] if "-c" in command else "link") or run(command, *a))
     system = mbs.loads(text, cache_dir=tmp_path)
