@@ -39,8 +39,8 @@ and noisy, so CPU seconds are printed beside wall seconds):
   the bit at random states.
 * --baseline overlap: the baseline is the current settings with the C compiler started as before the early starts
   (runtime/build.py Prebuilds: the runtime unit as the derivation starts, the glue unit from the file's head before
-  the functions are printed; before, both with the equations' units) and the split's former helper search
-  (bench/compile_time.py former_overlap). The default baseline has them so too.
+  the functions are printed; before, both with the equations' units), the split's former helper search and the
+  former order of the units (bench/compile_time.py former_overlap). The default baseline has them so too.
 * --empty: the cache is empty, without the runtime object (a user's very first compile), for both settings.
 * --timeline: when each compiler process of each setting's last compile ran against the derivation's phases
   (mbs/pipeline.py _Phases), in seconds from the compile's start.
@@ -180,8 +180,9 @@ def former_overlap():
     """As before the early starts: the runtime unit (with an empty cache, --empty) not started as the derivation
     starts (runtime/build.py Prebuilds.derivation_started) and the glue unit not from the file's head before the
     functions are printed (Prebuilds.head_written), both with the equations' units, whose glue unit declared the
-    outputs whether the scene had any (a scene without them compiled it again); and the split's former search
-    for the helpers a unit calls (translation_units._helpers_for: 0.5 s of the Iltis's CPU before the first unit)."""
+    outputs whether the scene had any (a scene without them compiled it again); the split's former search for the
+    helpers a unit calls (translation_units._helpers_for: 0.5 s of the Iltis's CPU before the first unit); and the
+    units compiled at -Og weighed as the others (runtime/build.py OG_WEIGHT), so the outputs' unit started first."""
     started, head, equations = (build.Prebuilds.derivation_started, build.Prebuilds.head_written,
                                 build.Prebuilds.__call__)
     helpers_for = translation_units._helpers_for
@@ -189,12 +190,14 @@ def former_overlap():
     build.Prebuilds.head_written = lambda self, text, entries: 0
     build.Prebuilds.__call__ = lambda self, code: build.prebuild(code, cache_dir=self.cache_dir)  # (outputs or not)
     translation_units._helpers_for = _former_helpers_for
+    weight, build.OG_WEIGHT = build.OG_WEIGHT, 1.0
     try:
         yield
     finally:
         build.Prebuilds.derivation_started, build.Prebuilds.head_written = started, head
         build.Prebuilds.__call__ = equations
         translation_units._helpers_for = helpers_for
+        build.OG_WEIGHT = weight
 
 
 @contextlib.contextmanager
