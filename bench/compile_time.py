@@ -1,7 +1,8 @@
 """A model's fresh compile (text to loaded library, empty caches) with the current settings against the former ones,
 and what the settings cost the compiled model at run time.
 
-    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units] [--baseline eager]
+    python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units]
+                                 [--baseline former|eager|overlap] [--empty] [--timeline]
 
 Per model, all measured in this run, the two settings' runs interleaved (medians of --repeat; the machine is shared
 and noisy, so CPU seconds are printed beside wall seconds):
@@ -19,7 +20,9 @@ and noisy, so CPU seconds are printed beside wall seconds):
   outputs' unit and the functions no integrator calls, an open tree's mass matrix and forces, at the model units'
   level; runtime/build.py OUTPUTS_UNIT_FLAGS, COLD_UNIT_FLAGS) and a tree's NumPy module printed with every
   derivation (now only when the NumPy back end asks for it). Printed: wall time, and of it the derivation (to the generated C)
-  and the C build after it; the CPU time of this process (the derivation) and of the compiler processes;
+  and the C build after it; the CPU time of this process (the derivation) and of the compiler processes, and of
+  theirs what the processes that ended before the derivation did (the compiler's work taken off the build after
+  it: a figure the load of a shared machine moves less than the wall times);
 * same text: the generated C of both settings is compared (the settings must not change it);
 * run time, 15 interleaved rounds inside C (`backend.time_call`, no Python; the fastest round of each): the
   right-hand side the integrators call, the outputs and the mass matrix at the start state (the model units, and
@@ -34,6 +37,13 @@ and noisy, so CPU seconds are printed beside wall seconds):
   runtime/backends.py ColdLibrary), the same in a new process's view (a new System on the same cache: nothing
   derived nor compiled again), and whether the right-hand side and the mass matrix of both builds are the same to
   the bit at random states.
+* --baseline overlap: the baseline is the current settings with the C compiler started as before the early starts
+  (runtime/build.py Prebuilds: the runtime unit as the derivation starts, the glue unit from the file's head before
+  the functions are printed; before, both with the equations' units), the split's former helper search and the
+  former order of the units (bench/compile_time.py former_overlap). The default baseline has them so too.
+* --empty: the cache is empty, without the runtime object (a user's very first compile), for both settings.
+* --timeline: when each compiler process of each setting's last compile ran against the derivation's phases
+  (mbs/pipeline.py _Phases), in seconds from the compile's start.
 
 Issue 12's targets: a fresh compile of the Iltis under 5 s, of the 40-link chain under 10 s.
 """
@@ -151,12 +161,52 @@ def eager_cold():
         translation_units.split_sources, build._cancelled = split, cancelled
 
 
+def _former_helpers_for(body, helpers):
+    """translation_units._helpers_for as it was: the whole text searched for each helper's name."""
+    wanted: set[str] = set()
+    text, changed = body, True
+    while changed:
+        changed = False
+        for h in helpers:
+            if h.name not in wanted and __import__("re").search(rf"\b{h.name}\b", text):
+                wanted.add(h.name)
+                text += "\n" + h.text
+                changed = True
+    return [h for h in helpers if h.name in wanted]
+
+
+@contextlib.contextmanager
+def former_overlap():
+    """As before the early starts: the runtime unit (with an empty cache, --empty) not started as the derivation
+    starts (runtime/build.py Prebuilds.derivation_started) and the glue unit not from the file's head before the
+    functions are printed (Prebuilds.head_written), both with the equations' units, whose glue unit declared the
+    outputs whether the scene had any (a scene without them compiled it again); the split's former search for the
+    helpers a unit calls (translation_units._helpers_for: 0.5 s of the Iltis's CPU before the first unit); and the
+    units compiled at -Og weighed as the others (runtime/build.py OG_WEIGHT), so the outputs' unit started first."""
+    started, head, equations = (build.Prebuilds.derivation_started, build.Prebuilds.head_written,
+                                build.Prebuilds.__call__)
+    helpers_for = translation_units._helpers_for
+    build.Prebuilds.derivation_started = lambda self: 0
+    build.Prebuilds.head_written = lambda self, text, entries: 0
+    build.Prebuilds.__call__ = lambda self, code: build.prebuild(code, cache_dir=self.cache_dir)  # (outputs or not)
+    translation_units._helpers_for = _former_helpers_for
+    weight, build.OG_WEIGHT = build.OG_WEIGHT, 1.0
+    try:
+        yield
+    finally:
+        build.Prebuilds.derivation_started, build.Prebuilds.head_written = started, head
+        build.Prebuilds.__call__ = equations
+        translation_units._helpers_for = helpers_for
+        build.OG_WEIGHT = weight
+
+
 @contextlib.contextmanager
 def former_settings(baseline: str = "former"):
-    """The printer, the derivation's helpers and the build flags as they were before, and the cold functions
-    compiled with the rest: the baseline ("eager": the cold functions alone)."""
-    if baseline == "eager":
-        with eager_cold():
+    """The printer, the derivation's helpers and the build flags as they were before, the cold functions
+    compiled with the rest and the compiler's former start: the baseline ("eager": the cold functions alone;
+    "overlap": the former start alone)."""
+    if baseline in ("eager", "overlap"):
+        with eager_cold() if baseline == "eager" else former_overlap():
             yield
         return
     _EAGER_NUMPY[0] = True
@@ -169,7 +219,7 @@ def former_settings(baseline: str = "former"):
     differentiate.sympy_diff = lambda expr, a, memo: emit_common.sp.diff(expr, a)
     build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
-        with eager_cold():
+        with eager_cold(), former_overlap():
             yield
     finally:
         _EAGER_NUMPY[0] = False
@@ -203,12 +253,73 @@ def runtime_cpu() -> float:
         return _children_cpu() - cpu
 
 
-def fresh_compile(name: str, cache: str) -> dict:
+class Timeline:
+    """When each compiler process of a compile ran and when each phase of the derivation ended (the pipeline's
+    phase clock, mbs/pipeline.py _Phases, read off its log records), in seconds from the compile's start:
+    --timeline prints it."""
+
+    def __init__(self):
+        self.start = time.perf_counter()
+        self.events: list[tuple[float, float, str]] = []   # (start, end, what) of the compiler processes
+        self.phases: list[tuple[float, str]] = []           # (end, phase) of the derivation
+        self.lock = __import__("threading").Lock()
+
+    @contextlib.contextmanager
+    def recording(self):
+        import logging
+        run, log = build._run, logging.getLogger("mbs.pipeline")
+        timeline = self
+
+        def timed_run(command, cwd, filename):
+            began = time.perf_counter()
+            try:
+                return run(command, cwd, filename)
+            finally:
+                what = command[command.index("-c") + 1] if "-c" in command else "link"
+                with timeline.lock:
+                    timeline.events.append((began - timeline.start, time.perf_counter() - timeline.start, what))
+
+        class Phases(logging.Handler):
+            def emit(self, record):
+                message = record.getMessage()
+                if ": " in message and " in " in message:
+                    timeline.phases.append((record.created - time.time() + time.perf_counter() - timeline.start,
+                                            message.split(": ", 1)[1].rsplit(" in ", 1)[0]))
+
+        handler, level = Phases(level=logging.INFO), log.level
+        build._run = timed_run
+        log.addHandler(handler)
+        log.setLevel(logging.INFO)
+        try:
+            yield self
+        finally:
+            build._run = run
+            log.removeHandler(handler)
+            log.setLevel(level)
+
+    def lines(self, total: float) -> list[str]:
+        """The phases and the compiler processes, one a line, with a bar over the compile's wall time."""
+        width, out = 60, []
+        scale = width / max(total, 1e-9)
+        for end, phase in self.phases:
+            out.append(f"    {end:6.2f} s  derivation: {phase}")
+        for began, ended, what in sorted(self.events):
+            bar = " " * int(began * scale) + "#" * max(1, int((ended - began) * scale))
+            out.append(f"    {began:6.2f} - {ended:5.2f} s  {what:12s} |{bar:{width}s}|")
+        out.append(f"    {total:6.2f} s  loaded")
+        return out
+
+
+def fresh_compile(name: str, cache: str, *, empty: bool = False, timeline: bool = False) -> dict:
     """Seconds of a fresh compile of model `name` into the folder `cache`, empty but for the runtime object
-    (seed_runtime), split at the derivation's end."""
-    seed_runtime(cache)
+    (seed_runtime; `empty`: not even that), split at the derivation's end; `timeline`: with its Timeline."""
+    if not empty:
+        seed_runtime(cache)
     text, path, scene, _ = model_text(name)
     marks = {}
+    clock = Timeline()
+    recording = clock.recording() if timeline else contextlib.nullcontext()
+    recording.__enter__()
     start, cpu, cc_cpu = time.perf_counter(), time.process_time(), _children_cpu()
     system = mbs.loads(text, path=path, cache_dir=cache)
     generate = system.generate
@@ -219,25 +330,33 @@ def fresh_compile(name: str, cache: str) -> dict:
             result.numpy_source  # noqa: B018 (printed here, as the former derivation did with every compile)
         marks.setdefault("derived", time.perf_counter())
         marks.setdefault("derived cpu", time.process_time())
+        marks.setdefault("derived cc cpu", _children_cpu())
         return result
 
     system.generate = timed_generate
-    compiled = system.compile(scene)
+    try:
+        compiled = system.compile(scene)
+    finally:
+        recording.__exit__(None, None, None)
     end = time.perf_counter()
     system.generate = generate
     return {"total": end - start, "derive": marks["derived"] - start, "cc": end - marks["derived"],
             "derive cpu": marks["derived cpu"] - cpu, "cc cpu": _children_cpu() - cc_cpu,
+            "cc cpu during": marks["derived cc cpu"] - cc_cpu,
+            "timeline": clock.lines(end - clock.start) if timeline else None,
             "system": system, "compiled": compiled, "code": system.generate(scene).c_source}
 
 
-def compare_compiles(name: str, repeat: int, baseline: str = "former") -> tuple[dict, dict]:
-    """{setting: [runs]} of fresh compiles with the current and the former settings (`baseline`), interleaved."""
+def compare_compiles(name: str, repeat: int, baseline: str = "former", empty: bool = False,
+                     timeline: bool = False) -> tuple[dict, dict]:
+    """{setting: [runs]} of fresh compiles with the current and the former settings (`baseline`), interleaved;
+    `empty`, `timeline`: as for fresh_compile."""
     runs: dict[str, list] = {"current": [], "former": []}
     for _ in range(repeat):
         for setting in runs:
             with tempfile.TemporaryDirectory(prefix="mbs-bench-") as cache:
                 with (former_settings(baseline) if setting == "former" else contextlib.nullcontext()):
-                    run = {**fresh_compile(name, cache), "cache": cache}
+                    run = {**fresh_compile(name, cache, empty=empty, timeline=timeline), "cache": cache}
                     runs[setting].append({**run, **first_cold_call(run, name)})
     return runs["current"], runs["former"]
 
@@ -366,9 +485,16 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40", "fourbar40"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
-    ap.add_argument("--baseline", choices=("former", "eager"), default="former",
+    ap.add_argument("--baseline", choices=("former", "eager", "overlap"), default="former",
                     help="former: every former setting (the default); eager: the current settings with a tree's cold "
-                         "functions compiled with the rest")
+                         "functions compiled with the rest; overlap: the current settings with the compiler started as "
+                         "before the early starts (bench/compile_time.py former_overlap)")
+    ap.add_argument("--empty", action="store_true",
+                    help="compile into a cache without the runtime object every model shares (a user's very first "
+                         "compile: the runtime unit is compiled too)")
+    ap.add_argument("--timeline", action="store_true",
+                    help="print when each compiler process ran against the derivation's phases (each setting's "
+                         "last run)")
     args = ap.parse_args()
     same = "(those of the model units)"
     print(f"{build.build_jobs()} compiler jobs; the former settings: the former printer, the outputs' unit and the "
@@ -377,19 +503,28 @@ def main() -> None:
           f"{' '.join(build.COLD_UNIT_FLAGS) or same}")
     print(f"the runtime object every model shares (the Python bindings, the integrators; in every fresh compile's "
           f"cache): compiler cpu {runtime_cpu():.2f} s, once per compiler and flags")
+    if args.baseline == "overlap":
+        print("baseline: the current settings with the C compiler started as before (the runtime unit with the "
+              "equations' units; bench/compile_time.py former_overlap)")
     if args.baseline == "eager":
         print("baseline: the current settings with a tree's cold functions (mass matrix, forces) derived and compiled "
               "with the rest (mbs/system.py COLD_APART False) and prebuild as before (bench/compile_time.py eager_cold)")
     for name in args.models:
-        current, former = compare_compiles(name, args.repeat, args.baseline)
+        current, former = compare_compiles(name, args.repeat, args.baseline, args.empty, args.timeline)
         same = all(same_but_cold(r["code"], former[0]["code"]) for r in current + former)
         print(f"\n{name}: generated C {len(current[0]['code']) / 1024:.0f} KiB, the baseline's "
               f"{len(former[0]['code']) / 1024:.0f} KiB ({'the same text but the cold functions' if same else 'THE TEXTS DIFFER'}); "
               f"medians of {args.repeat}")
-        print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s}")
+        print(f"  {'':8s} {'compile':>8s} {'derive':>8s} {'C after':>8s} {'derive cpu':>10s} {'cc cpu':>8s} "
+              f"{'of it during the derivation':>28s}")
         for label, runs in (("current", current), (args.baseline, former)):
             print(f"  {label:8s} {median(runs, 'total'):7.1f}s {median(runs, 'derive'):7.1f}s "
-                  f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s")
+                  f"{median(runs, 'cc'):7.1f}s {median(runs, 'derive cpu'):9.1f}s {median(runs, 'cc cpu'):7.1f}s "
+                  f"{median(runs, 'cc cpu during'):27.1f}s")
+        if args.timeline:
+            for label, runs in (("current", current), (args.baseline, former)):
+                print(f"  timeline of the {label} settings' last compile (seconds from its start):")
+                print("\n".join(runs[-1]["timeline"]))
         ratio = lambda key: median(former, key) / median(current, key)  # noqa: E731
         target = TARGETS.get(name)
         print(f"  {args.baseline} / current: compile {ratio('total'):.2f} x, derivation {ratio('derive'):.2f} x (cpu "

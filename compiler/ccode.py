@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -188,7 +188,12 @@ class CEmitter:
 
     # ---- the file ---------------------------------------------------------------------------------------------
 
-    def source(self) -> str:
+    def source(self, head_ready: Callable[[str, int], object] | None = None) -> str:
+        """The file's text; head_ready: called with its head (head(), the text before the first function) and the
+        number of temporaries on the tape before the functions are printed (runtime/build.py prebuild_head compiles
+        the glue unit from it meanwhile)."""
+        if head_ready is not None:
+            head_ready(self.head(), len(self.eqs.tape))
         printer = CPrinter(self.names, len(self.tables))
         functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
@@ -236,6 +241,24 @@ class CEmitter:
         return path
 
     def _header(self) -> str:
+        """The file up to its first contract function: head() and the static helpers every file has."""
+        lines = [self.head(),
+                 "static int mbs_all_finite(const double *a, int n)",
+                 "{",
+                 "    int i;",
+                 "    for (i = 0; i < n; ++i)",
+                 "        if (!isfinite(a[i]))",
+                 "            return 0;",
+                 "    return 1;",
+                 "}",
+                 ""]
+        if not self.cold_apart:  # (the mass matrix's test alone calls it: unused, a warning)
+            lines += POSITIVE_DEFINITE
+        return "\n".join(lines)
+
+    def head(self) -> str:
+        """The file's text before its first function: the comment, the sizes, the constant tables and the
+        declarations, everything known before a function is printed (runtime/translation_units.py glue_header)."""
         nq, nv = self.eqs.tree.nq, self.eqs.tree.nv
         text = describe(self.eqs, self.parameters, None if self.separate_outputs else self.outputs, self.tables,
                         self.model_name, self.origin, GENERATOR, self.inline_max_chars)
@@ -286,18 +309,7 @@ class CEmitter:
         lines += ["",
                   "/* Leave with status 1 (not positive) or 2 (not a number) unless the pivot d is positive. */",
                   "#define MBS_PIVOT(d) do { if (!((d) > 0.0)) return (d) <= 0.0 ? 1 : 2; } while (0)",
-                  "",
-                  "static int mbs_all_finite(const double *a, int n)",
-                  "{",
-                  "    int i;",
-                  "    for (i = 0; i < n; ++i)",
-                  "        if (!isfinite(a[i]))",
-                  "            return 0;",
-                  "    return 1;",
-                  "}",
                   ""]
-        if not self.cold_apart:  # (the mass matrix's test alone calls it: unused, a warning)
-            lines += POSITIVE_DEFINITE
         return "\n".join(lines)
 
     def _helpers(self, used: set, hook_calls: dict | None = None) -> list[str]:
@@ -589,7 +601,7 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
                outputs=(), tables=(), origin: str = "", inline_max_chars: int = INLINE_MAX_CHARS,
                constraints=None, run_time_inputs=(), jacobian: bool = False, parameter_jacobian: bool = False,
                dynamics=None, events=(), actions=(), friction=None, separate_outputs: bool = False,
-               closed_form=None, cold_apart: bool = False) -> str:
+               closed_form=None, cold_apart: bool = False, head_ready=None) -> str:
     """The C source text of `equations` (see the module docstring for the contract).
 
     parameters: fixes the order of p; must hold every parameter the equations and the outputs use.
@@ -606,13 +618,14 @@ def generate_c(equations: Equations, parameters: Sequence[sp.Symbol], model_name
     not depend on the outputs: the header does not list them, MBS_NWORK always holds their scratch).
     cold_apart: a tree's file without the functions no integrator calls (runtime/translation_units.py
     COLD_FUNCTIONS), which the runtime builds from the whole file when first called; the rest of the text is the
-    whole file's (MBS_NWORK too), the header says so (COLD_APART)."""
+    whole file's (MBS_NWORK too), the header says so (COLD_APART).
+    head_ready: called with the file's head (CEmitter.head) and the tape's length before a function is printed."""
     return CEmitter(equations, parameters, model_name, outputs=outputs, tables=tables, origin=origin,
                     events=events, actions=actions,
                     inline_max_chars=inline_max_chars, constraints=constraints,
                     run_time_inputs=run_time_inputs, jacobian=jacobian, parameter_jacobian=parameter_jacobian,
                     dynamics=dynamics, friction=friction, separate_outputs=separate_outputs,
-                    closed_form=closed_form, cold_apart=cold_apart).source()
+                    closed_form=closed_form, cold_apart=cold_apart).source(head_ready)
 
 
 def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], equations_source: str,

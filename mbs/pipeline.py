@@ -191,7 +191,10 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     equations were written. The derivation cache keeps the parts apart and the build compiles the outputs as a
     unit of their own, so a scene asking for other outputs derives and compiles only those. `equations_ready` is
     called with the equations' part as soon as it is written (runtime/build.py prebuild starts compiling it
-    while the outputs are derived).
+    while the outputs are derived); its method `derivation_started`, if it has one, first (runtime/build.py
+    Prebuilds: the runtime unit, which depends on no model, compiles while the model is derived), and its method
+    `head_written`, if it has one, with the file's head and the tape's length before the functions are printed
+    (compiler/ccode.py CEmitter.source: the glue unit compiles while they are).
 
     cold_apart: a tree's file is written without the functions no integrator calls (the mass matrix and the
     forces, runtime/translation_units.py COLD_FUNCTIONS; cold_apart_applies says when), which the runtime builds
@@ -202,6 +205,9 @@ def generate(model: M.Model, scene: M.Scene | None = None, *, jacobian: bool | N
     options = dict(jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics, frames=frames,
                    closed_form=closed_form, cold_apart=cold_apart)
     clock = _Phases(model.name + (f", scene {scene.name}" if scene is not None else ""))
+    started = getattr(equations_ready, "derivation_started", None)
+    if started is not None:
+        started()
     try:
         generated = _generate(model, scene, clock, separate=True, equations_ready=equations_ready, **options)
     except NotSeparable as exc:  # (outputs that call a hook or add a switch) the file whole
@@ -405,7 +411,7 @@ def _generate(model, scene, clock, *, separate: bool, jacobian, parameter_jacobi
         first_table = len(lowered.tables.tables)
         c_source = generate_c(equations, parameters, model.name, constraints=constraints, friction=friction,
                               separate_outputs=True, closed_form=form, cold_apart=cold_apart,
-                              **options)
+                              head_ready=getattr(equations_ready, "head_written", None), **options)
         clock("generated the equations' C")
         if equations_ready is not None:
             equations_ready(c_source)

@@ -8,8 +8,6 @@
 
 from __future__ import annotations
 
-import functools
-
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -93,8 +91,11 @@ class System:
                binding.key if binding is not None else None, closed_form, COLD_APART)
         if key not in self._compiled:
             c_back_end = self.backend == "c" or (self.backend == "auto" and _build.have_c_compiler())
-            # the C compiler starts on the equations while the outputs are derived (runtime/build.py prebuild)
-            prebuild = functools.partial(_build.prebuild, cache_dir=self.cache_dir) if c_back_end else None
+            # the C compiler starts on the runtime unit as the derivation starts and on the equations while the
+            # outputs are derived (runtime/build.py Prebuilds)
+            sc = self.scene(scene)  # (a scene without outputs: its file has no outputs' part, its glue unit differs)
+            wanted = sc.outputs if sc is not None and sc.outputs else self.model.outputs
+            prebuild = _build.Prebuilds(self.cache_dir, bool(wanted)) if c_back_end else None
             gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, dynamics=dynamics,
                                 frames=frames, equations_ready=prebuild, closed_form=closed_form)
             params = pipeline.parameter_values(self.model, pipeline.scene_overrides(gen.scene))

@@ -207,11 +207,26 @@ def _object_key(name: str, files: dict[str, str], command: tuple[str, ...], cc: 
     if name == RUNTIME_UNIT:
         sources = RUNTIME_UNIT_SOURCES
     else:
-        digest.add("model.h", files.get("model.h", ""))
+        header = _header_of(name, files)
+        digest.add(header, files.get(header, ""))
         sources = RUNTIME_SOURCES if name in (_units.GLUE_UNIT, _units.COLD_GLUE_UNIT) else ()
     for source in sources:
         digest.add(source, (C_DIR / source).read_bytes())
     return digest.add("command", "\0".join(command)).hexdigest()
+
+
+def _header_of(name: str, files: dict[str, str]) -> str:
+    """The generated header unit `name` includes: the glue unit's own (translation_units.GLUE_HEADER) when the
+    split has one, else model.h."""
+    return _units.GLUE_HEADER if name == _units.GLUE_UNIT and _units.GLUE_HEADER in files else "model.h"
+
+
+def _glue_unit(header: str, outputs: bool) -> str:
+    """The glue unit's text: it includes `header` (model.h or translation_units.GLUE_HEADER), the outputs'
+    declarations when the file has an outputs' part, and c/mbs_glue.c."""
+    return ("/* glue unit written by mbs.runtime.build: do not edit */\n"
+            f"#define MBS_SEPARATE_INIT 1\n#include \"{header}\"\n"
+            + (_units.OUTPUTS_DECLARATIONS if outputs else "") + "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
 
 
 def _build_files(code: str, filename: str) -> dict[str, str]:
@@ -220,10 +235,7 @@ def _build_files(code: str, filename: str) -> dict[str, str]:
     split = _units.split_sources(code, filename)
     if split is None:
         return {"unit.c": _unit_source(code, filename), RUNTIME_UNIT: _runtime_unit()}
-    glue = ("/* glue unit written by mbs.runtime.build: do not edit */\n"
-            "#define MBS_SEPARATE_INIT 1\n#include \"model.h\"\n"
-            + (_units.OUTPUTS_DECLARATIONS if _units.OUTPUTS_UNIT in split else "") +
-            "#line 1 \"mbs_glue.c\"\n#include \"mbs_glue.c\"\n")
+    glue = _glue_unit(_header_of(_units.GLUE_UNIT, split), _units.OUTPUTS_UNIT in split)
     return {**split, _units.GLUE_UNIT: glue, RUNTIME_UNIT: _runtime_unit()}
 
 
@@ -293,7 +305,7 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
         first = (*cc, *_link_free(flags), *unit, "-c", "unit.c", "-o", "unit.o")
         head: tuple[str, ...] = ("unit.o",)
     else:
-        (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
+        _write_headers(files, tmp)
         (tmp / "init.c").write_text(_init_unit(module_name), encoding="utf-8")
         first = (*cc, *_compile_flags(flags), "-c", "init.c", "-o", "init.o")
         head = ("-fvisibility=hidden", "init.o")
@@ -325,6 +337,13 @@ def _compile(files: dict[str, str], flags: tuple[str, ...], model_flags: tuple[s
     return "".join(outputs) + _run(link, tmp, filename), compiled, tuple(n for n in sources if n not in compiled)
 
 
+def _write_headers(files: dict[str, str], tmp: Path) -> None:
+    """Write the generated headers (model.h, translation_units.GLUE_HEADER) of `files` into `tmp`."""
+    for name, text in files.items():
+        if name.endswith(".h"):
+            (tmp / name).write_text(text, encoding="utf-8")
+
+
 def _includes() -> tuple[str, ...]:
     """The include folders of every unit: the run-time C files, Python's and NumPy's headers."""
     return f"-I{C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}"
@@ -339,7 +358,7 @@ def _object_label(name: str, files: dict[str, str]) -> str:
     """What the cache's record says an object is."""
     if name == RUNTIME_UNIT:
         return f"{RUNTIME_UNIT}: the Python bindings and the integrators of every model"
-    return f"{name} of {_cache.model_label(files['model.h'])}"
+    return f"{name} of {_cache.model_label(files[_header_of(name, files)])}"
 
 
 def _compile_flags(flags: tuple[str, ...]) -> tuple[str, ...]:
@@ -354,7 +373,7 @@ def _unit_jobs(files: dict[str, str], flags, model_flags, cc, cache: Path,
     and the runtime unit; not the one unit of a small model), the longest compile first."""
     jobs = []
     units = (n for n in files if n.endswith(".c") and n != "unit.c")
-    for name in sorted(units, key=lambda n: -_weight(n, files)):
+    for name in sorted(units, key=lambda n: -_weight(n, files, unit_flags(n, model_flags, outputs_flags))):
         command = (*cc, *_compile_flags(flags), *unit_flags(name, model_flags, outputs_flags), *_includes(), "-c",
                    name)
         jobs.append((name, command, _cache.object_path(cache, _object_key(name, files, command, cc))))
@@ -421,7 +440,8 @@ if hasattr(os, "register_at_fork"):
 
 
 def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
-             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None) -> int:
+             extra_flags: tuple[str, ...] = (), model_flags: tuple[str, ...] | None = None,
+             outputs: bool = True) -> int:
     """Start compiling, in the background, the units of a file whose equations' part is known and whose outputs'
     part is not yet (pipeline.generate writes the equations' C, then lowers the outputs): the model units and
     the glue unit of a split build do not depend on the outputs, so their objects can be made while the outputs
@@ -429,26 +449,104 @@ def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str |
     runtime unit's object, when the cache has none yet. One compiler process less than build() runs, so the
     derivation keeps a core. Returns how many units were started (0 without a compiler, or with every object
     cached; at most 1, the runtime unit, for a model built as one unit). Never raises for the model's sake: a unit
-    that fails is compiled again by build(), which reports it."""
+    that fails is compiled again by build(), which reports it. outputs: whether the file will have an outputs'
+    part (the glue unit then declares them; a scene without outputs has none)."""
     try:
         cc = tuple(compiler_command())
         model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     except BuildError:
         return 0
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    files = _build_files(equations_code + "\n" + _units.OUTPUTS_MARKER + "\n", filename)
+    files = _build_files(equations_code + ("\n" + _units.OUTPUTS_MARKER + "\n" if outputs else ""), filename)
     files.pop(_units.OUTPUTS_UNIT, None)
     cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    return _submit(_unit_jobs(files, flags, model_flags, cc, cache), files, cache, filename)
+
+
+def prebuild_runtime(*, cache_dir: str | os.PathLike | None = None, extra_flags: tuple[str, ...] = ()) -> int:
+    """Start compiling, in the background, the runtime unit's object (the Python bindings and the integrators,
+    which depend on no model) when the cache has none yet: a model's derivation calls this as it starts
+    (mbs/system.py), so that the first compile into an empty cache makes it on the core the derivation leaves
+    idle, not after the equations' C is written. Returns 1 when started, else 0 (no compiler, already in the cache
+    or being compiled). Never raises: build() compiles what is not there and reports it."""
+    try:
+        cc = tuple(compiler_command())
+        compiler_version(cc)
+    except BuildError:
+        return 0
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    files = {RUNTIME_UNIT: _runtime_unit()}
+    return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, RUNTIME_UNIT)
+
+
+#: How many temporaries a model's tape holds at least for prebuild_head to start its glue unit before its functions
+#: are printed: about the size from which its file is split (translation_units.SPLIT_MIN_CHARS, 96 kB; the Iltis's
+#: 3,896 temporaries printed 900 kB, the pendulum's 13 three kB). A smaller file is built as one unit, which has no
+#: glue unit of its own: compiled early, it would be compiled for nothing.
+HEAD_MIN_ENTRIES = 400
+
+
+def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,
+                  extra_flags: tuple[str, ...] = (), outputs: bool = True) -> int:
+    """Start compiling, in the background, the glue unit of a file of which only the head is written
+    (compiler/ccode.py CEmitter.head: sizes, tables, declarations) and whose functions are being printed (`entries`
+    temporaries on the tape): the glue unit of a split file with loops (the loop solver: as long a compile as a
+    model unit) includes the head and the declarations of translation_units.GLUE_HEADER alone, so build() (with
+    the same options) takes its object from the cache, or waits for it. Returns 1 when started, else 0 (no
+    compiler, no loops, too small a tape for a split file, a head that glue_header refuses, or the object already
+    there). outputs: as for prebuild. Never raises."""
+    if entries < HEAD_MIN_ENTRIES or not _units.has_loops(head):
+        return 0
+    header = _units.glue_header(head, filename)
+    try:
+        cc = tuple(compiler_command())
+        compiler_version(cc)
+    except BuildError:
+        return 0
+    if header is None:
+        return 0
+    files = {_units.GLUE_HEADER: header, _units.GLUE_UNIT: _glue_unit(_units.GLUE_HEADER, outputs)}
+    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, filename)
+
+
+def _submit(jobs, files: dict[str, str], cache: Path, filename: str) -> int:
+    """Queue the jobs whose objects are neither in the cache nor being compiled on prebuild's pool (one compiler
+    process less than build() runs, so the derivation keeps a core); how many were queued."""
     started = 0
     with _PREBUILD_LOCK:
         if not _PREBUILD_POOL:
             _PREBUILD_POOL.append(ThreadPoolExecutor(max_workers=max(1, build_jobs() - 1)))
-        for job in _unit_jobs(files, flags, model_flags, cc, cache):
+        for job in jobs:
             if job[2] in _PREBUILDS or job[2].exists():
                 continue
             _PREBUILDS[job[2]] = _PREBUILD_POOL[0].submit(_prebuild_one, job, files, cache, filename)
             started += 1
     return started
+
+
+@dataclass(frozen=True)
+class Prebuilds:
+    """What a compile hands the derivation (pipeline.generate's `equations_ready`), so that the C compiler starts
+    on each unit as soon as what the unit is compiled from is known: called with the equations' C, prebuild; its
+    `derivation_started` (called when a derivation begins, not when the generated code comes from the derivation
+    cache) starts the runtime unit (prebuild_runtime), which depends on no model; its `head_written` (called with
+    the file's head before its functions are printed) the glue unit (prebuild_head). outputs: whether the scene
+    asks for outputs (the file then has an outputs' part, which the glue unit declares)."""
+
+    cache_dir: str | os.PathLike | None = None
+    outputs: bool = True
+
+    def __call__(self, equations_code: str) -> int:
+        return prebuild(equations_code, cache_dir=self.cache_dir, outputs=self.outputs)
+
+    def derivation_started(self) -> int:
+        return prebuild_runtime(cache_dir=self.cache_dir)
+
+    def head_written(self, head: str, entries: int) -> int:
+        return prebuild_head(head, entries, cache_dir=self.cache_dir, outputs=self.outputs)
 
 
 def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> None:
@@ -459,8 +557,7 @@ def _prebuild_one(job, files: dict[str, str], cache: Path, filename: str) -> Non
     except OSError:  # build() reports an unusable cache
         return
     try:
-        if "model.h" in files:
-            (tmp / "model.h").write_text(files["model.h"], encoding="utf-8")
+        _write_headers(files, tmp)
         name, command = _written(job, files, tmp)
         _run(command, tmp, filename)
         _cache.store_object(tmp / (name[:-2] + ".o"), job[2], _object_label(name, files))
@@ -494,15 +591,21 @@ def runtime_object(*, cache_dir: str | os.PathLike | None = None, extra_flags: t
 #: together. The glue unit of a model without loops is the function table alone.
 GLUE_WEIGHT = 80_000
 RUNTIME_WEIGHT = 80_000
+#: What a character of a unit compiled at -Og (the outputs' unit, the cold units) weighs against one at the model
+#: units' level: the Iltis's outputs.c, 191,000 characters of code, took 1.04 s of CPU at -Og and its model units,
+#: 126,000 to 134,000 each, 1.4 to 2.2 s (bench/compile_time.py --units). Weighed by its characters alone it was
+#: started first, and a model unit ended the build alone on one core.
+OG_WEIGHT = 0.5
 
 
-def _weight(name: str, files: dict[str, str]) -> int:
-    """A unit's expected compile time, in characters of model code."""
+def _weight(name: str, files: dict[str, str], extra_flags: tuple[str, ...] = ()) -> int:
+    """A unit's expected compile time, in characters of model code (extra_flags: those it gets beyond FLAGS)."""
     if name == RUNTIME_UNIT:
         return RUNTIME_WEIGHT
     if name == _units.GLUE_UNIT:
-        return GLUE_WEIGHT if _units.has_loops(files.get("model.h", "")) else 0
-    return _units.code_chars(files[name])
+        return GLUE_WEIGHT if _units.has_loops(files.get(_header_of(name, files), "")) else 0
+    chars = _units.code_chars(files[name])
+    return int(chars * OG_WEIGHT) if "-Og" in extra_flags else chars
 
 
 def _run(command: tuple[str, ...], cwd: Path, filename: str) -> str:

@@ -69,6 +69,31 @@ OUTPUTS_DECLARATIONS = ("/* The outputs, in outputs.c (their number: mbs_ny). */
                         "int mbs_outputs(double t, const double *x, const double *p, double *y, double *work);\n"
                         "const char *mbs_output_name(int i);\n")
 
+#: The header the glue unit includes when it can (glue_header): the file's head (compiler/ccode.py CEmitter.head: the
+#: sizes, the constant tables and the declarations, all known before a function is printed) and the declarations of
+#: the functions the glue and the loop solver may call. Unlike model.h it does not list the file's functions, which
+#: are known only once printed, so the glue unit can be compiled while they are (runtime/build.py prebuild_head).
+GLUE_HEADER = "glue.h"
+_CONTRACT = "int {}(double, const double *, const double *, double *, double *);"
+_NAMES = "const char *{}(int);"
+#: What glue_header declares: the functions of the contract that the glue unit (c/mbs_glue.c, c/loops.c,
+#: c/loop_jacobian.c) may call, whether or not the file defines them (it refers to each under the macro that says the
+#: file has it). A file that defines a function not here, or one of these otherwise, has no glue header: the glue
+#: unit then includes model.h.
+GLUE_DECLARATIONS = {
+    **{name: _CONTRACT.format(name) for name in (
+        "mbs_rhs", "mbs_qdot", "mbs_mass_matrix", "mbs_mass_matrix_unchecked", "mbs_forces", "mbs_outputs",
+        "mbs_jacobian", "mbs_inverse_dynamics", "mbs_bias_forces", "mbs_gravity_forces", "mbs_frame_positions",
+        "mbs_frame_velocities", "mbs_frame_jacobians", "mbs_events", "mbs_event_actions", "mbs_param_jacobian",
+        "mbs_constraints", "mbs_constraint_velocity", "mbs_constraint_acceleration", "mbs_constraint_matrix",
+        "mbs_loop_terms", "mbs_state_rates", "mbs_loop_partials", "mbs_closed_form", "mbs_closed_form_at",
+        "mbs_closed_form_rhs", "mbs_closed_form_project")},
+    "mbs_cf_angle_near": "double mbs_cf_angle_near(double, double);",
+    **{name: _NAMES.format(name) for name in (
+        "mbs_state_name", "mbs_parameter_name", "mbs_output_name", "mbs_constraint_name", "mbs_frame_name")},
+}
+_PROTOTYPE = re.compile(r"^((?:int|double|void|const char \*)\s*)(mbs_\w+)\(([^;{}]*)\);?$")
+
 #: A long function is printed as parts `<name>_part<k>` and a function `<name>` that calls them (written by
 #: compiler/ccode_parts.py, read here): the parts of a cold function are cold too.
 PART_SUFFIX = "_part"
@@ -78,6 +103,8 @@ _STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\
 #: A static const array on one line (compiler/ccode.py _array): a lookup table's points.
 _STATIC_ARRAY = re.compile(r"^static const (?:double|int) (mbs_\w+)\[\d+\] = \{[^;]*\};$")
 _STATIC_ARRAY_LINE = re.compile(_STATIC_ARRAY.pattern, re.M)
+#: A name of the generated code, whole (what a helper's name must be to be called: as \\bname\\b).
+_NAME = re.compile(r"\bmbs_\w+")
 
 
 @dataclass(frozen=True)
@@ -203,6 +230,10 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
                          f"#line 1 \"{where}\"\n{layout.header}\n"
                          "/* The model's functions, each defined in one of the units model_<k>.c. */\n"
                          f"{prototypes}\n")}
+    glue = glue_header(file_head(code), filename, tuple(b.prototype[:-1] for b in layout.functions
+                                                       if part_of(b.name) == b.name))
+    if glue is not None:
+        files[GLUE_HEADER] = glue
     cold = cold_functions(layout.header)
     hot = tuple(b for b in layout.functions if part_of(b.name) not in cold)
     colder = tuple(b for b in layout.functions if part_of(b.name) in cold)
@@ -216,6 +247,47 @@ def split_sources(code: str, filename: str) -> dict[str, str] | None:
                   "const int mbs_ny = MBS_NY;"]
         files[OUTPUTS_UNIT] = "\n".join(texts) + "\n"
     return files
+
+
+def file_head(code: str) -> str:
+    """The text of a generated file before its first function (static or not): what compiler/ccode.py
+    CEmitter.head wrote (the same text, whether read off the whole file or taken before its functions existed)."""
+    lines = code.split("\n")
+    for k, line in enumerate(lines):
+        if _DEFINITION.match(line) or _STATIC_FUNCTION.match(line):
+            return "\n".join(lines[:k])
+    return code
+
+
+def _declaration(line: str) -> tuple[str, str] | None:
+    """(name, its declaration without parameter names, as GLUE_DECLARATIONS writes it) of a function's definition
+    or prototype line; None for any other line."""
+    match = _PROTOTYPE.match(line)
+    if match is None:
+        return None
+    params = [re.sub(r"\b\w+\s*$", "", param).strip() if param.strip() != "void" else "void"
+              for param in match.group(3).split(",")]
+    return match.group(2), f"{match.group(1)}{match.group(2)}({', '.join(params)});"
+
+
+def glue_header(head: str, filename: str, functions: tuple[str, ...] = ()) -> str | None:
+    """The text of GLUE_HEADER for a file whose head (file_head) is `head` and whose function definition lines
+    (without parts) are `functions` (none: not yet known, the file is being printed), or None when a declaration of
+    GLUE_DECLARATIONS would not be the file's own (a function defined or declared there otherwise) or the file
+    defines a function that is not declared there (the glue unit then includes model.h)."""
+    for line in head.split("\n"):  # what the head declares itself must agree with GLUE_DECLARATIONS
+        found = _declaration(line)
+        if found is not None and GLUE_DECLARATIONS.get(found[0], found[1]) != found[1]:
+            return None
+    for line in functions:  # and so must every function of the file
+        found = _declaration(line)
+        if found is None or GLUE_DECLARATIONS.get(found[0]) != found[1]:
+            return None
+    return (f"/* The head of {filename} and the functions the glue unit may call "
+            "(mbs.runtime.translation_units): do not edit */\n"
+            f"#line 1 \"{line_name(filename)}\"\n{head}\n"
+            "/* The model's functions that the glue and the loop solver may call (each under the macro that says the "
+            "model has it). */\n" + "\n".join(GLUE_DECLARATIONS.values()) + "\n")
 
 
 def cold_sources(code: str, filename: str) -> dict[str, str] | None:
@@ -290,17 +362,16 @@ def _balanced(functions: tuple[Block, ...]) -> list[list[Block]]:
 
 
 def _helpers_for(body: str, helpers: tuple[Block, ...]) -> list[Block]:
-    """The static helpers `body` calls, with those they call in turn, in file order."""
+    """The static helpers `body` calls, with those they call in turn, in file order. (Each text is read once for
+    the names it holds: a search of the whole text for each helper's name took the Iltis 0.5 s of CPU, between
+    its derivation's end and its build's first compiler process.)"""
+    by_name = {h.name: h for h in helpers}
     wanted: set[str] = set()
-    text = body
-    changed = True
-    while changed:
-        changed = False
-        for h in helpers:
-            if h.name not in wanted and re.search(rf"\b{h.name}\b", text):
-                wanted.add(h.name)
-                text += "\n" + h.text
-                changed = True
+    texts = [body]
+    while texts:
+        for name in set(_NAME.findall(texts.pop())) & by_name.keys() - wanted:
+            wanted.add(name)
+            texts.append(by_name[name].text)
     return [h for h in helpers if h.name in wanted]
 
 

@@ -156,3 +156,21 @@ def test_a_scene_run_again_binds_its_parameters_once_and_each_run_gets_its_own_c
     res = system.simulate("quick", params={"l": 0.25})
     w = math.sqrt(9.81 / 0.25)
     assert res["hinge.phi"] == pytest.approx(math.radians(5) * np.cos(w * res.t), abs=2e-4)
+
+
+def test_a_compile_into_an_empty_cache_starts_the_runtime_object_as_the_derivation_starts(tmp_path, monkeypatch):
+    """The runtime unit (the bindings and the integrators) depends on no model: with an empty cache it is being
+    compiled (or is done) before the equations' C is written, and build takes it from there: compiled once."""
+    from mbs.runtime import build
+    cc = tuple(build.compiler_command())
+    files = {build.RUNTIME_UNIT: build._runtime_unit()}
+    ((_, _, runtime),) = build._unit_jobs(files, build.FLAGS + build.PLATFORM_FLAGS, (), cc, tmp_path)
+    seen, compiled = [], []
+    prebuild, run = build.prebuild, build._run
+    monkeypatch.setattr(build, "prebuild", lambda code, **options: seen.append(
+        runtime in build._PREBUILDS or runtime.exists()) or prebuild(code, **options))
+    monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(
+        command[command.index("-c") + 1] if "-c" in command else "link") or run(command, *a))
+    mbs.load("library/examples/pendulum.mbs", cache_dir=tmp_path).compile("swing")
+    assert seen == [True] and compiled.count(build.RUNTIME_UNIT) == 1 and runtime.exists()
+    assert not build._PREBUILDS

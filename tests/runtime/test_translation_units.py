@@ -265,3 +265,51 @@ def test_a_lookup_tables_arrays_go_only_to_the_units_that_call_it(generated, mon
     layout = units.read_layout(code)
     helper = next(h for h in layout.helpers if h.name == tables[0])
     assert helper.text.startswith("/* Lookup table") and f"{tables[0]}_y[" in helper.text
+
+
+@pytest.mark.parametrize("outputs", [True, False], ids=["outputs", "no outputs"])
+def test_the_glue_unit_compiles_from_the_files_head_while_its_functions_are_printed(outputs, tmp_path, monkeypatch):
+    """The glue unit of a split file with loops includes the file's head and fixed declarations alone
+    (translation_units.GLUE_HEADER), known before a function is printed: prebuild_head compiles it then, under the
+    key build() later gives it (the head read off the whole file is the text handed over early), so build takes its
+    object from the cache: the glue unit is compiled once, whether the scene has outputs (which it declares) or
+    not (what the split computes: the test above, whose slider-crank glue unit includes GLUE_HEADER too)."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    monkeypatch.setattr(build, "HEAD_MIN_ENTRIES", 0)
+    text = SLIDER_CRANK.read_text()
+    if outputs:
+        text = text.rstrip().removesuffix("}") + "    output crank_angle = main_bearing.phi\n}\n"
+    heads, compiled, events = [], [], []
+    prebuild_head, prebuild, run = build.prebuild_head, build.prebuild, build._run
+    monkeypatch.setattr(build, "prebuild_head", lambda head, entries, **options: heads.append(head) or events.append(
+        "head") or prebuild_head(head, entries, **options))
+    monkeypatch.setattr(build, "prebuild", lambda code, **options: events.append("equations") or prebuild(
+        code, **options))
+    monkeypatch.setattr(build, "_run", lambda command, *a: compiled.append(
+        command[command.index("-c") + 1] if "-c" in command else "link") or run(command, *a))
+    system = mbs.loads(text, cache_dir=tmp_path)
+    model = system.compile()
+    gen = system.generate()
+    files = build._build_files(gen.c_source, "model.c")
+    assert events == ["head", "equations"] and heads == [units.file_head(gen.c_source)]
+    assert units.GLUE_HEADER in files and f'#include "{units.GLUE_HEADER}"' in files[units.GLUE_UNIT]
+    assert compiled.count(units.GLUE_UNIT) == 1 and (units.OUTPUTS_UNIT in compiled) == outputs
+    assert not build._PREBUILDS and model.ny == outputs
+
+
+def test_a_file_with_a_function_the_glue_header_does_not_declare_keeps_model_h(generated, monkeypatch):
+    """glue.h declares a fixed list of functions: a file that defines another one (which the glue might call), or
+    whose head declares one of them otherwise, gets none, and its glue unit includes model.h as before."""
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    code = generated["slider_crank"]
+    head = units.file_head(code)
+    assert head.startswith("/* Equations of motion") and "int mbs_qdot(" not in head
+    assert units.glue_header(head, "s.c") is not None
+    assert units.glue_header(head, "s.c", ("int mbs_custom(double t, const double *x)",)) is None
+    assert units.glue_header(head + "\nint mbs_rhs(double t);", "s.c") is None
+    assert units.GLUE_HEADER in build._build_files(code, "s.c")
+    extra = code.replace("\nint mbs_qdot(", "\nint mbs_custom(int i)\n{\n    return i;\n}\nint mbs_qdot(", 1)
+    files = build._build_files(extra, "s.c")
+    assert "int mbs_custom(int i);" in files["model.h"]
+    assert units.GLUE_HEADER not in files and '#include "model.h"' in files[units.GLUE_UNIT]
