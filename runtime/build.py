@@ -194,7 +194,8 @@ def _hash(code: str, filename: str, flags: tuple[str, ...], model_flags: tuple[s
         digest.add(name, (C_DIR / name).read_bytes())
     for module in (_units.__file__, __file__):
         digest.add(Path(module).name, Path(module).read_bytes())
-    digest.add("split", f"{_units.SPLIT_MIN_CHARS} {_units.UNIT_CHARS} {_units.MAX_MODEL_UNITS}")
+    digest.add("split", f"{_units.SPLIT_MIN_CHARS} {_units.LOOP_SPLIT_FRACTION} {_units.UNIT_CHARS} "
+                        f"{_units.MAX_MODEL_UNITS}")
     digest.add("flags", "\0".join(flags)).add("model units", "\0".join(model_flags))
     digest.add("cold units", "\0".join(COLD_UNIT_FLAGS))
     return digest.add("outputs unit", "\0".join(outputs_flags)).hexdigest()
@@ -481,10 +482,10 @@ def prebuild_runtime(*, cache_dir: str | os.PathLike | None = None, extra_flags:
 
 
 #: How many temporaries a model's tape holds at least for prebuild_head to start its glue unit before its functions
-#: are printed: about the size from which its file is split (translation_units.SPLIT_MIN_CHARS, 96 kB; the Iltis's
-#: 3,896 temporaries printed 900 kB, the pendulum's 13 three kB). A smaller file is built as one unit, which has no
-#: glue unit of its own: compiled early, it would be compiled for nothing.
-HEAD_MIN_ENTRIES = 400
+#: are printed: about the size from which a file with loops is split (translation_units.split_min_chars, 48 kB; the
+#: Iltis's 3,896 temporaries printed 900 kB, the pendulum's 13 three kB). A smaller file is built as one unit, which
+#: has no glue unit of its own: compiled early, it would be compiled for nothing.
+HEAD_MIN_ENTRIES = 200
 
 
 def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_dir: str | os.PathLike | None = None,

@@ -31,6 +31,13 @@ from dataclasses import dataclass
 
 #: Below this much generated C one unit compiles faster than several (each unit parses the header again).
 SPLIT_MIN_CHARS = 96_000
+#: A model with closed loops is split from this fraction of it: its glue unit holds the loop solver
+#: (runtime/c/loops.c, about 1.7 s of compiler CPU), which a one-unit build compiles again for every set of outputs
+#: and never beside the model's code. Split, the loop solver compiles on the other core, and a scene with other
+#: outputs compiles outputs.c alone. The Iltis quarter car (95 kB) is then built in parts: its first scene and a
+#: second scene with other outputs compile faster, the small slider-crank and four-bar (26 and 29 kB) stay one unit
+#: (`python bench/split_threshold.py`).
+LOOP_SPLIT_FRACTION = 0.5
 #: The size a model unit aims for; the number of units follows from the text alone (never from the machine's
 #: cores), so the cache key of a model is the same everywhere.
 UNIT_CHARS = 120_000
@@ -218,7 +225,7 @@ def _closing_brace(lines: list[str], i: int) -> int | None:
 
 def split_sources(code: str, filename: str) -> dict[str, str] | None:
     """{file name: text} of model.h and model_1.c .. model_n.c (without the glue unit); None: build one unit."""
-    if len(code) < SPLIT_MIN_CHARS:
+    if len(code) < split_min_chars(code):
         return None
     layout = read_layout(code)
     if layout is None:
@@ -331,6 +338,12 @@ def part_of(function: str) -> str:
     """The function a part belongs to (`mbs_forces_part2` -> `mbs_forces`); any other name unchanged."""
     m = _PART_NAME.match(function)
     return m.group(1) if m else function
+
+
+def split_min_chars(code: str) -> float:
+    """How long a generated file must be to be split into units: SPLIT_MIN_CHARS, for a model with loops
+    LOOP_SPLIT_FRACTION of it."""
+    return SPLIT_MIN_CHARS * (LOOP_SPLIT_FRACTION if has_loops(code) else 1.0)
 
 
 def has_loops(header: str) -> bool:

@@ -313,3 +313,17 @@ def test_a_file_with_a_function_the_glue_header_does_not_declare_keeps_model_h(g
     files = build._build_files(extra, "s.c")
     assert "int mbs_custom(int i);" in files["model.h"]
     assert units.GLUE_HEADER not in files and '#include "model.h"' in files[units.GLUE_UNIT]
+
+
+def test_a_file_with_loops_is_split_from_a_fraction_of_the_size_a_tree_needs(monkeypatch):
+    """The loop solver is in the glue unit: a model with loops splits from LOOP_SPLIT_FRACTION of SPLIT_MIN_CHARS
+    (the Iltis quarter car, 95 kB, in parts: bench/split_threshold.py), a tree from SPLIT_MIN_CHARS."""
+    code = mbs.load(SLIDER_CRANK).generate(None).c_source
+    assert units.has_loops(code)
+    tree = code.replace("#define MBS_NC ", "#define MBS_NOT_NC ")
+    assert units.split_min_chars(code) == units.LOOP_SPLIT_FRACTION * units.SPLIT_MIN_CHARS < units.SPLIT_MIN_CHARS
+    assert units.split_min_chars(tree) == units.SPLIT_MIN_CHARS
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", len(code) / units.LOOP_SPLIT_FRACTION - 1)
+    assert units.split_sources(code, "model.c") is not None
+    monkeypatch.setattr(units, "LOOP_SPLIT_FRACTION", 1.0)
+    assert units.split_sources(code, "model.c") is None
