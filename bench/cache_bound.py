@@ -27,17 +27,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 MODEL = ROOT / "library" / "examples" / "pendulum.mbs"
-
-
-def _median_time(fn, repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from timing import median_time  # noqa: E402  (bench/timing.py)
 
 
 def fake_cache(folder: Path, files: int) -> None:
@@ -69,9 +61,9 @@ def bench_walk(files: int) -> None:
         folder = Path(tmp)
         fake_cache(folder, files)
         n = sum(1 for _ in folder.iterdir())
-        stats = _median_time(lambda: [e.stat() for e in os.scandir(folder)], 5)
-        walk = _median_time(lambda: cache_bound.scan(folder), 5)
-        enforce = _median_time(lambda: cache_bound.enforce(folder, 10**12), 5)
+        stats = median_time(lambda: [e.stat() for e in os.scandir(folder)], 5)
+        walk = median_time(lambda: cache_bound.scan(folder), 5)
+        enforce = median_time(lambda: cache_bound.enforce(folder, 10**12), 5)
         print(f"walk of {n} files: scan {walk * 1e3:.1f} ms ({walk / n * 1e6:.1f} us a file), enforce under the "
               f"bound {enforce * 1e3:.1f} ms; a bare scandir and stat of every file {stats * 1e3:.1f} ms, ratio "
               f"{walk / stats:.2f} (medians of 5)")
@@ -85,17 +77,17 @@ def bench_store_and_hit() -> None:
         cache.write_derived(folder / f"{cache.DERIVED_PREFIX}first.json", {"k": 1}, "bench")  # the ledger's total
         for i in range(200):  # a ledger of 200 stores since the last walk
             cache_bound.stored(folder, "x", 1000)
-        store = _median_time(lambda: cache_bound.stored(folder, "x", 1000), 200)
-        write = _median_time(lambda: cache.write_derived(folder / f"{cache.DERIVED_PREFIX}w.json", {"k": 1}, "b"),
+        store = median_time(lambda: cache_bound.stored(folder, "x", 1000), 200)
+        write = median_time(lambda: cache.write_derived(folder / f"{cache.DERIVED_PREFIX}w.json", {"k": 1}, "b"),
                              50)
         print(f"a store's bookkeeping (ledger of 200 lines): {store * 1e6:.0f} us; writing the smallest entry "
               f"(which includes it): {write * 1e6:.0f} us; ratio {store / write:.3f}")
         module = folder / f"{cache.PREFIX}lib{cache.EXT_SUFFIX}"
         module.write_bytes(os.urandom(150_000))  # a small model's library (the mean of a developer's: 152 kB)
         cache.record(module, "lib", "", "bench")
-        with_touch = _median_time(lambda: cache.problem(module), 300)
+        with_touch = median_time(lambda: cache.problem(module), 300)
         os.environ[cache_bound.MAX_SIZE_ENV] = "0"
-        without = _median_time(lambda: cache.problem(module), 300)
+        without = median_time(lambda: cache.problem(module), 300)
         del os.environ[cache_bound.MAX_SIZE_ENV]
         print(f"a hit's check of a 150 kB library: {with_touch * 1e6:.0f} us with the touch, {without * 1e6:.0f} us "
               f"without (no bound); ratio {with_touch / without:.3f}")
