@@ -15,3 +15,8 @@ def default_cache_dir() -> Path:
         return Path(os.environ[CACHE_ENV]).expanduser()
     base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(base).expanduser() / "baukasten"
+
+
+def cache_folder(cache_dir: str | os.PathLike | None = None) -> Path:
+    """The cache folder a call names (`cache_dir`, ~ expanded), else default_cache_dir()."""
+    return Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()

@@ -41,7 +41,7 @@ import functools
 import logging
 from pathlib import Path
 
-from mbs.base.cachedir import default_cache_dir
+from mbs.base.cachedir import cache_folder
 from mbs.language import model as M
 from mbs.runtime import cache as _cache
 
@@ -119,7 +119,7 @@ def _generate(model: M.Model, scene: M.Scene | None, cache_dir, options: dict, e
     out_key = outputs_key(eq_key, scene) if eq_key is not None else None
     if out_key is None:
         return pipeline.generate(model, scene, **options)
-    folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    folder = cache_folder(cache_dir)
     eq_path, out_path = (folder / f"{_cache.DERIVED_PREFIX}{k[:32]}.json" for k in (eq_key, out_key))
     derive = functools.partial(_derive_symbolic, model, scene, options)
     numpy = functools.partial(_print_numpy, model, scene, options)

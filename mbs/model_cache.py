@@ -30,7 +30,7 @@ import logging
 import os
 from pathlib import Path
 
-from mbs.base.cachedir import default_cache_dir
+from mbs.base.cachedir import cache_folder
 from mbs.language import snapshot
 from mbs.language.checked import CheckResult, pick
 from mbs.language.model import Model
@@ -56,7 +56,7 @@ def check(path: str | Path, *, cache_dir=None) -> CheckResult:
         return _check(path)
     key = _cache.digest(("format", str(FORMAT)), ("code", model_fingerprint()), ("code location", _LANGUAGE),
                         ("path", str(path)), ("cwd", os.getcwd()), ("content", hashlib.sha256(content).hexdigest()))
-    folder = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    folder = cache_folder(cache_dir)
     entry = folder / f"{_cache.CHECKED_PREFIX}{key[:32]}.json"
     result = _read(entry, key)
     if result is not None:

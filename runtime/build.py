@@ -45,6 +45,7 @@ from types import ModuleType
 
 import numpy as np
 
+from mbs.base.cachedir import cache_folder
 from mbs.base.cachedir import default_cache_dir as _default_cache_dir
 from . import cache as _cache
 from . import translation_units as _units
@@ -460,7 +461,7 @@ def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str |
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
     files = _build_files(equations_code + ("\n" + _units.OUTPUTS_MARKER + "\n" if outputs else ""), filename)
     files.pop(_units.OUTPUTS_UNIT, None)
-    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    cache = cache_folder(cache_dir)
     return _submit(_unit_jobs(files, flags, model_flags, cc, cache), files, cache, filename)
 
 
@@ -476,7 +477,7 @@ def prebuild_runtime(*, cache_dir: str | os.PathLike | None = None, extra_flags:
     except BuildError:
         return 0
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    cache = cache_folder(cache_dir)
     files = {RUNTIME_UNIT: _runtime_unit()}
     return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, RUNTIME_UNIT)
 
@@ -509,7 +510,7 @@ def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_d
         return 0
     files = {_units.GLUE_HEADER: header, _units.GLUE_UNIT: _glue_unit(_units.GLUE_HEADER, outputs)}
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    cache = cache_folder(cache_dir)
     return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, filename)
 
 
@@ -572,7 +573,7 @@ def runtime_object(*, cache_dir: str | os.PathLike | None = None, extra_flags: t
     BuildError."""
     cc = tuple(compiler_command())
     flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
-    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    cache = cache_folder(cache_dir)
     files = {RUNTIME_UNIT: _runtime_unit()}
     (job,) = _unit_jobs(files, flags, (), cc, cache)
     if not (job[2].exists() and _cache.problem(job[2]) is None):
@@ -660,7 +661,7 @@ def _cached_build(code: str, filename: str, cache_dir, extra_flags, model_flags,
     key = _hash(code, filename, flags, model_flags, cc, outputs_flags, library)
     # (both under the cache's module prefix, so that `mbs cache` lists and cleans the cold libraries too)
     module_name = f"mbs_model_{key[:24]}" if library == "model" else f"mbs_model_{library}_{key[:24]}"
-    cache = Path(cache_dir).expanduser() if cache_dir is not None else default_cache_dir()
+    cache = cache_folder(cache_dir)
     target = cache / (module_name + sysconfig.get_config_var("EXT_SUFFIX"))
     if target.exists():
         damage = _cache.problem(target)
