@@ -206,6 +206,17 @@ static int dp_step(mbs_ode *o)
     return o->status;
 }
 
+/* The take_over hook (c/ode.c mbs_ode_take_over, both solvers DOPRI5): the controller memory a restart in C keeps
+ * and a new solver would start afresh, the PI controller's last accepted error and the stiffness test's counts. */
+static void dp_take_over(mbs_ode *to, const mbs_ode *from)
+{
+    dp_mem *m = to->impl;
+    const dp_mem *was = from->impl;
+    m->facold = was->facold;
+    m->iasti = was->iasti;
+    m->nonsti = was->nonsti;
+}
+
 /* y(t) = c0 + s (c1 + (1-s) (c2 + s (c3 + (1-s) c4))), s = (t - t_old) / h */
 static void dp_dense(const mbs_ode *o, double t, double *out)
 {
@@ -237,6 +248,7 @@ static int mbs_dopri5_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double
     m->rejected_t = NAN;
     o->step = dp_step;
     o->dense = dp_dense;
+    o->take_over = dp_take_over;
     if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, 5, m->y1);
 #ifdef MBS_ODE_TRACE
     fprintf(stderr, "INIT %.17g h %.17g\n", t0, o->h);

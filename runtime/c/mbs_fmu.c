@@ -661,6 +661,7 @@ static fmi2Status fmu_start_integrator(mbs_fmu *m)
 #else
     (void)mbs_ode_set_events; (void)mbs_ode_set_restarts;  /* ode.c's event set-up: not needed without events */
 #endif
+    (void)mbs_ode_take_over;  /* an FMU starts afresh after every event it does not restart in C (as after a jump) */
     m->ode_stale = 0;
     return fmi2OK;
 }

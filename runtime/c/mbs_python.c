@@ -601,61 +601,9 @@ done:
     Py_RETURN_NONE;
 }
 
-/* -DMBS_ODE_HANDBACK_FORMER=1 builds the former hand-back: a run handed back to the caller at an event goes on in a
- * new solver that has learned nothing (mbs_ode_take_over and dp_take_over do nothing), the same-run baseline of
- * bench/restart_steps.py --handback. */
-#ifdef MBS_ODE_HANDBACK_FORMER
-#define MBS_ODE_CARRY 0
-#else
-#define MBS_ODE_CARRY 1
-#endif
-
-/* A run handed back to the caller at an event C does not handle without a jump of the state (on a model with loops a
- * prescribed motion's switch, whose speeds the caller projects; a friction law's event, after which the caller checks
- * the held forces) goes on in a new solver `to`, set up from the state after the event with its events and restarts,
- * before its first step.  What `from`, the solver that handed the event back, learned goes over, as a restart in C
- * keeps it: the first-step fractions per indicator and direction, the times of the indicators' last events (the
- * chattering window; the indicators that fired at this event among them) and the step as mbs_ode_restart_step takes
- * it after a restart in C, from `from`'s controller and the step that found the event, instead of the caller's first
- * step.  g_before and g_event: the indicators at the start of the step that found the event and at it, as the caller
- * took them (twins that crossed with it included).  (After a jump of the state the caller starts afresh, as the FMU
- * does.)  Nothing changes with -DMBS_ODE_HANDBACK_FORMER=1 (the same-run baseline of bench/restart_steps.py) or
- * without restarts in either solver. */
-static void mbs_ode_take_over(mbs_ode *to, const mbs_ode *from, const double *g_before, const double *g_event)
-{
-    mbs_ode_restarts *r = to->restarts;
-    const mbs_ode_restarts *q = from->restarts;
-    int k, nev = to->nev;
-#ifdef MBS_ODE_TRACE
-    mbs_ode_trace_restart(to, "RESUME", g_before, g_event);
-#endif
-    if (!MBS_ODE_CARRY || !r || !q || from->nev != nev || to->naccept > 0 || to->nsteps > 0) return;
-    memcpy(r->first_step, q->first_step, 2 * (size_t)nev * sizeof(double));
-    for (k = 0; k < nev; k++)
-        r->last_t[k] = mbs_ode_crossed(to, k, g_before[k], g_event[k]) ? from->t : q->last_t[k];
-    if (to->status != MBS_ODE_RUNNING) return;
-    to->h = from->h;
-    r->h_cut = q->h_cut;
-    r->h_resume = q->h_resume;
-    r->t_next = q->t_next;
-    mbs_ode_restart_step(to, g_before, g_event);
-}
-
-/* DOPRI5's controller memory that a restart in C keeps and a new solver would start afresh: the PI controller's
- * last accepted error and the stiffness test's counts (c/dopri5.c). */
-static void dp_take_over(mbs_ode *to, const mbs_ode *from)
-{
-    dp_mem *m = to->impl;
-    const dp_mem *was = from->impl;
-    if (!MBS_ODE_CARRY || to->step != dp_step || from->step != dp_step) return;
-    m->facold = was->facold;
-    m->iasti = was->iasti;
-    m->nonsti = was->nonsti;
-}
-
 /* s.take_over(old, g_before, g_event): before the first step, go on from the event `old` handed back without a jump
- * of the state (runtime/event_loop.py) with what `old` had learned, as a restart in C would (mbs_ode_take_over,
- * dp_take_over) */
+ * of the state (runtime/event_loop.py) with what `old` had learned, as a restart in C would (c/ode.c
+ * mbs_ode_take_over) */
 static PyObject *solver_take_over(SolverObject *self, PyObject *args)
 {
     PyObject *old_obj, *gb_obj, *ge_obj, *gb_tmp = NULL, *ge_tmp = NULL;
@@ -671,7 +619,6 @@ static PyObject *solver_take_over(SolverObject *self, PyObject *args)
     if (!(gb = as_vector(gb_obj, nev, "g_before", &gb_tmp))) return NULL;
     if (!(ge = as_vector(ge_obj, nev, "g_event", &ge_tmp))) { Py_XDECREF(gb_tmp); return NULL; }
     mbs_ode_take_over(&self->ode, &old->ode, gb, ge);
-    if (self->ode.restarts && old->ode.restarts) dp_take_over(&self->ode, &old->ode);
     Py_XDECREF(gb_tmp);
     Py_XDECREF(ge_tmp);
     Py_RETURN_NONE;

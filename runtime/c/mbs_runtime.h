@@ -88,6 +88,9 @@ struct mbs_ode {
     int (*step)(mbs_ode *);                               /* one accepted step; returns status */
     void (*dense)(const mbs_ode *, double t, double *out);  /* interpolate within the last step */
     void (*release)(mbs_ode *);                           /* free method memory */
+    void (*take_over)(mbs_ode *, const mbs_ode *from);    /* copy the method memory a restart keeps from another
+                                                           * solver of the same method (ode.c mbs_ode_take_over);
+                                                           * NULL: none */
     size_t ncont;           /* doubles of dense-output coefficients (a multiple of n) */
     double *cont;           /* dense-output coefficients of the last step, owned */
     void *impl;             /* method memory, owned */

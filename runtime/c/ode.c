@@ -652,11 +652,12 @@ static int mbs_ode_restart(mbs_ode *o)
     o->trials->event_ready = 0;
     for (k = 0; k < nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
+            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) {
 #ifdef MBS_ODE_TRACE
-            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t)))
                 fprintf(stderr, "HANDBACK %.17g k %d handled %d\n", o->t, k, r->handled[k]);
 #endif
-            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) return 0;
+                return 0;
+            }
             fired++;
         }
     }
@@ -722,6 +723,47 @@ static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const doubl
             o->h = 2.0 * (r->t_next - o->t);
         }
     }
+}
+
+/* -DMBS_ODE_HANDBACK_FORMER=1 builds the former hand-back: a run handed back to the caller at an event goes on in a
+ * new solver that has learned nothing (mbs_ode_take_over does nothing), the same-run baseline of
+ * bench/restart_steps.py --handback. */
+#ifdef MBS_ODE_HANDBACK_FORMER
+#define MBS_ODE_CARRY 0
+#else
+#define MBS_ODE_CARRY 1
+#endif
+
+/* A run handed back to the caller at an event C does not handle without a jump of the state (on a model with loops a
+ * prescribed motion's switch, whose speeds the caller projects; a friction law's event, after which the caller checks
+ * the held forces) goes on in a new solver `to`, set up from the state after the event with its events and restarts,
+ * before its first step.  What `from`, the solver that handed the event back, learned goes over, as a restart in C
+ * keeps it: the first-step fractions per indicator and direction, the times of the indicators' last events (the
+ * chattering window; the indicators that fired at this event among them) and the step as mbs_ode_restart_step takes
+ * it after a restart in C, from `from`'s controller and the step that found the event, instead of the caller's first
+ * step.  g_before and g_event: the indicators at the start of the step that found the event and at it, as the caller
+ * took them (twins that crossed with it included).  (After a jump of the state the caller starts afresh, as the FMU
+ * does.)  Nothing changes with -DMBS_ODE_HANDBACK_FORMER=1 (the same-run baseline of bench/restart_steps.py) or
+ * without restarts in either solver. */
+static void mbs_ode_take_over(mbs_ode *to, const mbs_ode *from, const double *g_before, const double *g_event)
+{
+    mbs_ode_restarts *r = to->restarts;
+    const mbs_ode_restarts *q = from->restarts;
+    int k, nev = to->nev;
+#ifdef MBS_ODE_TRACE
+    mbs_ode_trace_restart(to, "RESUME", g_before, g_event);
+#endif
+    if (!MBS_ODE_CARRY || !r || !q || from->nev != nev || to->naccept > 0 || to->nsteps > 0) return;
+    memcpy(r->first_step, q->first_step, 2 * (size_t)nev * sizeof(double));
+    for (k = 0; k < nev; k++)
+        r->last_t[k] = mbs_ode_crossed(to, k, g_before[k], g_event[k]) ? from->t : q->last_t[k];
+    if (to->take_over && to->take_over == from->take_over) to->take_over(to, from);  /* the method's own memory */
+    if (to->status != MBS_ODE_RUNNING) return;
+    to->h = from->h;
+    r->h_cut = q->h_cut;
+    r->h_resume = q->h_resume;
+    r->t_next = q->t_next;
+    mbs_ode_restart_step(to, g_before, g_event);
 }
 
 #ifdef MBS_ODE_TRACE
