@@ -68,13 +68,7 @@ class Simulate:
         if scene is None and system.model.scenes:
             scene = system.model.scenes[0].name
         params = params_from_args(args, system)
-        progress = ProgressBar()
-        try:
-            res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
-                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
-                                  max_wall_time=args.max_wall_time, hooks=args.hook_functions)
-        finally:
-            progress.close()
+        res = _run_scene(system, scene, params, args)
         if args.error_estimate and res.success:
             _estimate_error(system, scene, params, res, args)
         if args.out:
@@ -138,18 +132,23 @@ def scene_path(path: str, scene: str, tag: str = "") -> Path:
     return p.with_name(f"{p.stem}_{scene}{tag}{p.suffix}")
 
 
+def _run_scene(system, scene, params, args):
+    """One scene's run with the command line's settings and a progress bar, closed however the run ends."""
+    progress = ProgressBar()
+    try:
+        return system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
+                               integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
+                               max_wall_time=args.max_wall_time, hooks=args.hook_functions)
+    finally:
+        progress.close()
+
+
 def _simulate_scenes(system, scenes: list[str], args) -> int:
     """Run several scenes of one model (compiled once when their outputs agree) and compare them."""
     params = params_from_args(args, system)
     runs = {}
     for scene in scenes:
-        progress = ProgressBar()
-        try:
-            res = system.simulate(scene, t_end=args.t_end, sample=args.sample, params=params,
-                                  integrator=args.integrator, rtol=args.rtol, atol=args.atol, progress=progress,
-                                  max_wall_time=args.max_wall_time, hooks=args.hook_functions)
-        finally:
-            progress.close()
+        res = _run_scene(system, scene, params, args)
         runs[scene] = res
         out = None
         if args.out:
