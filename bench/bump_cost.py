@@ -19,9 +19,9 @@ of one run wander by a factor of two and more with the others' load.  The parts:
 * the Python driver: the rest (the workspace, the switches' start, the results' assembly).
 
 Every timed run is a first start: the start states the System keeps (mbs/system.py System._kept_start) are let go
-before it, so that the loops' assembly and the static equilibrium are solved in each.  Beside them, interleaved, a
-run of the same scene again from the kept start (the assembly and the equilibrium skipped, the run the same to the
-bit) is timed and printed as the whole simulate against a first start's, with their ratio.
+before it (System.forget_starts), so that the loops' assembly and the static equilibrium are solved in each.  Beside
+them, interleaved, a run of the same scene again from the kept start (the assembly and the equilibrium skipped, the
+run the same to the bit) is timed and printed as the whole simulate against a first start's, with their ratio.
 
 The tree-speed bound is the run's rhs count times the rhs cost of bench/chain.py's open chain with as many joint
 velocities as the vehicle (articulated-body recursion): the wall time of the integration if the closed-loop rhs cost
@@ -37,7 +37,8 @@ block; with it the multipliers' rows of M over all columns, as --former lambda).
 -DMBS_LOOP_LAMBDA_FORMER=1 (c/loops.c mbs_loop_lambda: the rows of M times vdot over all NV columns instead of their
 structural nonzeros).  --instructions counts the outputs' rows instead of timing them (valgrind's callgrind,
 load-independent): one child process per build calls `Function.rows` over the run's rows (the arguments simulate
-passes, saved from a run) with callgrind collecting inside that call only.
+passes, saved from a run) with callgrind collecting inside that call only; and a whole simulate from a first start
+and from the kept start (one child each, callgrind collecting inside one simulate after two uncounted ones).
 """
 
 from __future__ import annotations
@@ -116,7 +117,7 @@ def timed_run(system, scene: str, first_start: bool = True):
     """One whole simulate(): (wall, seconds per part, results); first_start: the System's kept start states let go
     first (mbs/system.py System._kept_start), so that the loops' assembly and the equilibrium are solved in it."""
     if first_start:
-        system._starts.clear()
+        system.forget_starts()
     parts = PartTimer()
     parts.wrap(mbs.system, "static_equilibrium", "equilibrium")
     real_watch = RunGuard.watch
@@ -178,6 +179,46 @@ out, projected = np.empty((len(ts), int(saved["ny"]))), np.empty_like(xs)
 done = f.rows(ts, xs, out, ps, which, projected)
 assert done == len(ts), done
 """
+
+
+#: The child of --instructions that counts a whole simulate: argv model, scene, "first" (the kept starts let go before
+#: each run) or "kept"; two runs uninstrumented, then one counted inside functools.reduce (--toggle-collect).
+SIMULATE_CHILD = """
+import functools, os, subprocess, sys
+import mbs
+system = mbs.load(sys.argv[1])
+scene, first = sys.argv[2], sys.argv[3] == "first"
+def run():
+    if first:
+        system.forget_starts()
+    system.simulate(scene)
+run(); run()
+subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
+functools.reduce(lambda _, __: run(), range(1), None)
+"""
+
+
+def simulate_instructions(scene: str, how: str, workdir: Path) -> int:
+    """Instructions callgrind counts in one whole System.simulate(scene) of SIMULATE_CHILD (`how`: first, kept)."""
+    out = workdir / f"callgrind.{how}"
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
+                           "--toggle-collect=functools_reduce", f"--callgrind-out-file={out}", sys.executable, "-c",
+                           SIMULATE_CHILD, str(MODEL), scene, how], capture_output=True, text=True)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or not found:
+        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
+    return int(found.group(1))
+
+
+def print_start_instructions(scene: str) -> None:
+    """Instructions of a whole simulate from a first start and from the kept start."""
+    if shutil.which("valgrind") is None or shutil.which("callgrind_control") is None:
+        print("  valgrind or callgrind_control is not on the PATH: no instruction counts")
+        return
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-start-") as tmp:
+        first, kept = (simulate_instructions(scene, how, Path(tmp)) for how in ("first", "kept"))
+    print(f"  a whole simulate in instructions (callgrind, Python and C): from the kept start {kept / 1e6:.1f} M, "
+          f"from a first start {first / 1e6:.1f} M, ratio {kept / first:.3f}")
 
 
 def saved_rows(system, scene: str, path: Path) -> int:
@@ -338,6 +379,8 @@ def main(argv=None) -> int:
                   f"{med(r[0] for r in former_runs) * 1e3:.0f} ms")
             if args.instructions:
                 print_instructions(system, scene, former)
+        if args.instructions:
+            print_start_instructions(scene)
     return 0
 
 

@@ -218,6 +218,11 @@ class System:
             data.x = static_equilibrium(compiled, data, data.x).x
         return data, settings
 
+    def forget_starts(self) -> None:
+        """Let go of the start states kept (System._kept_start): the next start of every scene assembles its loops
+        and solves its equilibrium again (benches that time a first start call this before each run)."""
+        self._starts.clear()
+
     def _kept_start(self, compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float],
                     equilibrium: bool) -> Workspace:
         """A workspace at the start of a run without hooks, inputs or a given x0: the loops assembled near the

@@ -89,6 +89,14 @@ def test_a_sweep_keeps_no_more_than_its_bound(text, solves):
     assert len(solves) == len(values) + 1
 
 
+def test_forgotten_starts_are_solved_again(text, solves):
+    system = mbs.loads(text)
+    system.start("rest")
+    system.forget_starts()
+    system.start("rest")
+    assert len(solves) == 2
+
+
 def test_a_given_initial_state_is_not_kept(text, solves):
     system = mbs.loads(text)
     start, _ = system.start("rest")
