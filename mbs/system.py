@@ -240,8 +240,8 @@ class System:
             if equilibrium:
                 data.x = static_equilibrium(compiled, data, data.x).x
             kept = (compiled, data.x.copy(), data.work.copy())
-            while len(self._starts) >= KEPT_STARTS:
-                del self._starts[next(iter(self._starts))]
+            while len(self._starts) >= KEPT_STARTS:  # the oldest first (no error if another thread took it)
+                self._starts.pop(next(iter(self._starts), None), None)
         else:
             data.x = kept[1]
             data.work[:] = kept[2]
