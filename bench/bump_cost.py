@@ -139,6 +139,18 @@ def timed_run(system, scene: str, first_start: bool = True):
     return wall, parts.seconds, res
 
 
+def start_times(system, scene: str, repeat: int) -> tuple[float, float]:
+    """(CPU seconds of System.start(scene) from a first start, from the kept start): medians, interleaved."""
+    first, kept = [], []
+    for _ in range(repeat):
+        system.forget_starts()
+        for times in (first, kept):
+            start = clock()
+            system.start(scene)
+            times.append(clock() - start)
+    return statistics.median(first), statistics.median(kept)
+
+
 def former_model(system, scene: str, flags: tuple[str, ...], cache_dir=None):
     """The scene's compiled model built with `flags` (cached like any build: slow the first time only)."""
     compiled = system.compile(scene)
@@ -360,9 +372,11 @@ def main(argv=None) -> int:
               f"other parts as measured (now {t_end / wall:.1f})")
         kept = med(r[0] for r in kept_runs)
         same = all(np.array_equal(r[2].data, res.data) for r in kept_runs)
+        start_first, start_kept = start_times(system, scene, 3 * args.repeat)
         print(f"  run again from the kept start (System._kept_start: no assembly, no equilibrium; the results "
               f"{'the same to the bit' if same else 'NOT THE SAME'}): whole simulate {kept * 1e3:.1f} ms against "
-              f"{wall * 1e3:.1f} ms for a first start, ratio {kept / wall:.2f}, real-time factor {t_end / kept:.1f}")
+              f"{wall * 1e3:.1f} ms for a first start, ratio {kept / wall:.2f}, real-time factor {t_end / kept:.1f}; "
+              f"System.start alone {start_kept * 1e3:.2f} ms against {start_first * 1e3:.2f} ms")
         if former is not None:
             def rest(run):  # everything but the rhs calls (their count is the same in both builds)
                 return run[0] - rhs_total
