@@ -1,6 +1,7 @@
 """Where the time of the Iltis bump scenes goes, and the tree-speed bound: what is reachable at their tolerance.
 
-    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--no-former] [--instructions]
+    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--former rows|lambda]
+                              [--no-former] [--instructions]
 
 Per scene, the whole `System.simulate(scene)` (equilibrium included, results with every output; DOPRI5 in C, the
 scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs.  All times are
@@ -17,18 +18,27 @@ of one run wander by a factor of two and more with the others' load.  The parts:
   reaction forces: `Function.rows`), per row;
 * the Python driver: the rest (the workspace, the switches' start, the results' assembly).
 
+Every timed run is a first start: the start states the System keeps (mbs/system.py System._kept_start) are let go
+before it (System.forget_starts), so that the loops' assembly and the static equilibrium are solved in each.  Beside
+them, interleaved, a run of the same scene again from the kept start (the assembly and the equilibrium skipped, the
+run the same to the bit) is timed and printed as the whole simulate against a first start's, with their ratio.
+
 The tree-speed bound is the run's rhs count times the rhs cost of bench/chain.py's open chain with as many joint
 velocities as the vehicle (articulated-body recursion): the wall time of the integration if the closed-loop rhs cost
 what an open tree costs and nothing else cost anything; printed as a real-time factor beside the one measured, and
 the real-time factor with every other part as measured and the rhs at tree speed.  Issue 12's target is 100.
 
 Against the former path, measured in the same run (interleaved; --no-former skips it): the same model built with
--DMBS_LOOP_ROWS_FORMER=1 (c/loops.c: every row of the results projected afresh, G evaluated and factored twice for
-it, instead of its Newton steps starting from the factors of the row before; the multipliers solved over the whole
-factors instead of block by block), printed as everything but the rhs calls, everything outside the integration and
-the outputs per row, current against former, with their ratios.  --instructions counts the outputs' rows instead of
-timing them (valgrind's callgrind, load-independent): one child process per build calls `Function.rows` over the
-run's rows (the arguments simulate passes, saved from a run) with callgrind collecting inside that call only.
+the flags of --former, printed as everything but the rhs calls, everything outside the integration and the outputs
+per row, current against former, with their ratios.  --former rows (the default): -DMBS_LOOP_ROWS_FORMER=1
+(c/loops.c: every row of the results projected afresh, G evaluated and factored twice for it, instead of its Newton
+steps starting from the factors of the row before; the multipliers solved over the whole factors instead of block by
+block; with it the multipliers' rows of M over all columns, as --former lambda).  --former lambda:
+-DMBS_LOOP_LAMBDA_FORMER=1 (c/loops.c mbs_loop_lambda: the rows of M times vdot over all NV columns instead of their
+structural nonzeros).  --instructions counts the outputs' rows instead of timing them (valgrind's callgrind,
+load-independent): one child process per build calls `Function.rows` over the run's rows (the arguments simulate
+passes, saved from a run) with callgrind collecting inside that call only; and a whole simulate from a first start
+and from the kept start (one child each, callgrind collecting inside one simulate after two uncounted ones).
 """
 
 from __future__ import annotations
@@ -69,8 +79,12 @@ RHS_CALLS = 300
 #: CPU seconds of this process: on a shared machine wall times wander with the other processes' load (this bench
 #: is single-threaded: the CPU time is the wall time of a quiet machine)
 clock = time.process_time
-#: The former path's build (c/loops.c): every row projected afresh.
-FORMER_FLAGS = ("-DMBS_LOOP_ROWS_FORMER=1",)
+#: The former paths' builds (c/loops.c), by --former: every row projected afresh (and the multipliers' rows of M
+#: whole); the multipliers' rows of M over all columns.
+FORMER_FLAGS = {"rows": ("-DMBS_LOOP_ROWS_FORMER=1", "-DMBS_LOOP_LAMBDA_FORMER=1"),
+                "lambda": ("-DMBS_LOOP_LAMBDA_FORMER=1",)}
+#: What each former path is, for the printed comparison.
+FORMER_TEXT = {"rows": "every row projected afresh", "lambda": "the multipliers' rows of M over all columns"}
 
 
 class PartTimer:
@@ -99,8 +113,11 @@ class PartTimer:
             setattr(owner, name, real)
 
 
-def timed_run(system, scene: str):
-    """One whole simulate(): (wall, seconds per part, results)."""
+def timed_run(system, scene: str, first_start: bool = True):
+    """One whole simulate(): (wall, seconds per part, results); first_start: the System's kept start states let go
+    first (mbs/system.py System._kept_start), so that the loops' assembly and the equilibrium are solved in it."""
+    if first_start:
+        system.forget_starts()
     parts = PartTimer()
     parts.wrap(mbs.system, "static_equilibrium", "equilibrium")
     real_watch = RunGuard.watch
@@ -122,10 +139,22 @@ def timed_run(system, scene: str):
     return wall, parts.seconds, res
 
 
-def former_model(system, scene: str, cache_dir=None):
-    """The scene's compiled model built with FORMER_FLAGS (cached like any build: slow the first time only)."""
+def start_times(system, scene: str, repeat: int) -> tuple[float, float]:
+    """(CPU seconds of System.start(scene) from a first start, from the kept start): medians, interleaved."""
+    first, kept = [], []
+    for _ in range(repeat):
+        system.forget_starts()
+        for times in (first, kept):
+            start = clock()
+            system.start(scene)
+            times.append(clock() - start)
+    return statistics.median(first), statistics.median(kept)
+
+
+def former_model(system, scene: str, flags: tuple[str, ...], cache_dir=None):
+    """The scene's compiled model built with `flags` (cached like any build: slow the first time only)."""
     compiled = system.compile(scene)
-    result = build.build(system.generate(scene).c_source, cache_dir=cache_dir, extra_flags=FORMER_FLAGS)
+    result = build.build(system.generate(scene).c_source, cache_dir=cache_dir, extra_flags=flags)
     return dataclasses.replace(compiled, backend=CBackend(build.load(result)))
 
 
@@ -162,6 +191,46 @@ out, projected = np.empty((len(ts), int(saved["ny"]))), np.empty_like(xs)
 done = f.rows(ts, xs, out, ps, which, projected)
 assert done == len(ts), done
 """
+
+
+#: The child of --instructions that counts a whole simulate: argv model, scene, "first" (the kept starts let go before
+#: each run) or "kept"; two runs uninstrumented, then one counted inside functools.reduce (--toggle-collect).
+SIMULATE_CHILD = """
+import functools, os, subprocess, sys
+import mbs
+system = mbs.load(sys.argv[1])
+scene, first = sys.argv[2], sys.argv[3] == "first"
+def run():
+    if first:
+        system.forget_starts()
+    system.simulate(scene)
+run(); run()
+subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
+functools.reduce(lambda _, __: run(), range(1), None)
+"""
+
+
+def simulate_instructions(scene: str, how: str, workdir: Path) -> int:
+    """Instructions callgrind counts in one whole System.simulate(scene) of SIMULATE_CHILD (`how`: first, kept)."""
+    out = workdir / f"callgrind.{how}"
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
+                           "--toggle-collect=functools_reduce", f"--callgrind-out-file={out}", sys.executable, "-c",
+                           SIMULATE_CHILD, str(MODEL), scene, how], capture_output=True, text=True)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or not found:
+        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
+    return int(found.group(1))
+
+
+def print_start_instructions(scene: str) -> None:
+    """Instructions of a whole simulate from a first start and from the kept start."""
+    if shutil.which("valgrind") is None or shutil.which("callgrind_control") is None:
+        print("  valgrind or callgrind_control is not on the PATH: no instruction counts")
+        return
+    with tempfile.TemporaryDirectory(prefix="mbs-bench-start-") as tmp:
+        first, kept = (simulate_instructions(scene, how, Path(tmp)) for how in ("first", "kept"))
+    print(f"  a whole simulate in instructions (callgrind, Python and C): from the kept start {kept / 1e6:.1f} M, "
+          f"from a first start {first / 1e6:.1f} M, ratio {kept / first:.3f}")
 
 
 def saved_rows(system, scene: str, path: Path) -> int:
@@ -247,6 +316,7 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--cache-dir", default=None)
+    ap.add_argument("--former", choices=sorted(FORMER_FLAGS), default="rows", help="the former path to compare with")
     ap.add_argument("--no-former", action="store_true", help="without the former path's runs")
     ap.add_argument("--instructions", action="store_true", help="also count the outputs' rows (callgrind)")
     args = ap.parse_args(argv)
@@ -261,10 +331,11 @@ def main(argv=None) -> int:
     for scene in args.scenes:
         t_end = system.scene(scene).t_end
         system.simulate(scene)  # compile and warm up
-        former = None if args.no_former else former_model(system, scene, args.cache_dir)
-        runs, former_runs = [], []
+        former = None if args.no_former else former_model(system, scene, FORMER_FLAGS[args.former], args.cache_dir)
+        runs, former_runs, kept_runs = [], [], []
         for _ in range(args.repeat):  # interleaved: the load drifts
             runs.append(timed_run(system, scene))
+            kept_runs.append(timed_run(system, scene, first_start=False))  # from the start the run before kept
             if former is not None:
                 with using(system, scene, former):
                     former_runs.append(timed_run(system, scene))
@@ -299,6 +370,13 @@ def main(argv=None) -> int:
         print(f"  tree-speed bound: {nfev} rhs x {chain_rhs * 1e6:.2f} us (open chain) = {bound * 1e3:.1f} ms: "
               f"real-time factor {t_end / bound:.0f} with nothing else costing; {t_end / rest_at_tree:.1f} with the "
               f"other parts as measured (now {t_end / wall:.1f})")
+        kept = med(r[0] for r in kept_runs)
+        same = all(np.array_equal(r[2].data, res.data) for r in kept_runs)
+        start_first, start_kept = start_times(system, scene, 3 * args.repeat)
+        print(f"  run again from the kept start (System._kept_start: no assembly, no equilibrium; the results "
+              f"{'the same to the bit' if same else 'NOT THE SAME'}): whole simulate {kept * 1e3:.1f} ms against "
+              f"{wall * 1e3:.1f} ms for a first start, ratio {kept / wall:.2f}, real-time factor {t_end / kept:.1f}; "
+              f"System.start alone {start_kept * 1e3:.2f} ms against {start_first * 1e3:.2f} ms")
         if former is not None:
             def rest(run):  # everything but the rhs calls (their count is the same in both builds)
                 return run[0] - rhs_total
@@ -307,7 +385,7 @@ def main(argv=None) -> int:
             now, before = med(rest(r) for r in runs), med(rest(r) for r in former_runs)
             out_c, out_f = med(outside(r) for r in runs), med(outside(r) for r in former_runs)
             out_now, out_before = (med(r[1].get("outputs", 0.0) for r in rs) / max(1, rows) for rs in (runs, former_runs))
-            print(f"  against the former path (every row projected afresh; same run, interleaved): everything but "
+            print(f"  against the former path ({FORMER_TEXT[args.former]}; same run, interleaved): everything but "
                   f"the rhs calls {now * 1e3:.1f} ms, former {before * 1e3:.1f} ms, ratio {now / before:.2f}; outside the "
                   f"integration {out_c * 1e3:.1f} ms, former {out_f * 1e3:.1f} ms, ratio {out_c / out_f:.2f}; "
                   f"outputs {out_now * 1e6:.1f} us per row, former {out_before * 1e6:.1f} us, ratio "
@@ -315,6 +393,8 @@ def main(argv=None) -> int:
                   f"{med(r[0] for r in former_runs) * 1e3:.0f} ms")
             if args.instructions:
                 print_instructions(system, scene, former)
+        if args.instructions:
+            print_start_instructions(scene)
     return 0
 
 

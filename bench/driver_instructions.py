@@ -53,7 +53,8 @@ import mbs
 model, scene, part, repeat, how = sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]), sys.argv[6]
 assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
 system = mbs.load(model)
-run = {"simulate": lambda: system.simulate(scene), "start": lambda: system.start(scene)}[part]
+first = getattr(system, "forget_starts", lambda: None)  # each a first start (a checkout with kept starts)
+run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene))}[part]
 run(); run()
 if how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
     subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)

@@ -222,51 +222,45 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     # one call into C for all samples when the guard watches the C integrator between its budgets of steps
     segments, status, message, records, stats = run_with_events(model, data, make_solver, times, t_end, guard.progress,
                                                                 lambda: guard.chunks or PROGRESS_CHUNKS)
-    ts, all_xs, all_which, twin = segments.arrays(model.nx)
+    ts, xs, which, twin = segments.arrays(model.nx)
     ps = segments.values()
     if status == "stopped":
         message = guard.stop_message(float(ts[-1]) if len(ts) else t0)
         status = "interrupted" if guard.interrupted else status
-    # the rows just after an event where nothing jumps are their predecessors' twins: computed once, copied
-    own = np.flatnonzero(~twin)
-    source = np.cumsum(~twin) - 1  # per row: its own row among the computed ones, or its predecessor's
-    twins = own.size < twin.size
-    xs, which = (all_xs[own], all_which[own]) if twins else (all_xs, all_which)  # (no copies without twins)
+    _as_predecessors(xs, which, twin)  # computed once: the rows' pass copies a row that repeats the one before it
+    rows = len(ts)
     with_outputs = bool(outputs and model.ny and "outputs" in model.functions)
     ys, fused = None, None
-    if "project" in model.functions and len(own):
+    if "project" in model.functions and rows:
         unprojected, xs = xs, np.empty_like(xs)
         if with_outputs:  # one pass: each row projected, its outputs solved from the factors of its projection
-            ys = np.empty((len(own), model.ny))
-            done, error, stage = project_and_evaluate_rows(data, "outputs", ps, ts[own], unprojected, which,
-                                                           xs, ys)
-            projected = done if stage == "project" else len(own)
+            ys = np.empty((rows, model.ny))
+            done, error, stage = project_and_evaluate_rows(data, "outputs", ps, ts, unprojected, which, xs, ys)
+            projected = done if stage == "project" else rows
             fused = (done, error) if stage == "outputs" else None
         else:
-            projected, _ = evaluate_rows(data, "project", ps, ts[own], unprojected, which, xs)
-        if projected < len(own):
-            ts, source = ts[:own[projected]], source[:own[projected]]
+            projected, _ = evaluate_rows(data, "project", ps, ts, unprojected, which, xs)
+        if projected < rows:
+            ts = ts[:projected]
             status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
     names = [TIME, *model.x_names]
     if with_outputs:
-        own_ts = ts[own[own < len(ts)]]
         if ys is None:
-            ys = np.empty((len(own), model.ny))
-            done, error = evaluate_rows(data, "outputs", ps, own_ts, xs, which[:len(own_ts)], ys)
+            ys = np.empty((rows, model.ny))
+            done, error = evaluate_rows(data, "outputs", ps, ts, xs[:len(ts)], which[:len(ts)], ys[:len(ts)])
         else:
-            done, error = fused or (len(own_ts), None)
+            done, error = fused or (len(ts), None)
         if error is not None:
-            keep, failed_at = int(own[done]), float(own_ts[done])
-            ts, source = ts[:keep], source[:keep]
+            failed_at, ts = float(ts[done]), ts[:done]  # keep the rows before the failing one
             status = FAILED
             message = (f"output evaluation failed at t = {failed_at:.6g} s: the model returned "
                        f"{status_text(error.status)}" if isinstance(error, EvaluationError) else str(error))
         names += model.y_names
     table = np.empty((len(ts), len(names)))  # the results' table, filled in place (no joined copies)
     table[:, 0] = ts
-    _rows_into(table[:, 1:1 + model.nx], xs, source, twins)
+    table[:, 1:1 + model.nx] = xs[:len(ts)]
     if with_outputs:
-        _rows_into(table[:, 1 + model.nx:], ys, source, twins)
+        table[:, 1 + model.nx:] = ys[:len(ts)]
     data.stats = stats
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
@@ -276,12 +270,17 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     return Results(names, table, metadata, events=[r.as_row() for r in records], copy=False)
 
 
-def _rows_into(out: np.ndarray, rows: np.ndarray, source: np.ndarray, twins: bool) -> None:
-    """out[i] = rows[source[i]]: each result row from its computed row (a twin from its predecessor's)."""
-    if twins:
-        np.take(rows, source[:len(out)], axis=0, out=out)
-    else:
-        out[...] = rows[:len(out)]
+def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> None:
+    """The rows just after an event where nothing jumps (``twin``: a continuous switch, runtime/event_loop.py) are
+    their predecessors' twins, whose projection and outputs they take: each is given the state and the run-time
+    values of the last row before it that is not a twin (its time is already the same), so that the rows' pass
+    (runtime/rows.py: a row that repeats the one before it takes its values) copies that row's instead of computing
+    it, in place."""
+    twins = np.flatnonzero(twin)
+    if twins.size:
+        computed = np.flatnonzero(~twin)
+        of = computed[np.cumsum(~twin)[twins] - 1]
+        xs[twins], which[twins] = xs[of], which[of]
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,

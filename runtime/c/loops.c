@@ -123,6 +123,11 @@
 #ifndef MBS_LOOP_ROWS_FORMER
 #define MBS_LOOP_ROWS_FORMER 0
 #endif
+/* -DMBS_LOOP_LAMBDA_FORMER=1: the multipliers' rows of M times vdot over all NV columns (bench/bump_cost.py
+ * --former lambda), instead of over the structural nonzeros of M (mbs_loop_lambda). */
+#ifndef MBS_LOOP_LAMBDA_FORMER
+#define MBS_LOOP_LAMBDA_FORMER 0
+#endif
 
 #define MBS_LOOP_SINGULAR 1
 #define MBS_LOOP_NONFINITE 2
@@ -1556,6 +1561,25 @@ int mbs_project(double t, const double *x, const double *p, double *out, double 
     return s;
 }
 
+/* sum + (row c of M) v over the row's structural nonzeros (the generator's table, as mbs_loop_mass_axpy) in column
+ * order: the terms of the whole row but its exact zeros (whose products, v being finite, add nothing), so the same
+ * sum but for the sign of a zero. */
+static double mbs_loop_mass_row_dot(const double *restrict M, int c, const double *restrict v, double sum)
+{
+    const double *restrict row = M + c * MBS_NV;
+    int e;
+#ifdef MBS_MASS_PATTERN
+    if (!MBS_LOOP_LAMBDA_FORMER) {
+        int k;
+        for (k = mbs_mass_row[c]; k < mbs_mass_row[c + 1]; k++)
+            for (e = mbs_mass_begin[k]; e < mbs_mass_end[k]; e++) sum += row[e] * v[e];
+        return sum;
+    }
+#endif
+    for (e = 0; e < MBS_NV; e++) sum += row[e] * v[e];
+    return sum;
+}
+
 /* lambda from the accelerations just solved (w->vd, with M, f and the factors of G at w->xc, rank r). */
 static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
 {
@@ -1571,9 +1595,7 @@ static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
             k1 = bl.k0[b + 1];
         }
         for (k = k0; k < k1; k++) {
-            int c = (int)w->cp[k];
-            double sum = -w->f[c];
-            for (j = 0; j < MBS_NV; j++) sum += w->M[c * MBS_NV + j] * w->vd[j];
+            double sum = mbs_loop_mass_row_dot(w->M, (int)w->cp[k], w->vd, -w->f[(int)w->cp[k]]);
             for (j = k0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
             w->y[k] = sum / A[k * MBS_NV + k];
         }

@@ -506,3 +506,26 @@ def test_slider_crank_model_file_end_to_end(cache_dir, monkeypatch):
     bound = 1e-12 / math.sqrt(1 - 0.25**2) + 1e-13
     assert np.max(np.abs(s - 0.1 * np.cos(th) - np.sqrt(0.16 - 0.01 * np.sin(th)**2))) < bound
     assert (th[-1] - th[0]) > 2 * math.pi
+
+
+def test_multipliers_over_the_mass_pattern_are_those_over_whole_rows():
+    """mbs_loop_lambda sums the rows of M times vdot over the structural nonzeros of M (MBS_MASS_PATTERN): the
+    multipliers satisfy M vdot = f + G^T lambda, and are those of the former sums over whole rows
+    (-DMBS_LOOP_LAMBDA_FORMER=1) to the bit, at the states of a moving slider-crank (M with zeros between the
+    slider and the crank)."""
+    import mbs
+    from former_builds import flagged_build
+
+    system = mbs.load(Path(__file__).resolve().parent / "models" / "slider_crank_spring.mbs")
+    assert "#define MBS_MASS_PATTERN 1" in system.generate().c_source
+    res = system.simulate(t_end=0.2, sample=0.02)
+    compiled = system.compile()
+    states = res.data[:, 1:1 + compiled.nx]
+    data, former = Workspace(compiled), Workspace(flagged_build(system, None, ("-DMBS_LOOP_LAMBDA_FORMER=1",)))
+    data.p = former.p = compiled.p_default
+    moving = 0
+    for t, x in zip(res.t, states):
+        lam = check_multipliers(data, float(t), x)
+        assert np.array_equal(lam, former.multipliers(float(t), x))
+        moving += np.max(np.abs(lam)) > 1.0
+    assert moving > len(states) // 2  # the spring drives the crank: reactions of newtons
