@@ -71,9 +71,9 @@ static const double DP_D1 = -12715105075.0 / 11282082432.0, DP_D3 = 87487479700.
  * the vectorizer with the dynamic model (runtime alias checks, a scalar epilogue).  Each element is computed by
  * the same operations in the same order either way (no reduction is vectorized without -ffast-math, and -std=c99
  * contracts no a*b+c): the results are the same to the bit, in about half the instructions (the Iltis over the bump
- * at 10 m/s: dp_step's own 21.7 M of the integration's 681 M).  -DMBS_ODE_MACHINERY_FORMER=1 builds the scalar
+ * at 10 m/s: dp_step's own 21.7 M of the integration's 681 M).  -DMBS_MACHINERY_FORMER=1 builds the scalar
  * loops (bench/event_instructions.py --machinery compares the two). */
-#if defined(__GNUC__) && !defined(__clang__) && !defined(MBS_ODE_MACHINERY_FORMER)
+#if defined(__GNUC__) && !defined(__clang__) && !defined(MBS_MACHINERY_FORMER)
 #define DP_ELEMENTWISE __attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
 #else
 #define DP_ELEMENTWISE
