@@ -65,20 +65,9 @@ static const double DP_D1 = -12715105075.0 / 11282082432.0, DP_D3 = 87487479700.
  * +-0.3, +-0.6 m/s, 0.8 took 0.2 % fewer rhs calls than 1.0 and as many as 0.6 (bench/restart_steps.py --speeds). */
 #define DP_ORDER_MIN 0.8
 
-/* The stages' combinations, the error estimate and the dense output's coefficients are loops over the state
- * elementwise, two doubles per SSE2 instruction when vectorized: GCC's -O2 (12 and later) vectorizes only loops whose
- * trip count it knows (its very-cheap cost model), and these run over n, so the functions that hold them ask for
- * the vectorizer with the dynamic model (runtime alias checks, a scalar epilogue).  Each element is computed by
- * the same operations in the same order either way (no reduction is vectorized without -ffast-math, and -std=c99
- * contracts no a*b+c): the results are the same to the bit, in about half the instructions (the Iltis over the bump
- * at 10 m/s: dp_step's own 21.7 M of the integration's 681 M).  -DMBS_MACHINERY_FORMER=1 builds the scalar
- * loops (bench/event_instructions.py --machinery compares the two). */
-#if defined(__GNUC__) && !defined(__clang__) && !defined(MBS_MACHINERY_FORMER)
-#define DP_ELEMENTWISE __attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
-#else
-#define DP_ELEMENTWISE
-#endif
-
+/* The stages' combinations, the error estimate and the dense output's coefficients are elementwise loops over the
+ * state, vectorized (MBS_ODE_ELEMENTWISE, c/ode.c: the same bits; the Iltis over the bump at 10 m/s: dp_step's own
+ * instructions 21.7 M of the integration's 681 M before, 15.0 M after). */
 typedef struct {
     double facold;  /* previous accepted error, for the PI controller */
     int reject;     /* the last attempt was rejected: do not grow h on the next accepted step */
@@ -131,7 +120,7 @@ static double dp_retry_shrink(dp_mem *m, double t, double h, double err, double 
     return shrink;
 }
 
-DP_ELEMENTWISE static int dp_step(mbs_ode *o)
+MBS_ODE_ELEMENTWISE static int dp_step(mbs_ode *o)
 {
     dp_mem *m = o->impl;
     const int n = o->n;
@@ -232,7 +221,7 @@ static void dp_take_over(mbs_ode *to, const mbs_ode *from)
 }
 
 /* y(t) = c0 + s (c1 + (1-s) (c2 + s (c3 + (1-s) c4))), s = (t - t_old) / h */
-DP_ELEMENTWISE static void dp_dense(const mbs_ode *o, double t, double *out)
+MBS_ODE_ELEMENTWISE static void dp_dense(const mbs_ode *o, double t, double *out)
 {
     const double *c = o->cont;
     const int n = o->n;
