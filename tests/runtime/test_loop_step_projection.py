@@ -3,7 +3,8 @@ from the factors of G the step's last stage left at its positions: a state that 
 than the Newton tolerance (1e-12) but at most 1e-9 is polished with those factors (Newton's steps from the Jacobian
 at these very positions) and held to the tolerance, instead of projected afresh; a larger drift goes to
 mbs_project.  Either way the result is mbs_project's to round-off, on the constraints to 1e-12 (Freudenstein's
-four-bar, whose constraints are the loop's closure: test_loops.py)."""
+four-bar, whose constraints are the loop's closure: test_loops.py).  A drift of at most 1e-13 (one step's, usually)
+keeps its positions as they are, its velocities made consistent with them."""
 
 from __future__ import annotations
 
@@ -37,3 +38,17 @@ def test_a_drifted_step_is_projected_as_mbs_project_does(four_bar_data, drift):
     assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-10
     assert np.allclose(projected, fresh, rtol=0.0, atol=1e-13)
     assert np.array_equal(step_end[:nx], data.function("loop_rhs")(0.0, x))  # the last stage's rhs: untouched
+
+
+def test_a_step_that_drifted_by_round_off_keeps_its_positions(four_bar_data):
+    data = four_bar_data
+    nx = len(data.x)
+    nq = nx // 2
+    x = np.array(data.x)
+    x[:nq] += 2e-14 * np.array([0.3, -1.0, 0.7])
+    x[nq:] += 1e-9  # velocities off the velocity constraints
+    assert 1e-15 < np.max(np.abs(data.constraints(0.0, x))) <= 1e-13
+    projected = data.function("loop_accept")(0.0, x)[nx:]
+    assert np.array_equal(projected[:nq], x[:nq])  # not polished to the round-off floor
+    assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-12
+    assert np.allclose(projected, data.function("project")(0.0, x), rtol=0.0, atol=1e-13)
