@@ -17,9 +17,10 @@ projection, root finding and restart C does), split by part and counted for two 
 same run, current / former:
 
 * --former machinery (the default): -DMBS_MACHINERY_FORMER=1, the former machinery around the rhs calls: c/dopri5.c's
-  elementwise loops (stages, error estimate, dense output) scalar, and the generated lookup tables' search over all
-  their knots instead of from the interval evenly spaced knots put x in (the road profile of the Iltis's tyres, in
-  the rhs and the indicators alike);
+  elementwise loops (stages, error estimate, dense output) and c/ode.c's error norm scalar, the generated lookup
+  tables' search over all their knots instead of from the interval evenly spaced knots put x in (the road profile
+  of the Iltis's tyres, in the rhs and the indicators alike), and c/loops.c's projection of accepted steps polishing
+  every one to round-off and projecting afresh one that drifted beyond 1e-12;
 * --former events: -DMBS_ODE_EVENTS_FORMER=1, the former root finding (each crossing located from its step's ends
   alone, the departure probe taken in every search, the bracket closed by probes four doubles either side of the
   secant's root and bisection, the indicators at an event evaluated again by its restart).

@@ -18,8 +18,9 @@ controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted
 
 --former machinery: the baseline is the former machinery around the rhs calls, the same model built with
 -DMBS_MACHINERY_FORMER=1 (bench/event_instructions.py --machinery counts its instructions): the step counts and, with
---accuracy, the results against the reference show what it changes (nothing but the accepted steps' projection,
-whose drifted steps are now polished with the factors at hand instead of projected afresh: the same to round-off).
+--accuracy, the results against the reference show what it changes (nothing but the accepted steps' projection:
+a step drifted by at most 1e-13 keeps its positions, one drifted beyond 1e-12 is polished with the factors at hand
+instead of projected afresh; the trajectories part by round-off, then by the integration error).
 
 --where: the trace build (-DMBS_ODE_TRACE=1, every attempt and restart written to stderr) of either retry, and where
 its rejections are: by the accepted steps since the last restart in C (0: the first step after it), the first
@@ -54,7 +55,8 @@ FORMERS = {"steps": (("-DMBS_ODE_STEPS_FORMER=1",), "the former retry (-DMBS_ODE
            "handback": (("-DMBS_ODE_HANDBACK_FORMER=1",), "the former hand-back (-DMBS_ODE_HANDBACK_FORMER=1: the "
                         "solver after an event handed back to Python has learned nothing)"),
            "machinery": (("-DMBS_MACHINERY_FORMER=1",), "the former machinery (-DMBS_MACHINERY_FORMER=1: DOPRI5's "
-                         "scalar loops, the lookups' search over all knots, a drifted step projected afresh)")}
+                         "scalar loops, the lookups' search over all knots, each accepted step polished, a drifted one projected "
+                         "afresh)")}
 FORMER_FLAGS = FORMERS["steps"][0]
 TRACE_FLAGS = ("-DMBS_ODE_TRACE=1",)
 KEYS = ("nsteps", "nreject", "nfev", "nevents")
