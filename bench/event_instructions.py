@@ -10,18 +10,33 @@ instruction count of one whole `simulate` (equilibrium, integration, rows, event
 included).  The ratio event / smooth is issue 10's figure ("no slower": <= 1).  Takes a few minutes: callgrind
 runs about 50 times slower than the machine.
 
-    python bench/event_instructions.py --machinery [--scene bump_10]
+    python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events] [--repeat 7]
 
 The integration of one run of the event form (`Solver.sample`, callgrind collecting inside it only: every step,
-projection, root finding and restart C does) built from the current c/ode.c against the former root finding, the
-same model built with -DMBS_ODE_EVENTS_FORMER=1 (each crossing located from its step's ends alone, the departure
-probe taken in every search, the bracket closed by probes four doubles either side of the secant's root and
-bisection, the indicators at an event evaluated again by its restart), both counted in the same run: instructions of
-the integration, of its rhs calls, of its indicator evaluations (`mbs_events`, with their count) and of the rest,
-with the ratios current / former.  Then, outside valgrind, the two builds' runs compared: the events (count,
-indicators, order) and their times, the steps, and the results' largest difference per column.  valgrind's floating
-point differs from the machine's in the last bits (its libm takes other paths), so the step counts under it differ a
-little from a run's own.
+projection, root finding and restart C does), split by part and counted for two builds of the same model in the
+same run, current / former:
+
+* --former machinery (the default): -DMBS_MACHINERY_FORMER=1, the former machinery around the rhs calls: c/dopri5.c's
+  elementwise loops (stages, error estimate, dense output) and c/ode.c's error norm scalar, the generated lookup
+  tables' search over all their knots instead of from the interval evenly spaced knots put x in (the road profile
+  of the Iltis's tyres, in the rhs and the indicators alike), and c/loops.c's projection of accepted steps polishing
+  every one to round-off and projecting afresh one that drifted beyond 1e-12;
+* --former events: -DMBS_ODE_EVENTS_FORMER=1, the former root finding (each crossing located from its step's ends
+  alone, the departure probe taken in every search, the bracket closed by probes four doubles either side of the
+  secant's root and bisection, the indicators at an event evaluated again by its restart).
+
+The parts: the rhs calls (of the steps, of the restarts), the projection of the accepted steps, the indicator
+evaluations (`mbs_events`: at the steps' ends, in the root finding, at the restarts, with their counts), the root
+finding's own work (dense output at its trial points, the search), DOPRI5's own arithmetic (stages, error norm,
+dense coefficients), the restarts' own bookkeeping, and the rest; each also per accepted step.  Then the wall time
+(CPU seconds) of the integration of both builds, interleaved, medians of --repeat runs, and the two builds' runs
+compared outside valgrind: the events (count, indicators, order) and their times, the steps, and the results'
+largest difference per column.  valgrind's floating point differs from the machine's in the last bits (its libm
+takes other paths), so the step counts under it differ a little from a run's own.
+
+Instructions are the figure to go by: the wall time of the part outside the rhs calls is a few per cent of a run
+and the shared machine's load moves a run by more.  They and a sampling profile (perf) of the integration agree:
+about 13 % of the integration is outside the rhs calls in bump_5 and bump_10 alike, some 10 us per step either way.
 """
 
 from __future__ import annotations
@@ -63,8 +78,10 @@ def instructions(form: str, scene: str, count: int, workdir: Path) -> int:
     return int(found.group(1))
 
 
-#: The build switch of the former root finding (c/ode.c).
-FORMER_FLAGS = ("-DMBS_ODE_EVENTS_FORMER=1",)
+#: The build switches of the baselines of --machinery: the former machinery (c/dopri5.c's scalar loops, the
+#: lookups' search over all knots) and the former root finding (c/ode.c).
+FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",)}
+FORMER_FLAGS = FORMERS["events"]
 
 #: The child of --machinery: the event form's scene once, its model built with the flags given (none: as usual).
 MACHINERY_CHILD = """
@@ -81,34 +98,99 @@ if flags:
         system.generate(scene).c_source, extra_flags=flags))))
     for key in [key for key, value in system._compiled.items() if value is compiled]:
         system._compiled[key] = model
-system.simulate(scene)
+stats = system.simulate(scene).metadata["stats"]
+print("ACCEPTED", stats["nsteps"] - stats["nreject"])
 """
+
+
+def profile(path: Path) -> tuple[dict[str, int], dict[tuple[str, str], tuple[int, int]]]:
+    """A callgrind output file's instructions per function (its own, callees excluded) and per call pair
+    (caller, callee): (calls, inclusive instructions of those calls)."""
+    names, own, pairs = {}, {}, {}
+    caller = callee = None
+    cost_follows = False
+
+    def name(line: str, key: str) -> str:
+        found = re.match(rf"{key}=\((\d+)\)(?: (.*))?", line)
+        if found.group(2):
+            names[found.group(1)] = found.group(2).strip()
+        return found.group(1)
+    with open(path) as lines:
+        for line in lines:
+            if cost_follows:  # the line after calls=: position and the inclusive cost of those calls
+                count, cost = pairs.get((caller, callee), (0, 0))
+                pairs[(caller, callee)] = (count + calls, cost + int(line.split()[1]))
+                cost_follows = False
+            elif line.startswith("fn="):
+                caller = name(line.strip(), "fn")
+            elif line.startswith("cfn="):
+                callee = name(line.strip(), "cfn")
+            elif line.startswith("calls="):
+                calls = int(line.split("=")[1].split()[0])
+                cost_follows = True
+            elif line[:1].isdigit() or line[:1] in "+-*":  # position and cost of the function's own instructions
+                words = line.split()
+                if len(words) >= 2 and caller is not None:
+                    own[caller] = own.get(caller, 0) + int(words[1])
+    named = {names.get(key, key): value for key, value in own.items()}
+    return named, {(names.get(a, a), names.get(b, b)): value for (a, b), value in pairs.items()}
 
 
 def callees(path: Path) -> dict[str, tuple[int, int]]:
     """Per function called in a callgrind output file: (calls, inclusive instructions of those calls)."""
-    names, calls, inclusive = {}, {}, {}
-    callee, cost_follows = None, False
-    with open(path) as lines:
-        for line in lines:
-            if cost_follows:  # the line after calls=: position and the inclusive cost of those calls
-                inclusive[callee] = inclusive.get(callee, 0) + int(line.split()[1])
-                cost_follows = False
-            elif line.startswith(("fn=", "cfn=")):
-                found = re.match(r"c?fn=\((\d+)\)(?: (.*))?", line.strip())
-                if found:
-                    if found.group(2):
-                        names[found.group(1)] = found.group(2)
-                    if line.startswith("cfn="):
-                        callee = found.group(1)
-            elif line.startswith("calls="):
-                calls[callee] = calls.get(callee, 0) + int(line.split("=")[1].split()[0])
-                cost_follows = True
-    return {names[key]: (calls[key], inclusive.get(key, 0)) for key in calls}
+    total = {}
+    for (_, callee), (count, cost) in profile(path)[1].items():
+        was = total.get(callee, (0, 0))
+        total[callee] = (was[0] + count, was[1] + cost)
+    return total
+
+
+#: The functions of the integration by the part they belong to (callgrind names them; a static function the
+#: compiler inlined is counted with its caller).
+RHS_NAMES = ("mbs_loop_rhs_direct", "mbs_loop_rhs", "mbs_rhs")
+PROJECT_NAMES = ("mbs_loop_project_step", "mbs_project")
+ROOT_FINDER = ("mbs_ode_locate", "mbs_ode_g_at")
+RESTART = ("mbs_ode_restart", "mbs_ode_depart", "mbs_ode_bridge")
+
+
+def integration_parts(path: Path, total: int) -> dict[str, float]:
+    """The integration's instructions by part (see the module's docstring), with the counts of the calls."""
+    own, pairs = profile(path)
+
+    def calls(callers, callees_) -> tuple[int, int]:
+        found = [value for (a, b), value in pairs.items() if (callers is None or a in callers) and b in callees_]
+        return sum(v[0] for v in found), sum(v[1] for v in found)
+
+    def inclusive(names) -> int:  # calls to these from anything but themselves
+        return sum(v[1] for (a, b), v in pairs.items() if b in names and a not in names)
+    rhs = calls(None, RHS_NAMES)
+    rhs_restarts = calls(RESTART, RHS_NAMES)
+    events_at = {"ends": calls(("mbs_ode_find_event",), ("mbs_events",)),
+                 "roots": calls(ROOT_FINDER, ("mbs_events",)),
+                 "restarts": calls(RESTART, ("mbs_events",))}
+    indicators = calls(None, ("mbs_events",))
+    projection = calls(("mbs_ode_accept",), PROJECT_NAMES)
+    root_finding = inclusive(ROOT_FINDER)
+    step = inclusive(("dp_step",))
+    step_rhs, step_accept = calls(("dp_step",), RHS_NAMES)[1], calls(("dp_step",), ("mbs_ode_accept",))[1]
+    restarts = inclusive(RESTART)
+    lookups = sum(v for key, v in own.items() if key.startswith("mbs_lookup"))
+    parts = {"integration": total, "rhs": rhs[1], "rhs calls": rhs[0], "rhs of restarts": rhs_restarts[1],
+             "rhs of restarts calls": rhs_restarts[0], "projection": projection[1],
+             "indicators": indicators[1], "indicator calls": indicators[0],
+             "root finding": root_finding - events_at["roots"][1],
+             "dopri5": step - step_rhs - step_accept,
+             "restarts": restarts - rhs_restarts[1] - events_at["restarts"][1],
+             "lookups": lookups, "lookup calls": calls(None, tuple(k for k in own if k.startswith("mbs_lookup")))[0]}
+    for key, (count, cost) in events_at.items():
+        parts[f"indicators {key}"], parts[f"indicators {key} calls"] = cost, count
+    parts["rest"] = total - sum(parts[key] for key in ("rhs", "projection", "indicators", "root finding",
+                                                       "dopri5", "restarts"))
+    return parts
 
 
 def integration_instructions(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, float]:
-    """The instructions of the integration of one run (inside Solver.sample), its rhs calls and its indicators."""
+    """The instructions of the integration of one run (inside Solver.sample), by part."""
     out = workdir / f"callgrind.machinery{len(flags)}"
     done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=solver_sample",
                            f"--callgrind-out-file={out}", sys.executable, "-c", MACHINERY_CHILD, str(MODEL), scene,
@@ -116,74 +198,101 @@ def integration_instructions(scene: str, flags: tuple[str, ...], workdir: Path) 
     found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
     if done.returncode != 0 or not found:
         raise SystemExit(f"valgrind run failed ({flags or 'current'}):\n{done.stderr[-2000:]}")
-    called = callees(out)
-    rhs = next(name for name in ("mbs_loop_rhs_direct", "mbs_loop_rhs", "mbs_rhs") if name in called)
-    return {"integration": int(found.group(1)), "rhs": called[rhs][1], "rhs calls": called[rhs][0],
-            "indicators": called.get("mbs_events", (0, 0))[1], "indicator calls": called.get("mbs_events", (0, 0))[0]}
+    steps = re.search(r"^ACCEPTED (\d+)$", done.stdout, re.M)
+    parts = integration_parts(out, int(found.group(1)))
+    parts["accepted"] = int(steps.group(1)) if steps else 0
+    return parts
 
 
-def compare_runs(scene: str) -> None:
-    """The scene's event form with the current and the former root finding, compared outside valgrind."""
-    import dataclasses
+def compare_runs(scene: str, flags: tuple[str, ...], repeat: int) -> None:
+    """The scene's event form built as usual and with `flags`, compared outside valgrind: the integration's wall
+    time (interleaved, medians), the events and their times, the steps, and the results."""
+    import statistics
     import mbs
-    from mbs.runtime import build
-    from mbs.runtime.backends import CBackend
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
+    from bump_cost import timed_run, using
+    from former_builds import flagged_build
     system = mbs.load(MODEL)
-    compiled = system.compile(scene)
-    former = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
-        system.generate(scene).c_source, extra_flags=FORMER_FLAGS))))
-    current = system.simulate(scene)
-    keys = [key for key, value in system._compiled.items() if value is compiled]
-    for key in keys:
-        system._compiled[key] = former
-    try:
-        before = system.simulate(scene)
-    finally:
-        for key in keys:
-            system._compiled[key] = compiled
+    former = flagged_build(system, scene, flags)
+    system.simulate(scene)
+    with using(system, scene, former):
+        system.simulate(scene)
+    now_runs, was_runs = [], []
+    for _ in range(repeat):  # interleaved: the load drifts
+        now_runs.append(timed_run(system, scene))
+        with using(system, scene, former):
+            was_runs.append(timed_run(system, scene))
+    seconds = {label: statistics.median(run[1].get("integration", 0.0) for run in runs)
+               for label, runs in (("current", now_runs), ("former", was_runs))}
+    print(f"  wall (CPU seconds of the integration, medians of {repeat} interleaved runs; the machine's load moves "
+          f"them): current {seconds['current'] * 1e3:.1f} ms, former {seconds['former'] * 1e3:.1f} ms, ratio "
+          f"{seconds['current'] / seconds['former']:.3f}")
+    current, before = now_runs[-1][2], was_runs[-1][2]
     same = [(e["event"], e["direction"]) for e in current.events] == [
         (e["event"], e["direction"]) for e in before.events]
     times = np.array([e["time"] for e in current.events]) - np.array([e["time"] for e in before.events]) \
         if same else np.array([np.inf])
     print(f"  outside valgrind: {len(current.events)} events now, {len(before.events)} before, "
           f"{'the same indicators in the same order' if same else 'NOT the same events'}; event times differ by at "
-          f"most {np.max(np.abs(times)):.2e} s")
+          f"most {np.max(np.abs(times), initial=0.0):.2e} s")
     stats_now, stats_before = current.metadata["stats"], before.metadata["stats"]
     print(f"  steps {stats_now['nsteps']} (rejected {stats_now['nreject']}), rhs {stats_now['nfev']}; before: "
           f"{stats_before['nsteps']} ({stats_before['nreject']}), {stats_before['nfev']}")
-    worst, column = 0.0, ""
+    worst, column, bits = 0.0, "", 0
     for name in current.names:  # relative to a column's largest magnitude, absolute below 1 (test_event_restarts)
         if len(current[name]) != len(before[name]):
             continue
+        bits += not np.array_equal(current[name], before[name], equal_nan=True)
         gap = float(np.max(np.abs(current[name] - before[name]))) / max(1.0, float(np.max(np.abs(before[name]))))
         if gap > worst:
             worst, column = gap, name
-    print(f"  results: the largest difference {worst:.2e} ({column}; relative to the column's largest magnitude, "
+    print(f"  results: {len(current.names) - bits} of {len(current.names)} columns the same to the bit; the largest "
+          f"difference {worst:.2e}{f' ({column})' if column else ''} (relative to the column's largest magnitude, "
           f"absolute below 1); the scene's rtol {current.metadata.get('rtol', 'n/a')}")
 
 
-def machinery(scene: str) -> int:
-    """--machinery: the integration's instructions, current against the former root finding, in the same run."""
+#: The rows of --machinery's table: label, part, the key of its count of calls (or None).
+ROWS = (("integration", "integration", None),
+        ("  rhs calls", "rhs", "rhs calls"),
+        ("    of it at restarts", "rhs of restarts", "rhs of restarts calls"),
+        ("    of it table lookups", "lookups", "lookup calls"),
+        ("  all but the rhs", "machinery", None),
+        ("    projection of steps", "projection", None),
+        ("    indicators", "indicators", "indicator calls"),
+        ("      at the steps' ends", "indicators ends", "indicators ends calls"),
+        ("      in the root finding", "indicators roots", "indicators roots calls"),
+        ("      at the restarts", "indicators restarts", "indicators restarts calls"),
+        ("    root finding's own", "root finding", None),
+        ("    DOPRI5's arithmetic", "dopri5", None),
+        ("    restarts' bookkeeping", "restarts", None),
+        ("    the rest", "rest", None))
+
+
+def machinery(scene: str, former: str, repeat: int) -> int:
+    """--machinery: the integration's instructions by part, current against the former build, in the same run."""
+    flags = FORMERS[former]
     counts = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for label, flags in (("current", ()), ("former", FORMER_FLAGS)):
-            subprocess.run([sys.executable, "-c", MACHINERY_CHILD, str(MODEL), scene, *flags], check=True)  # build
-            counts[label] = integration_instructions(scene, flags, Path(tmp))
+        for label, build_flags in (("current", ()), ("former", flags)):
+            subprocess.run([sys.executable, "-c", MACHINERY_CHILD, str(MODEL), scene, *build_flags], check=True,
+                           capture_output=True)  # the build, outside valgrind
+            counts[label] = integration_instructions(scene, build_flags, Path(tmp))
+    for parts in counts.values():
+        parts["machinery"] = parts["integration"] - parts["rhs"]
     now, was = counts["current"], counts["former"]
-    print(f"Iltis {scene} (event form), dopri5: instructions of one run's integration (Solver.sample, callgrind):")
-    for label, key in (("integration", "integration"), ("  rhs calls", "rhs"), ("  indicators", "indicators")):
-        print(f"  {label:<20} current {now[key] / 1e6:8.1f} M   former {was[key] / 1e6:8.1f} M   "
-              f"ratio {now[key] / was[key]:.3f}")
-    rest_now = now["integration"] - now["rhs"] - now["indicators"]
-    rest_was = was["integration"] - was["rhs"] - was["indicators"]
-    print(f"  {'  the rest':<20} current {rest_now / 1e6:8.1f} M   former {rest_was / 1e6:8.1f} M   "
-          f"ratio {rest_now / rest_was:.3f}")
-    machinery_now, machinery_was = now["integration"] - now["rhs"], was["integration"] - was["rhs"]
-    print(f"  {'all but the rhs':<20} current {machinery_now / 1e6:8.1f} M   former {machinery_was / 1e6:8.1f} M   "
-          f"ratio {machinery_now / machinery_was:.3f}")
-    print(f"  indicator evaluations {now['indicator calls']} against {was['indicator calls']}; rhs calls "
-          f"{now['rhs calls']} against {was['rhs calls']}")
-    compare_runs(scene)
+    print(f"Iltis {scene} (event form), dopri5: instructions of one run's integration (Solver.sample, callgrind), "
+          f"the current build against {' '.join(flags)}, and per accepted step ({now['accepted']} now, "
+          f"{was['accepted']} before):")
+    print(f"  {'part':<28}{'current':>10}{'former':>10}{'ratio':>8}{'calls now':>11}{'before':>8}"
+          f"{'per step':>10}{'before':>8}")
+    for label, key, calls in ROWS:
+        a, b = now[key], was[key]
+        ratio = f"{a / b:8.3f}" if b else f"{'':>8}"
+        count = f"{now[calls]:>11d}{was[calls]:>8d}" if calls else f"{'':>19}"
+        print(f"  {label:<28}{a / 1e6:9.1f}M{b / 1e6:9.1f}M{ratio}{count}"
+              f"{a / max(1, now['accepted']):10.0f}{b / max(1, was['accepted']):8.0f}")
+    compare_runs(scene, flags, repeat)
     return 0
 
 
@@ -191,13 +300,16 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="bump_10")
     parser.add_argument("--machinery", action="store_true",
-                        help="the integration's instructions, current against the former root finding (c/ode.c)")
+                        help="the integration's instructions by part, current against a former build")
+    parser.add_argument("--former", choices=sorted(FORMERS), default="machinery",
+                        help="--machinery's baseline: the former machinery (default) or root finding")
+    parser.add_argument("--repeat", type=int, default=7, help="--machinery's interleaved timed runs per build")
     args = parser.parse_args(argv)
     if shutil.which("valgrind") is None:
         print("valgrind is not on the PATH: nothing to count")
         return 1
     if args.machinery:
-        return machinery(args.scene)
+        return machinery(args.scene, args.former, args.repeat)
     for form in ("false", "true"):  # compile both forms outside valgrind first: the counts then hold no build
         subprocess.run([sys.executable, "-c", CHILD, str(MODEL), form, args.scene, "1"], check=True)
     per_run = {}

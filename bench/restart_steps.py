@@ -1,7 +1,7 @@
 """Where the Iltis bump scenes' DOPRI5 steps are rejected, and the retry that measures the order (c/dopri5.c).
 
     python bench/restart_steps.py [--scenes bump_5 bump_10 anti_5 anti_10] [--speeds 0.3 0.6] [--where]
-                                  [--accuracy] [--instructions] [--former steps|handback]
+                                  [--accuracy] [--instructions] [--former steps|handback|machinery]
 
 Each scene's run (DOPRI5 in C, the scene's rtol 1e-7, atol 1e-9, events restarted in C) with the current c/dopri5.c
 against the former retry, the same model built with -DMBS_ODE_STEPS_FORMER=1 (after a rejection the step always
@@ -15,6 +15,12 @@ in a different order at times), so --speeds adds the scenes at their speed v +- 
 on a model with loops: the steering rack's, at the start and the end of its ramp) went on in a new solver that had learned nothing, where now
 it takes over the first-step fractions, the indicators' last events, the step a restart in C takes and DOPRI5's
 controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted as a restart (its first step: 0).
+
+--former machinery: the baseline is the former machinery around the rhs calls, the same model built with
+-DMBS_MACHINERY_FORMER=1 (bench/event_instructions.py --machinery counts its instructions): the step counts and, with
+--accuracy, the results against the reference show what it changes (nothing but the accepted steps' projection:
+a step drifted by at most 1e-13 keeps its positions, one drifted beyond 1e-12 is polished with the factors at hand
+instead of projected afresh; the trajectories part by round-off, then by the integration error).
 
 --where: the trace build (-DMBS_ODE_TRACE=1, every attempt and restart written to stderr) of either retry, and where
 its rejections are: by the accepted steps since the last restart in C (0: the first step after it), the first
@@ -47,7 +53,10 @@ from former_builds import flagged_build, simulate_with  # noqa: E402
 #: --former: the former behaviour a flag builds back, and what it is
 FORMERS = {"steps": (("-DMBS_ODE_STEPS_FORMER=1",), "the former retry (-DMBS_ODE_STEPS_FORMER=1)"),
            "handback": (("-DMBS_ODE_HANDBACK_FORMER=1",), "the former hand-back (-DMBS_ODE_HANDBACK_FORMER=1: the "
-                        "solver after an event handed back to Python has learned nothing)")}
+                        "solver after an event handed back to Python has learned nothing)"),
+           "machinery": (("-DMBS_MACHINERY_FORMER=1",), "the former machinery (-DMBS_MACHINERY_FORMER=1: DOPRI5's "
+                         "scalar loops, the lookups' search over all knots, each accepted step polished, a drifted one projected "
+                         "afresh)")}
 FORMER_FLAGS = FORMERS["steps"][0]
 TRACE_FLAGS = ("-DMBS_ODE_TRACE=1",)
 KEYS = ("nsteps", "nreject", "nfev", "nevents")

@@ -148,16 +148,36 @@ static int mbs_ode_setup(mbs_ode *o, int n, mbs_fn fn, const double *p, double *
     return 0;
 }
 
-/* Weighted RMS norm of an error vector e with scale atol + rtol*max(|y0|, |y1|).  A non-finite norm
- * becomes +inf so that comparisons reject the step instead of silently passing. */
-static double mbs_ode_error_norm(const mbs_ode *o, const double *e, const double *y0, const double *y1)
+/* Loops over the state that are elementwise (the methods' stage combinations, the error norm's weighted squares) are
+ * vectorized: GCC's -O2 (12 and later) vectorizes only loops whose trip count it knows (its very-cheap cost model),
+ * and these run over n, so the functions that hold them ask for the vectorizer with the dynamic model (runtime alias
+ * checks, a scalar epilogue).  Each element is computed by the same operations in the same order either way (no
+ * reduction is vectorized without -ffast-math, and -std=c99 contracts no a*b+c): the same bits in about half the
+ * instructions.  -DMBS_MACHINERY_FORMER=1 builds them scalar (bench/event_instructions.py --machinery). */
+#if defined(__GNUC__) && !defined(__clang__) && !defined(MBS_MACHINERY_FORMER)
+#define MBS_ODE_ELEMENTWISE __attribute__((optimize("tree-vectorize", "vect-cost-model=dynamic")))
+#else
+#define MBS_ODE_ELEMENTWISE
+#endif
+/* The error norm's squares are summed in chunks of this many: each chunk's squares computed elementwise
+ * (vectorized), then added in the order of the elements (the same sum to the bit). */
+#define MBS_ODE_NORM_CHUNK 32
+
+/* Weighted RMS norm of an error vector e with scale atol + rtol*max(|y0|, |y1|) (fmax's: a NaN one gives the other).
+ * A non-finite norm becomes +inf so that comparisons reject the step instead of silently passing. */
+MBS_ODE_ELEMENTWISE static double mbs_ode_error_norm(const mbs_ode *o, const double *e, const double *y0,
+                                                     const double *y1)
 {
-    double sum = 0.0;
-    int i;
-    for (i = 0; i < o->n; i++) {
-        double sk = o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i]));
-        double r = e[i] / sk;
-        sum += r * r;
+    double sum = 0.0, squares[MBS_ODE_NORM_CHUNK];
+    int i, j;
+    for (i = 0; i < o->n; i += MBS_ODE_NORM_CHUNK) {
+        const int m = o->n - i < MBS_ODE_NORM_CHUNK ? o->n - i : MBS_ODE_NORM_CHUNK;
+        for (j = 0; j < m; j++) {
+            const double a = fabs(y0[i + j]), b = fabs(y1[i + j]);
+            const double r = e[i + j] / (o->atol[i + j] + o->rtol * (a >= b || b != b ? a : b));
+            squares[j] = r * r;
+        }
+        for (j = 0; j < m; j++) sum += squares[j];
     }
     sum = o->n > 0 ? sqrt(sum / o->n) : 0.0;
     return sum <= DBL_MAX ? sum : HUGE_VAL;

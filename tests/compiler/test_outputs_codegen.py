@@ -163,6 +163,9 @@ TABLES = [
     X.Table(X.TIME, (0.0, 1.0), (2.0, -3.0), "smooth"),
     X.Table(X.TIME, (-1.0, 0.0, 0.5, 2.0, 2.5, 4.0), (1.0, 1.0, -0.5, 4.0, 3.9, 1e3), "smooth"),  # flat, extrema
     X.Table(X.TIME, tuple(np.cumsum(np.linspace(0.1, 1.0, 40)) - 3.0), tuple(np.sin(np.arange(40.0))), "smooth"),
+    # evenly spaced as a road profile's (k * 0.05: the knots' spacing varies in the last bits), and nearly so
+    X.Table(X.TIME, tuple(float(k * 0.05) for k in range(401)), tuple(np.sin(np.arange(401.0))), "linear"),
+    X.Table(X.TIME, tuple(np.arange(64.0) + 0.4 * np.sin(np.arange(64.0))), tuple(np.cos(np.arange(64.0))), "smooth"),
 ]
 
 
@@ -178,7 +181,7 @@ def test_tables_in_c_equal_the_reference_interpolation(tmp_path):
     outputs = [(f"table{k}", sp.Function(f"mbs_table_{k}")(t)) for k in range(len(TABLES))]
     source = generate_c(eqs, params, "tables", outputs=outputs, tables=TABLES)
     assert source.count("static double mbs_table_") == len(TABLES)
-    assert source.count("_m[") == 3  # slopes only for the smooth tables
+    assert source.count("_m[") == sum(table.method == "smooth" for table in TABLES)  # slopes only for those
     call = _c_outputs(source, tmp_path, len(TABLES))
     for k, table in enumerate(TABLES):
         scale = max(abs(v) for v in table.ys)
@@ -188,6 +191,35 @@ def test_tables_in_c_equal_the_reference_interpolation(tmp_path):
             assert y[k] == pytest.approx(X.interpolate(float(x), table.xs, table.ys, table.method),
                                          rel=1e-12, abs=1e-12 * scale), (k, x)
     assert call(math.nan, [0.0, 0.0], [1.0, 1.0])[0] == 2  # NaN in, NaN out: not finite
+
+
+def _binary_search_lookup(x, xs, ys):
+    """The linear lookup of the C helper with the interval found by bisection over all knots, in doubles."""
+    if x <= xs[0]:
+        return ys[0]
+    if x >= xs[-1]:
+        return ys[-1]
+    lo = int(np.searchsorted(xs, x, side="right")) - 1
+    s = (x - xs[lo]) / (xs[lo + 1] - xs[lo])
+    return ys[lo] + s * (ys[lo + 1] - ys[lo])
+
+
+def test_the_lookup_s_start_from_even_spacing_ends_on_the_binary_search_s_interval(tmp_path):
+    """mbs_lookup starts its search next to the interval evenly spaced knots would put x in: on a road-like table
+    (4001 knots k * 0.05) and an uneven one, at the knots, next to them by a double either side and in between, its
+    values are those of the interval a bisection over all knots finds, to the bit."""
+    road = X.Table(X.TIME, tuple(float(k * 0.05) for k in range(4001)), tuple(np.sin(np.arange(4001.0))), "linear")
+    uneven = TABLES[1]
+    eqs, params = _slider()
+    outputs = [(f"table{k}", sp.Function(f"mbs_table_{k}")(t)) for k in range(2)]
+    call = _c_outputs(generate_c(eqs, params, "lookups", outputs=outputs, tables=[road, uneven]), tmp_path, 2)
+    for k, table in enumerate((road, uneven)):
+        xs = np.asarray(table.xs)
+        points = np.concatenate([xs, np.nextafter(xs, -np.inf), np.nextafter(xs, np.inf), _table_points(xs),
+                                 np.random.default_rng(3).uniform(xs[0], xs[-1], 500)])
+        for x in points:
+            status, y = call(float(x), [0.0, 0.0], [1.0, 1.0])
+            assert status == 0 and y[k] == _binary_search_lookup(float(x), table.xs, table.ys), (k, x)
 
 
 def test_table_registry_is_accepted_and_bad_tables_refused():

@@ -1,0 +1,54 @@
+"""The projection of a C integrator's accepted step (c/loops.c mbs_loop_project_step, `loop_accept`'s second half)
+from the factors of G the step's last stage left at its positions: a state that drifted off the constraints by more
+than the Newton tolerance (1e-12) but at most 1e-9 is polished with those factors (Newton's steps from the Jacobian
+at these very positions) and held to the tolerance, instead of projected afresh; a larger drift goes to
+mbs_project.  Either way the result is mbs_project's to round-off, on the constraints to 1e-12 (Freudenstein's
+four-bar, whose constraints are the loop's closure: test_loops.py).  A drift of at most 1e-13 (one step's, usually)
+keeps its positions as they are, its velocities made consistent with them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mbs.runtime import build
+from test_loops import FB, four_bar, four_bar_state
+
+pytestmark = pytest.mark.skipif(not build.have_c_compiler(), reason="needs a C compiler")
+
+
+@pytest.fixture(scope="module")
+def four_bar_data(cache_dir):
+    mechanism = four_bar(cache_dir, **FB)
+    return mechanism.workspace(four_bar_state(1.0, 6.0, **FB), fixed=["crank.phi", "der(crank.phi)"])
+
+
+@pytest.mark.parametrize("drift", [3e-12, 1e-11, 3e-10, 1e-7])
+def test_a_drifted_step_is_projected_as_mbs_project_does(four_bar_data, drift):
+    data = four_bar_data
+    nx = len(data.x)
+    nq = nx // 2
+    x = np.array(data.x)
+    x[:nq] += drift * np.array([0.3, -1.0, 0.7])  # positions off the loop's closure by about `drift`
+    residual = np.max(np.abs(data.constraints(0.0, x)))
+    assert drift / 10 < residual < 10 * drift
+    step_end = data.function("loop_accept")(0.0, x)
+    projected, fresh = step_end[nx:], data.function("project")(0.0, x)
+    assert np.max(np.abs(data.constraints(0.0, projected))) <= 1e-12
+    assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-10
+    assert np.allclose(projected, fresh, rtol=0.0, atol=1e-13)
+    assert np.array_equal(step_end[:nx], data.function("loop_rhs")(0.0, x))  # the last stage's rhs: untouched
+
+
+def test_a_step_that_drifted_by_round_off_keeps_its_positions(four_bar_data):
+    data = four_bar_data
+    nx = len(data.x)
+    nq = nx // 2
+    x = np.array(data.x)
+    x[:nq] += 2e-14 * np.array([0.3, -1.0, 0.7])
+    x[nq:] += 1e-9  # velocities off the velocity constraints
+    assert 1e-15 < np.max(np.abs(data.constraints(0.0, x))) <= 1e-13
+    projected = data.function("loop_accept")(0.0, x)[nx:]
+    assert np.array_equal(projected[:nq], x[:nq])  # not polished to the round-off floor
+    assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-12
+    assert np.allclose(projected, data.function("project")(0.0, x), rtol=0.0, atol=1e-13)
