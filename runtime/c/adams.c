@@ -1,0 +1,373 @@
+/* Variable-step, variable-order Adams-Bashforth-Moulton PECE (orders 1 to ADAMS_KMAX) with dense output.
+ *
+ * The method of L. F. Shampine and M. K. Gordon, Computer Solution of Ordinary Differential Equations: the Initial
+ * Value Problem (Freeman 1975), ch. 5 and 6, in the Newton form of E. Hairer, S. P. Norsett, G. Wanner, Solving
+ * Ordinary Differential Equations I, III.5 (variable step size Adams methods written with divided differences):
+ *
+ *   predict   y_p = y_n + integral over [t_n, t_n + h] of P, P interpolating f at t_n, ..., t_{n-k+1} (order k);
+ *   evaluate  f_p = f(t_n + h, y_p);
+ *   correct   y_{n+1} = y_n + integral of P*, P* interpolating f_p and f at t_n, ..., t_{n-k+1} (order k + 1: the
+ *             local extrapolation of Shampine & Gordon);
+ *   evaluate  f_{n+1} = f(t_n + h, y_{n+1}): the history's newest value (two right-hand sides per step).
+ *
+ * The history is the chain of divided differences D_i = f[t_n, ..., t_{n-i}]: adding a point costs O(k n) and the
+ * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
+ * order j is the difference of the correctors through j + 1 and j points, err_j = |E_j integral(w_j)| (E_j the new
+ * chain's differences, w_j its Newton basis polynomial); the step is accepted when err_k <= 1 in the weighted RMS
+ * norm of ode.c.  Order and step follow Shampine & Gordon's policy (DE/STEP): lower the order when the estimates
+ * of the lower orders are no larger (max(err_{k-1}, err_{k-2}) <= err_k; err_1 <= err_2 / 2 at order 2), raise it
+ * when err_{k+1} < err_k after k + 1 steps at order k; double the step when the estimate at the new order allows it
+ * (err 2^(k+1) <= 1/2), shrink it by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, hold it otherwise; on
+ * a rejection halve it, lower the order when err_{k-1} <= err_k, and from the third rejection in a row go on at
+ * order 1 with a step cut by sqrt(1/2 / err) (at least 1/4... at most 1/2).  The start (and a fresh restart) is
+ * Shampine & Gordon's phase 1: order 1, the order raised and the step doubled after every step while the doubled
+ * step's estimate would pass.
+ *
+ * The dense output is the corrector's polynomial, y(t) = y_n + integral from t_n to t of P*: of order k + 1, equal
+ * to y_n and to y_{n+1} (before the projection of ode.c) at the step's ends.
+ *
+ * Events (ode.c restarts the run at a switch with the state continuous, f evaluated afresh at the event with the
+ * new branch): the method sees the restart at its next step (t no longer the end of its last step, or t_old = t)
+ * and rebuilds its history there by ADAMS_RESTART:
+ *   0  forget it: order 1 from the event with a starting step, phase 1 (what CVODE does at a reinitialisation);
+ *   1  keep it: the points before the event with their old values of f, the event's f in front; the order
+ *      control drops the order while the kink lies among the points;
+ *   2  re-evaluate it (the default, see bench/adams.py): f of the new branch at the stored states of the points
+ *      before the event (at most k + 1 of them): the new branch's smooth continuation, which the solution after
+ *      the switch follows to the order of the kink, so the order stays (k + 1 evaluations per restart).
+ * All memory is allocated in mbs_adams_init: a step allocates nothing.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "mbs_runtime.h"
+
+#define ADAMS_KMAX 12                 /* highest order */
+#define ADAMS_NPOINT (ADAMS_KMAX + 2) /* points kept: k + 1 past points give the order-(k+1) estimate */
+#ifndef ADAMS_RESTART
+#define ADAMS_RESTART 2
+#endif
+/* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
+ * differences would divide the old branch's values by a vanishing distance). */
+#define ADAMS_RESTART_GAP 1e-3
+
+typedef struct {
+    int k;             /* order of the next step */
+    int nh;            /* points in the history (the newest, t_n, first) */
+    int nconst;        /* accepted steps at the current order */
+    int phase1;        /* start: raise the order and double the step after every step while the estimates allow */
+    int nfail;         /* rejections in a row */
+    double t_hist;     /* the time of the newest point (o->t after the method's own step; NaN: rebuild) */
+    double tt[ADAMS_NPOINT];    /* times of the points, newest first */
+    double *d[ADAMS_NPOINT];    /* divided differences D_i = f[tt[0], ..., tt[i]] */
+    double *e[ADAMS_NPOINT + 1];/* the new chain of a step (f_p, then f_{n+1}, in front) */
+    double *fv[ADAMS_NPOINT];   /* f at the points (for a restart's rebuild) */
+    double *yv[ADAMS_NPOINT];   /* y at the points (integrated, before projection) */
+    double *yp, *fp, *yc, *scratch;
+} am_mem;
+
+/* out[i] = integral from 0 to theta of prod_{j<i} (u - r[j]) du, i = 0 .. m (the Newton basis in the unit of the
+ * step, expanded in powers of u; m <= ADAMS_KMAX + 1). */
+static void am_integrals(const double *r, int m, double theta, double *out)
+{
+    double c[ADAMS_KMAX + 3];  /* coefficients of the product so far, c[p] of u^p */
+    int i, p;
+    c[0] = 1.0;
+    for (i = 0; i <= m; i++) {
+        double s = 0.0, tp = theta;
+        for (p = 0; p <= i; p++) { s += c[p] * tp / (p + 1); tp *= theta; }
+        out[i] = s;
+        if (i == m) break;
+        c[i + 1] = c[i];
+        for (p = i; p > 0; p--) c[p] = c[p - 1] - r[i] * c[p];
+        c[0] = -r[i] * c[0];
+    }
+}
+
+/* Weighted RMS norm of a vector v as mbs_ode_error_norm, scaled by |c|. */
+static double am_norm(const mbs_ode *o, double c, const double *v, const double *y0, const double *y1)
+{
+    double sum = 0.0;
+    int i;
+    for (i = 0; i < o->n; i++) {
+        double r = v[i] / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+        sum += r * r;
+    }
+    sum = o->n > 0 ? fabs(c) * sqrt(sum / o->n) : 0.0;
+    return sum == sum && sum < HUGE_VAL ? sum : HUGE_VAL;
+}
+
+/* The chain of divided differences of the points tt[0..nh) with values fv, into d. */
+static void am_chain(am_mem *m, int n)
+{
+    int i, j, l;
+    for (i = 0; i < m->nh; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
+    /* in place, column by column: after pass j, d[i] (i >= j) holds f[tt[i-j], ..., tt[i]] */
+    for (j = 1; j < m->nh; j++)
+        for (i = m->nh - 1; i >= j; i--) {
+            double dt = m->tt[i - j] - m->tt[i];
+            for (l = 0; l < n; l++) m->d[i][l] = (m->d[i - 1][l] - m->d[i][l]) / dt;
+        }
+}
+
+/* Move the point arrays one place back (the oldest's memory to the front) and take (t, y, f) as the newest. */
+static void am_push(am_mem *m, int n, double t, const double *y, const double *f)
+{
+    double *fl = m->fv[ADAMS_NPOINT - 1], *yl = m->yv[ADAMS_NPOINT - 1];
+    memmove(m->fv + 1, m->fv, (ADAMS_NPOINT - 1) * sizeof(double *));
+    memmove(m->yv + 1, m->yv, (ADAMS_NPOINT - 1) * sizeof(double *));
+    memmove(m->tt + 1, m->tt, (ADAMS_NPOINT - 1) * sizeof(double));
+    m->fv[0] = fl; m->yv[0] = yl; m->tt[0] = t;
+    memcpy(fl, f, (size_t)n * sizeof(double));
+    memcpy(yl, y, (size_t)n * sizeof(double));
+    if (m->nh < ADAMS_NPOINT) m->nh++;
+}
+
+/* A fresh start from (o->t, o->y, o->f): order 1, phase 1. */
+static void am_fresh(mbs_ode *o, am_mem *m)
+{
+    m->nh = 0;
+    am_push(m, o->n, o->t, o->y, o->f);
+    memcpy(m->d[0], o->f, (size_t)o->n * sizeof(double));
+    m->k = 1; m->nconst = 0; m->phase1 = 1; m->nfail = 0;
+    m->t_hist = o->t;
+}
+
+/* ode.c restarted the run at an event (o->t inside the last step or at its end, f of the new branch evaluated):
+ * rebuild the history there as ADAMS_RESTART says (see the head of this file). */
+static void am_restart(mbs_ode *o, am_mem *m)
+{
+    const int n = o->n;
+    double te = o->t, gap = ADAMS_RESTART_GAP * o->h;
+    int j, kept = 0, keep = ADAMS_RESTART == 2 ? m->k + 1 : ADAMS_NPOINT - 1;
+    if (ADAMS_RESTART == 0 || !(m->nh > 0)) {
+        double h = mbs_ode_initial_step(o, 2, m->scratch);
+        am_fresh(o, m);
+        if (h < o->h) o->h = h;
+        return;
+    }
+    /* make place 0 free (the oldest point's memory goes there), then move the past points well before the event to
+     * the places 1, 2, ..., newest first */
+    {
+        double *fl = m->fv[ADAMS_NPOINT - 1], *yl = m->yv[ADAMS_NPOINT - 1];
+        int nh = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+        memmove(m->fv + 1, m->fv, (ADAMS_NPOINT - 1) * sizeof(double *));
+        memmove(m->yv + 1, m->yv, (ADAMS_NPOINT - 1) * sizeof(double *));
+        memmove(m->tt + 1, m->tt, (ADAMS_NPOINT - 1) * sizeof(double));
+        m->fv[0] = fl; m->yv[0] = yl;
+        for (j = 1; j <= nh && kept < keep; j++) {
+            double *fs, *ys;
+            if (!(m->tt[j] < te - gap)) continue;
+            kept++;  /* kept <= j: swap point j into place kept */
+            fs = m->fv[kept]; ys = m->yv[kept];
+            m->fv[kept] = m->fv[j]; m->yv[kept] = m->yv[j]; m->tt[kept] = m->tt[j];
+            m->fv[j] = fs; m->yv[j] = ys;
+            if (ADAMS_RESTART == 2 && mbs_ode_eval(o, m->tt[kept], m->yv[kept], m->fv[kept]) != MBS_OK) {
+                kept--;  /* the new branch fails there: keep the points after it only */
+                break;
+            }
+        }
+    }
+    m->tt[0] = te;
+    memcpy(m->fv[0], o->f, (size_t)n * sizeof(double));
+    memcpy(m->yv[0], o->y, (size_t)n * sizeof(double));
+    m->nh = kept + 1;
+    am_chain(m, n);
+    if (m->k > m->nh) m->k = m->nh;
+    if (m->k < 1) m->k = 1;
+    m->nconst = 0;
+    m->nfail = 0;
+    m->phase1 = m->nh == 1;
+    m->t_hist = te;
+}
+
+static int am_step(mbs_ode *o)
+{
+    am_mem *m = o->impl;
+    const int n = o->n;
+    double *y = o->y;
+    int i, l;
+    if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
+    while (o->status == MBS_ODE_RUNNING) {
+        double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
+        int last, k, kmax_est, knew, s;
+        if (mbs_ode_next_h(o, &h, &last)) break;
+        k = m->k < m->nh ? m->k : m->nh;
+        x0 = last ? o->t_bound : t + h;
+        /* predict: the nodes t_n, t_{n-1}, ... in the unit of the step from t_n */
+        for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
+        am_integrals(r, k - 1, 1.0, a);
+        for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
+        for (l = 0; l < n; l++) {
+            double sum = 0.0;
+            for (i = k - 1; i >= 0; i--) sum += a[i] * m->d[i][l];
+            m->yp[l] = y[l] + sum;
+        }
+        s = mbs_ode_eval(o, x0, m->yp, m->fp);
+        /* the new chain with f_p: E_0 = f_p, E_i = (E_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the estimate of order
+         * k + 1 when the history has its k + 1 points */
+        kmax_est = k + 1 <= m->nh ? k + 1 : k;
+        if (s == MBS_OK) {
+            memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
+            for (i = 1; i <= kmax_est; i++) {
+                double dt = x0 - m->tt[i - 1];
+                for (l = 0; l < n; l++) m->e[i][l] = (m->e[i - 1][l] - m->d[i - 1][l]) / dt;
+            }
+            /* correct: the nodes x0, t_n, t_{n-1}, ... */
+            r[0] = 1.0;
+            for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
+            am_integrals(r, kmax_est, 1.0, a);
+            for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
+            for (l = 0; l < n; l++) {
+                double sum = 0.0;
+                for (i = k; i >= 0; i--) sum += a[i] * m->e[i][l];
+                m->yc[l] = y[l] + sum;
+            }
+            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(o, a[i], m->e[i], y, m->yc);
+            if (err[k] <= 1.0) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
+        }
+        if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
+            o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
+            o->nreject++;
+            m->nfail++;
+            continue;
+        }
+        if (!(err[k] <= 1.0)) {  /* rejected */
+            double fac = 0.5;
+            o->nreject++;
+            m->nfail++;
+            m->phase1 = 0;
+            if (k > 1 && err[k - 1] <= err[k]) { m->k = k - 1; m->nconst = 0; }
+            if (m->nfail >= 3) {
+                fac = fmin(0.5, fmax(0.25, sqrt(0.5 / err[k])));
+                m->k = 1;
+                m->nconst = 0;
+            }
+            o->h = h * fac;
+            continue;
+        }
+        /* accepted: the dense output (the corrector's polynomial), then the history with f_{n+1} */
+        {
+            double *c = o->cont;
+            c[0] = k; c[1] = t; c[2] = h;
+            for (i = 0; i <= k; i++) c[3 + i] = r[i];
+            c += 3 + ADAMS_KMAX + 2;
+            memcpy(c, y, (size_t)n * sizeof(double));
+            for (i = 0; i <= k; i++) memcpy(c + (size_t)(i + 1) * n, m->e[i], (size_t)n * sizeof(double));
+        }
+        /* order and step of the next step (Shampine & Gordon) */
+        knew = k;
+        if (m->phase1) {
+            if (err[k] * ldexp(1.0, k + 1) <= 0.5) {
+                if (k < ADAMS_KMAX) knew = k + 1;
+                o->h = 2.0 * h;
+            } else {
+                m->phase1 = 0;
+            }
+        }
+        if (!m->phase1) {
+            double ek;
+            if (k > 2 && fmax(err[k - 1], err[k - 2]) <= err[k]) knew = k - 1;
+            else if (k == 2 && err[1] <= 0.5 * err[2]) knew = 1;
+            else if (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1
+                     && err[k + 1] < (k == 1 ? 0.5 : 1.0) * err[k]) knew = k + 1;
+            ek = err[knew];
+            if (ek * ldexp(1.0, knew + 1) <= 0.5) o->h = 2.0 * h;
+            else if (ek > 0.5) o->h = h * fmax(0.5, fmin(0.9, pow(0.5 / ek, 1.0 / (knew + 1))));
+            else o->h = h;
+        }
+        if (knew != k) m->nconst = 0;
+        else m->nconst++;
+        m->k = knew;
+        m->nfail = 0;
+        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
+        {
+            int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+            memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
+            for (i = 1; i <= top; i++) {
+                double dt = x0 - m->tt[i - 1];
+                for (l = 0; l < n; l++) m->e[i][l] = (m->e[i - 1][l] - m->d[i - 1][l]) / dt;
+            }
+            for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
+                double *tmp = m->d[i];
+                m->d[i] = m->e[i];
+                m->e[i] = tmp;
+            }
+        }
+        am_push(m, n, x0, m->yc, m->scratch);
+        memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
+        memcpy(y, m->yc, (size_t)n * sizeof(double));
+        mbs_ode_accept(o, h, last);
+        m->tt[0] = o->t;
+        m->t_hist = o->t;
+        break;
+    }
+    return o->status;
+}
+
+/* y(t) = y_n + sum_i E_i h^(i+1) integral from 0 to (t - t_n)/h of prod_{j<i} (u - r_j) du */
+static void am_dense(const mbs_ode *o, double t, double *out)
+{
+    const double *c = o->cont, *y0 = c + 3 + ADAMS_KMAX + 2;
+    const int n = o->n, k = (int)c[0];
+    double h = c[2], a[ADAMS_KMAX + 3], hi;
+    int i, l;
+    am_integrals(c + 3, k, (t - c[1]) / h, a);
+    for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
+    for (l = 0; l < n; l++) {
+        double sum = 0.0;
+        for (i = k; i >= 0; i--) sum += a[i] * y0[(size_t)(i + 1) * n + l];
+        out[l] = y0[l] + sum;
+    }
+}
+
+/* The take_over hook (ode.c mbs_ode_take_over): the history of the solver that handed its event back, rebuilt at the
+ * event by the first step as after a restart in C. */
+static void am_take_over(mbs_ode *to, const mbs_ode *from)
+{
+    am_mem *m = to->impl;
+    const am_mem *was = from->impl;
+    int j;
+    for (j = 0; j < was->nh; j++) {
+        memcpy(m->fv[j], was->fv[j], (size_t)to->n * sizeof(double));
+        memcpy(m->yv[j], was->yv[j], (size_t)to->n * sizeof(double));
+        m->tt[j] = was->tt[j];
+    }
+    m->nh = was->nh;
+    m->k = was->k;
+    m->t_hist = NAN;
+}
+
+/* Set up an Adams run; h0 <= 0 chooses the first step automatically.  Returns 0 or -1 (no memory). */
+static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0, const double *y0,
+                          double t_bound, double rtol, const double *atol, int natol, double h0, double h_max,
+                          double h_min, long max_steps)
+{
+    am_mem *m;
+    double *a;
+    int j;
+    /* cont: order, t_n, h, the nodes (up to KMAX + 2), y_n and up to KMAX + 2 difference vectors */
+    if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
+                      3 + ADAMS_KMAX + 2 + (size_t)(ADAMS_KMAX + 3) * (size_t)n)) return -1;
+    m = calloc(1, sizeof(am_mem) + ((4 * ADAMS_NPOINT + 1 + 5) * (size_t)n + 1) * sizeof(double));
+    if (!m) return -1;
+    o->impl = m;
+    a = (double *)(m + 1);
+    for (j = 0; j < ADAMS_NPOINT; j++) {
+        m->d[j] = a; a += n;
+        m->fv[j] = a; a += n;
+        m->yv[j] = a; a += n;
+    }
+    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += n; }
+    m->yp = a; a += n;
+    m->fp = a; a += n;
+    m->yc = a; a += n;
+    m->scratch = a;  /* 2n: the initial step's scratch, f_{n+1} */
+    o->step = am_step;
+    o->dense = am_dense;
+    o->take_over = am_take_over;
+    am_fresh(o, m);
+    if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, 2, m->scratch);
+    return 0;
+}
