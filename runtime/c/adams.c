@@ -40,10 +40,15 @@
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
+#ifdef MBS_ODE_TRACE
+#include <stdio.h>
+#endif
 
 #include "mbs_runtime.h"
 
+#ifndef ADAMS_KMAX
 #define ADAMS_KMAX 12                 /* highest order */
+#endif
 #define ADAMS_NPOINT (ADAMS_KMAX + 2) /* points kept: k + 1 past points give the order-(k+1) estimate */
 #ifndef ADAMS_RESTART
 #define ADAMS_RESTART 2
@@ -180,6 +185,9 @@ static void am_restart(mbs_ode *o, am_mem *m)
     m->nfail = 0;
     m->phase1 = m->nh == 1;
     m->t_hist = te;
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "AREST %.17g h %.17g k %d nh %d\n", te, o->h, m->k, m->nh);
+#endif
 }
 
 static int am_step(mbs_ode *o)
@@ -233,6 +241,9 @@ static int am_step(mbs_ode *o)
             m->nfail++;
             continue;
         }
+#ifdef MBS_ODE_TRACE
+        fprintf(stderr, "ADAMS %.17g %.17g %d %.6g %d nh %d\n", t, h, k, err[k], err[k] <= 1.0, m->nh);
+#endif
         if (!(err[k] <= 1.0)) {  /* rejected */
             double fac = 0.5;
             o->nreject++;
