@@ -53,6 +53,18 @@
 #ifndef ADAMS_RESTART
 #define ADAMS_RESTART 2
 #endif
+#ifndef ADAMS_STEP_POLICY
+#define ADAMS_STEP_POLICY 1
+#endif
+#ifndef ADAMS_SAFE
+#define ADAMS_SAFE 0.8
+#endif
+#ifndef ADAMS_MAX_GROWTH
+#define ADAMS_MAX_GROWTH 2.0
+#endif
+#ifndef ADAMS_HOLD
+#define ADAMS_HOLD 1.2
+#endif
 /* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
  * differences would divide the old branch's values by a vanishing distance). */
 #define ADAMS_RESTART_GAP 1e-3
@@ -284,9 +296,15 @@ static int am_step(mbs_ode *o)
             else if (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1
                      && err[k + 1] < (k == 1 ? 0.5 : 1.0) * err[k]) knew = k + 1;
             ek = err[knew];
-            if (ek * ldexp(1.0, knew + 1) <= 0.5) o->h = 2.0 * h;
-            else if (ek > 0.5) o->h = h * fmax(0.5, fmin(0.9, pow(0.5 / ek, 1.0 / (knew + 1))));
-            else o->h = h;
+            if (ADAMS_STEP_POLICY == 0) {
+                if (ek * ldexp(1.0, knew + 1) <= 0.5) o->h = 2.0 * h;
+                else if (ek > 0.5) o->h = h * fmax(0.5, fmin(0.9, pow(0.5 / ek, 1.0 / (knew + 1))));
+                else o->h = h;
+            } else {
+                double eta = ADAMS_SAFE * pow(fmax(ek, 1e-10), -1.0 / (knew + 1));
+                eta = fmin(ADAMS_MAX_GROWTH, fmax(0.5, eta));
+                o->h = eta >= 1.0 && eta < ADAMS_HOLD ? h : h * eta;
+            }
         }
         if (knew != k) m->nconst = 0;
         else m->nconst++;
