@@ -15,8 +15,8 @@ Then, per error measure, what adams costs at the accuracy dopri5 reaches at the 
 and wall time interpolated log-log between the two adams runs whose errors bracket dopri5's, and their ratios to
 dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restart variants of c/adams.c (the model
 built with -DADAMS_RESTART=0, 1 and 2: forget the history at an event and start at order 1, as CVODE; keep it with
-the old branch's values; re-evaluate it with the new branch, the default) over the same ladder, each with its
-cost at dopri5's accuracy.
+the old branch's values, the default; re-evaluate it with the new branch) over the same ladder, each with its cost at
+dopri5's accuracy.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -52,7 +52,7 @@ ATOL_RATIO = 1e-2
 WEIGHT_FLOOR = 1e-2
 VARIANTS = {0: "order 1 afresh", 1: "history kept", 2: "history re-evaluated"}
 #: ADAMS_RESTART of the default build (c/adams.c)
-DEFAULT_RESTART = 2
+DEFAULT_RESTART = 1
 
 
 @dataclasses.dataclass

@@ -14,14 +14,16 @@
  * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
  * order j is the difference of the correctors through j + 1 and j points, err_j = |E_j integral(w_j)| (E_j the new
  * chain's differences, w_j its Newton basis polynomial); the step is accepted when err_k <= 1 in the weighted RMS
- * norm of ode.c.  Order and step follow Shampine & Gordon's policy (DE/STEP): lower the order when the estimates
- * of the lower orders are no larger (max(err_{k-1}, err_{k-2}) <= err_k; err_1 <= err_2 / 2 at order 2), raise it
- * when err_{k+1} < err_k after k + 1 steps at order k; double the step when the estimate at the new order allows it
- * (err 2^(k+1) <= 1/2), shrink it by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, hold it otherwise; on
- * a rejection halve it, lower the order when err_{k-1} <= err_k, and from the third rejection in a row go on at
- * order 1 with a step cut by sqrt(1/2 / err) (at least 1/4... at most 1/2).  The start (and a fresh restart) is
- * Shampine & Gordon's phase 1: order 1, the order raised and the step doubled after every step while the doubled
- * step's estimate would pass.
+ * norm of ode.c.  The order follows Shampine & Gordon's policy (DE/STEP): lower it when the estimates of the lower
+ * orders are no larger (max(err_{k-1}, err_{k-2}) <= err_k; err_1 <= err_2 / 2 at order 2), raise it when
+ * err_{k+1} < err_k after k + 1 steps at order k; on a rejection halve the step, lower the order when
+ * err_{k-1} <= err_k, and from the third rejection in a row go on at order 1 with the step cut by sqrt(1/2 / err)
+ * (between 1/4 and 1/2).  The start (and a fresh restart) is their phase 1: order 1, the order raised and the step
+ * doubled after every step while the doubled step's estimate would pass.  The step after an accepted one is the
+ * usual h (ADAMS_SAFE / err)^(1/(k+1)) at the new order, within [1/2, ADAMS_MAX_GROWTH] and held when it would
+ * grow by less than ADAMS_HOLD (CVODE's rule); Shampine & Gordon's own (-DADAMS_STEP_POLICY=0: double when
+ * err 2^(k+1) <= 1/2, shrink by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, else hold) kept the step
+ * at errors far below the tolerance and took 7 % more right-hand sides on the Iltis bump at 10 m/s.
  *
  * The dense output is the corrector's polynomial, y(t) = y_n + integral from t_n to t of P*: of order k + 1, equal
  * to y_n and to y_{n+1} (before the projection of ode.c) at the step's ends.
@@ -30,11 +32,17 @@
  * new branch): the method sees the restart at its next step (t no longer the end of its last step, or t_old = t)
  * and rebuilds its history there by ADAMS_RESTART:
  *   0  forget it: order 1 from the event with a starting step, phase 1 (what CVODE does at a reinitialisation);
- *   1  keep it: the points before the event with their old values of f, the event's f in front; the order
- *      control drops the order while the kink lies among the points;
- *   2  re-evaluate it (the default, see bench/adams.py): f of the new branch at the stored states of the points
- *      before the event (at most k + 1 of them): the new branch's smooth continuation, which the solution after
- *      the switch follows to the order of the kink, so the order stays (k + 1 evaluations per restart).
+ *   1  keep it (the default): the points before the event with their old values of f, the event's f in front; the
+ *      order control drops the order while the kink lies among the points;
+ *   2  re-evaluate it: f of the new branch at the stored states of the points before the event (at most k + 1 of
+ *      them), the new branch's smooth continuation, which the solution after the switch follows to the order of
+ *      the kink (k + 1 evaluations per restart).
+ * Measured on the Iltis (python bench/adams.py --variants): starting afresh costs 15-25 % more right-hand sides at
+ * the same error than keeping the history; re-evaluating it is no better than keeping it on the vehicle and costs
+ * 15 % more on the quarter car.  The kinks there are mild where they are many: the strut damper's curve is smooth
+ * to its first derivative at its breakpoints, so the old branch's values are as good as the new one's; and the new
+ * branch continued back in time is a poor history where it is stiff (the leaf spring's hard stop, 1e7 N/m: its
+ * extrapolation differs from the solution by the stiffness times the step squared).
  * All memory is allocated in mbs_adams_init: a step allocates nothing.
  */
 #include <math.h>
@@ -51,7 +59,7 @@
 #endif
 #define ADAMS_NPOINT (ADAMS_KMAX + 2) /* points kept: k + 1 past points give the order-(k+1) estimate */
 #ifndef ADAMS_RESTART
-#define ADAMS_RESTART 2
+#define ADAMS_RESTART 1
 #endif
 #ifndef ADAMS_STEP_POLICY
 #define ADAMS_STEP_POLICY 1

@@ -2,7 +2,8 @@
 
 Two right-hand sides per step against DOPRI5's six, and high orders where the solution is smooth: at tight
 tolerances on non-stiff models it reaches an accuracy with fewer right-hand sides (python bench/adams.py).  At an
-event it keeps its history, with f of the new branch at the stored states before it (c/adams.c).
+switch (an event without a jump of the state) it keeps its history and lets the order control step over the kink
+(c/adams.c).
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ its step.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from pathlib import Path
@@ -15,6 +16,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import mbs
+from mbs.runtime import build
+from mbs.runtime.backends import CBackend
 from mbs.runtime.integrators import get_integrator
 from mbs.runtime.simulate import simulate
 from mbs.runtime.workspace import Workspace
@@ -143,16 +146,18 @@ def ball_closed_form(e, times):
     return z, vz, np.array(impacts)
 
 
-def test_switch_and_impact_follow_scipy_and_the_closed_form():
-    system = mbs.load(SWITCHES)
-    res = system.simulate("run", integrator="adams")
-    assert res.success, res.message
-    times = np.round(np.arange(0, 201) * 0.01, 12)
+def sample_rows(res, times):
+    """The first row at each sample time (the rows at events lie between them)."""
     t = np.asarray(res["time"])
-    rows = np.array([np.flatnonzero(np.isclose(t, tt, rtol=0, atol=1e-12))[0] for tt in times])
-    p = dict(m=1.0, k=100.0, d=0.4, x_stop=-0.04, k_stop=900.0)  # the model's defaults (the scene sets none)
-    osc, crossings = oscillator_reference(p, times)
-    z, vz, impacts = ball_closed_form(0.8, times)
+    return np.array([np.flatnonzero(np.isclose(t, tt, rtol=0, atol=1e-12))[0] for tt in times])
+
+
+def check_against_references(res):
+    """The oscillator against scipy's DOP853 piece by piece, the ball against its closed form, the events' times."""
+    times = np.arange(0, 201) * 0.01
+    rows = sample_rows(res, times)
+    osc, crossings = oscillator_reference(dict(m=1.0, k=100.0, d=0.4, x_stop=-0.04, k_stop=900.0), times)
+    z, vz, impacts = ball_closed_form(0.8, times)  # the model's defaults (the scene sets none)
     assert np.abs(res["slide.s"][rows] - osc[:, 0]).max() < 1e-8
     assert np.abs(res["der(slide.s)"][rows] - osc[:, 1]).max() < 1e-7
     assert np.abs(res["fall.s"][rows] - z).max() < 1e-8
@@ -164,14 +169,27 @@ def test_switch_and_impact_follow_scipy_and_the_closed_form():
     assert np.abs(np.array(hits) - impacts[:len(hits)]).max() < 1e-9
 
 
-def test_switch_restarts_keep_the_order():
-    """At the stop's switch (no jump) the history goes on, re-evaluated with the new branch: the run takes about
-    the evaluations of a run whose switch is a kink the steps cross blindly, far fewer than starting at order 1
-    (ADAMS_RESTART=0's CVODE-like restart), measured by bench/adams.py --variants."""
+def test_switch_and_impact_follow_scipy_and_the_closed_form():
     system = mbs.load(SWITCHES)
     res = system.simulate("run", integrator="adams")
+    assert res.success, res.message
+    check_against_references(res)
+    # the switches restarted in C with the history kept: fewer than half DOPRI5's evaluations
     dopri5 = system.simulate("run", integrator="dopri5")
     assert res.metadata["stats"]["nfev"] < dopri5.metadata["stats"]["nfev"] / 2
+
+
+@pytest.mark.parametrize("restart", [0, 2])
+def test_the_other_restarts_at_a_switch_are_as_right(cache_dir, restart):
+    """-DADAMS_RESTART=0 (order 1 afresh at every event) and 2 (the history re-evaluated with the new branch), the
+    variants bench/adams.py --variants measures."""
+    system = mbs.load(SWITCHES)
+    model = system.compile("run")
+    variant = dataclasses.replace(model, backend=CBackend(build.load(build.build(
+        system.generate("run").c_source, cache_dir=cache_dir, extra_flags=(f"-DADAMS_RESTART={restart}",)))))
+    res = simulate(variant, Workspace(variant), 2.0, sample=0.01, integrator="adams", rtol=1e-10, atol=1e-12)
+    assert res.success, res.message
+    check_against_references(res)
 
 
 # ---- closed loop ----------------------------------------------------------------------------------------------------
