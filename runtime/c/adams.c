@@ -89,7 +89,7 @@ typedef struct {
     double *e[ADAMS_NPOINT + 1];/* the new chain of a step (f_p, then f_{n+1}, in front) */
     double *fv[ADAMS_NPOINT];   /* f at the points (for a restart's rebuild) */
     double *yv[ADAMS_NPOINT];   /* y at the points (integrated, before projection) */
-    double *yp, *fp, *yc, *scratch;
+    double *yp, *fp, *yc, *w, *scratch;
 } am_mem;
 
 /* out[i] = integral from 0 to theta of prod_{j<i} (u - r[j]) du, i = 0 .. m (the Newton basis in the unit of the
@@ -110,29 +110,51 @@ static void am_integrals(const double *r, int m, double theta, double *out)
     }
 }
 
-/* Weighted RMS norm of a vector v as mbs_ode_error_norm, scaled by |c|. */
-static double am_norm(const mbs_ode *o, double c, const double *v, const double *y0, const double *y1)
+/* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
+static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
+{
+    int i;
+    for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+}
+
+/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected). */
+static double am_norm(int n, double c, const double *v, const double *w)
 {
     double sum = 0.0;
     int i;
-    for (i = 0; i < o->n; i++) {
-        double r = v[i] / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+    for (i = 0; i < n; i++) {
+        double r = v[i] * w[i];
         sum += r * r;
     }
-    sum = o->n > 0 ? fabs(c) * sqrt(sum / o->n) : 0.0;
+    sum = n > 0 ? fabs(c) * sqrt(sum / n) : 0.0;
     return sum == sum && sum < HUGE_VAL ? sum : HUGE_VAL;
+}
+
+/* y += a x */
+static void am_axpy(int n, double a, const double *x, double *y)
+{
+    int i;
+    for (i = 0; i < n; i++) y[i] += a * x[i];
+}
+
+/* The next divided difference: out = (a - b) / dt */
+static void am_divide(int n, const double *a, const double *b, double dt, double *out)
+{
+    double inv = 1.0 / dt;
+    int i;
+    for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
 }
 
 /* The chain of divided differences of the points tt[0..nh) with values fv, into d. */
 static void am_chain(am_mem *m, int n)
 {
-    int i, j, l;
+    int i, j;
     for (i = 0; i < m->nh; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
     /* in place, column by column: after pass j, d[i] (i >= j) holds f[tt[i-j], ..., tt[i]] */
     for (j = 1; j < m->nh; j++)
         for (i = m->nh - 1; i >= j; i--) {
             double dt = m->tt[i - j] - m->tt[i];
-            for (l = 0; l < n; l++) m->d[i][l] = (m->d[i - 1][l] - m->d[i][l]) / dt;
+            am_divide(n, m->d[i - 1], m->d[i], dt, m->d[i]);
         }
 }
 
@@ -215,7 +237,7 @@ static int am_step(mbs_ode *o)
     am_mem *m = o->impl;
     const int n = o->n;
     double *y = o->y;
-    int i, l;
+    int i;
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
         double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
@@ -227,32 +249,24 @@ static int am_step(mbs_ode *o)
         for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
         am_integrals(r, k - 1, 1.0, a);
         for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
-        for (l = 0; l < n; l++) {
-            double sum = 0.0;
-            for (i = k - 1; i >= 0; i--) sum += a[i] * m->d[i][l];
-            m->yp[l] = y[l] + sum;
-        }
+        memcpy(m->yp, y, (size_t)n * sizeof(double));
+        for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
         s = mbs_ode_eval(o, x0, m->yp, m->fp);
         /* the new chain with f_p: E_0 = f_p, E_i = (E_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the estimate of order
          * k + 1 when the history has its k + 1 points */
         kmax_est = k + 1 <= m->nh ? k + 1 : k;
         if (s == MBS_OK) {
             memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
-            for (i = 1; i <= kmax_est; i++) {
-                double dt = x0 - m->tt[i - 1];
-                for (l = 0; l < n; l++) m->e[i][l] = (m->e[i - 1][l] - m->d[i - 1][l]) / dt;
-            }
+            for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             /* correct: the nodes x0, t_n, t_{n-1}, ... */
             r[0] = 1.0;
             for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
             am_integrals(r, kmax_est, 1.0, a);
             for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
-            for (l = 0; l < n; l++) {
-                double sum = 0.0;
-                for (i = k; i >= 0; i--) sum += a[i] * m->e[i][l];
-                m->yc[l] = y[l] + sum;
-            }
-            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(o, a[i], m->e[i], y, m->yc);
+            memcpy(m->yc, y, (size_t)n * sizeof(double));
+            for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            am_weights(o, y, m->yc, m->w);
+            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
             if (err[k] <= 1.0) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
         }
         if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
@@ -322,10 +336,7 @@ static int am_step(mbs_ode *o)
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
             memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
-            for (i = 1; i <= top; i++) {
-                double dt = x0 - m->tt[i - 1];
-                for (l = 0; l < n; l++) m->e[i][l] = (m->e[i - 1][l] - m->d[i - 1][l]) / dt;
-            }
+            for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
                 double *tmp = m->d[i];
                 m->d[i] = m->e[i];
@@ -349,14 +360,11 @@ static void am_dense(const mbs_ode *o, double t, double *out)
     const double *c = o->cont, *y0 = c + 3 + ADAMS_KMAX + 2;
     const int n = o->n, k = (int)c[0];
     double h = c[2], a[ADAMS_KMAX + 3], hi;
-    int i, l;
+    int i;
     am_integrals(c + 3, k, (t - c[1]) / h, a);
     for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
-    for (l = 0; l < n; l++) {
-        double sum = 0.0;
-        for (i = k; i >= 0; i--) sum += a[i] * y0[(size_t)(i + 1) * n + l];
-        out[l] = y0[l] + sum;
-    }
+    memcpy(out, y0, (size_t)n * sizeof(double));
+    for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
 }
 
 /* The take_over hook (ode.c mbs_ode_take_over): the history of the solver that handed its event back, rebuilt at the
@@ -387,7 +395,7 @@ static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double 
     /* cont: order, t_n, h, the nodes (up to KMAX + 2), y_n and up to KMAX + 2 difference vectors */
     if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
                       3 + ADAMS_KMAX + 2 + (size_t)(ADAMS_KMAX + 3) * (size_t)n)) return -1;
-    m = calloc(1, sizeof(am_mem) + ((4 * ADAMS_NPOINT + 1 + 5) * (size_t)n + 1) * sizeof(double));
+    m = calloc(1, sizeof(am_mem) + ((4 * ADAMS_NPOINT + 1 + 6) * (size_t)n + 1) * sizeof(double));
     if (!m) return -1;
     o->impl = m;
     a = (double *)(m + 1);
@@ -400,6 +408,7 @@ static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double 
     m->yp = a; a += n;
     m->fp = a; a += n;
     m->yc = a; a += n;
+    m->w = a; a += n;
     m->scratch = a;  /* 2n: the initial step's scratch, f_{n+1} */
     o->step = am_step;
     o->dense = am_dense;
