@@ -155,8 +155,8 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
         print(f"  {r.integrator:<10} {r.rtol:>7.0e} {r.nfev:>7} {r.nsteps:>6} {r.nreject:>5} {r.events:>6} "
               f"{r.wall * 1e3:>9.1f} {r.errors['max']:>9.2e} {r.errors['median']:>9.2e}  {r.status}")
     if variants:
-        print("  (adams: the default build; " + "; ".join(f"{k}: {flag}, {what}" for k, (flag, what) in VARIANTS.items())
-              + ")")
+        described = (f"{k}: {flag}, {what}" for k, (flag, what) in VARIANTS.items())
+        print("  (adams: the default build; " + "; ".join(described) + ")")
     base = next(r for r in runs if r.integrator == "dopri5" and r.rtol == scene_rtol)
     for measure in ("max", "median"):
         target = base.errors[measure]

@@ -8,7 +8,11 @@
  *   evaluate  f_p = f(t_n + h, y_p);
  *   correct   y_{n+1} = y_n + integral of P*, P* interpolating f_p and f at t_n, ..., t_{n-k+1} (order k + 1: the
  *             local extrapolation of Shampine & Gordon);
- *   evaluate  f_{n+1} = f(t_n + h, y_{n+1}): the history's newest value (two right-hand sides per step).
+ *   evaluate  f_{n+1} = f(t_n + h, y_{n+1}): the history's newest value (two right-hand sides per step), at the
+ *             accepted state as ode.c projected it onto the loop constraints (with the direct loop rhs at the
+ *             integrated states, -DADAMS_EVAL_PROJECTED=0, the history's values drifted from the projected solution:
+ *             40 four-bars through their flat positions, tests/runtime/test_fourbar_chain.py, ended 1.1 rad off at
+ *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G).
  *
  * The history is the chain of divided differences D_i = f[t_n, ..., t_{n-i}]: adding a point costs O(k n) and the
  * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
@@ -68,6 +72,9 @@
 /* The order the step after a restart with the history kept goes on with, at most (see the head of this file). */
 #ifndef ADAMS_RESTART_ORDER
 #define ADAMS_RESTART_ORDER 3
+#endif
+#ifndef ADAMS_EVAL_PROJECTED
+#define ADAMS_EVAL_PROJECTED 1
 #endif
 #ifndef ADAMS_STEP_POLICY
 #define ADAMS_STEP_POLICY 1
@@ -276,7 +283,7 @@ static int am_step(mbs_ode *o)
             for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
             am_weights(o, y, m->yc, m->w);
             for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
-            if (err[k] <= 1.0) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
+            if (err[k] <= 1.0 && !ADAMS_EVAL_PROJECTED) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
         }
         if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
             o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
@@ -341,6 +348,15 @@ static int am_step(mbs_ode *o)
         else m->nconst++;
         m->k = knew;
         m->nfail = 0;
+        if (ADAMS_EVAL_PROJECTED) {  /* f_{n+1} at the accepted state as projected */
+            memcpy(y, m->yc, (size_t)n * sizeof(double));
+            mbs_ode_accept(o, h, last);
+            if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
+                o->status = MBS_ODE_MODEL_FAILED;
+                o->fail_h = h;
+                break;
+            }
+        }
         /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
@@ -352,10 +368,12 @@ static int am_step(mbs_ode *o)
                 m->e[i] = tmp;
             }
         }
-        am_push(m, n, x0, m->yc, m->scratch);
+        am_push(m, n, x0, ADAMS_EVAL_PROJECTED ? y : m->yc, m->scratch);
         memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
-        memcpy(y, m->yc, (size_t)n * sizeof(double));
-        mbs_ode_accept(o, h, last);
+        if (!ADAMS_EVAL_PROJECTED) {
+            memcpy(y, m->yc, (size_t)n * sizeof(double));
+            mbs_ode_accept(o, h, last);
+        }
         m->tt[0] = o->t;
         m->t_hist = o->t;
         break;
