@@ -6,7 +6,8 @@
 Per case (a scene of library/iltis/vehicle.mbs or quarter_car.mbs, started as `System.start` starts it): a reference
 with DOPRI5 at rtol 1e-11 (atol 1e-13, as bench/integrators.py), then dopri5 and adams over the tolerance ladder
 (atol = rtol / 100, the scenes' ratio), interleaved per tolerance, each run's right-hand sides, steps, rejected
-steps, integration wall time (median of --repeat; `mbs.runtime.simulate` without outputs) and its error against the
+steps, integration wall time (median of --repeat, every run of the case interleaved per round; `mbs.runtime.simulate`
+without outputs) and its error against the
 reference on the scene's sample grid (the rows at events left out): the weighted RMS norm of runtime/accuracy.py
 per sample (|x - x_ref| / (1e-2 + |x_ref|)), its largest over the samples (`max`: on bump_10 one sample beside a
 leaf spring's stop decides it) and its median (`median`).
@@ -95,19 +96,22 @@ def errors(x, ref) -> dict:
     return {"max": float(np.max(norm)), "median": float(np.median(norm))}
 
 
-def ladder(model, start, settings, times, ref, integrators, rtols, repeat, label=None) -> list[Run]:
-    """Every integrator at every rtol, interleaved per round."""
-    walls = {(i, r): [] for i in integrators for r in rtols[i]}
+def ladder(configurations, start, settings, times, ref, repeat) -> list[Run]:
+    """Every configuration (label, compiled model, integrator, rtol), interleaved per round so that the load of a
+    shared machine hits them alike."""
+    walls = {key: [] for key in configurations}
     last = {}
     for _ in range(repeat):
-        for key in walls:
-            wall, last[key] = run(model, start, settings, key[0], key[1], ATOL_RATIO * key[1])
+        for key in configurations:
+            _, model, integrator, rtol = key
+            wall, last[key] = run(model, start, settings, integrator, rtol, ATOL_RATIO * rtol)
             walls[key].append(wall)
     runs = []
-    for (integrator, rtol), res in last.items():
-        st = res.metadata["stats"]
-        runs.append(Run(label or integrator, rtol, st["nfev"], st["nsteps"], st["nreject"], st.get("nevents", 0),
-                        statistics.median(walls[(integrator, rtol)]), errors(states_at(model, res, times), ref),
+    for key in configurations:
+        label, model, _, rtol = key
+        res, st = last[key], last[key].metadata["stats"]
+        runs.append(Run(label, rtol, st["nfev"], st["nsteps"], st["nreject"], st.get("nevents", 0),
+                        statistics.median(walls[key]), errors(states_at(model, res, times), ref),
                         res.metadata["status"]))
     return runs
 
@@ -142,13 +146,12 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
           f"{settings['integrator']} rtol {scene_rtol:g}); reference dopri5 rtol {REFERENCE_RTOL:g}: "
           f"{reference.metadata['stats']['nfev']} rhs, {ref_wall:.2f} s")
     ladders = {"dopri5": sorted(set(rtols) | {scene_rtol}), "adams": sorted(set(adams_rtols) | {scene_rtol})}
-    runs = ladder(model, start, settings, times, ref, ("dopri5", "adams"), ladders, repeat)
-    labels = ["adams"]
-    if variants:
-        for label, (flag, _) in VARIANTS.items():
-            labels.append(label)
-            runs += ladder(variant_model(system, scene, model, flag), start, settings, times, ref, ("adams",),
-                           ladders, repeat, label=label)
+    builds = [("adams", model)] + [(label, variant_model(system, scene, model, flag))
+                                   for label, (flag, _) in (VARIANTS.items() if variants else ())]
+    labels = [label for label, _ in builds]
+    configurations = [("dopri5", model, "dopri5", r) for r in ladders["dopri5"]]
+    configurations += [(label, built, "adams", r) for label, built in builds for r in ladders["adams"]]
+    runs = ladder(configurations, start, settings, times, ref, repeat)
     print(f"  {'integrator':<10} {'rtol':>7} {'rhs':>7} {'steps':>6} {'rej':>5} {'events':>6} {'wall [ms]':>9} "
           f"{'max':>9} {'median':>9}  status")
     for r in runs:
