@@ -34,7 +34,7 @@ MODELS = {
     "vehicle_bump": ("library/iltis/vehicle.mbs", "bump_5"),  # the full vehicle: on request (--models)
 }
 DEFAULT_MODELS = ("stiff_mount", "slider_crank", "iltis_bump")
-INTEGRATORS = ("dopri5", "auto", "rodasp", "rodas5p", "cvode_adams", "cvode_bdf", "ida", "Radau", "BDF")
+INTEGRATORS = ("dopri5", "adams", "auto", "rodasp", "rodas5p", "cvode_adams", "cvode_bdf", "ida", "Radau", "BDF")
 
 
 def run(model, data, settings, integrator, max_steps):

@@ -188,8 +188,9 @@ SCENE_SETTINGS = {
     "model": "word", "t_end": U.TIME, "sample": U.TIME, "integrator": "word", "rtol": U.DIMENSIONLESS,
     "atol": U.DIMENSIONLESS, "start": "word",
 }
-INTEGRATORS = ("dopri5", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida", "RK45", "DOP853", "Radau",
-               "BDF", "LSODA")  # dopri5, rodasp, rodas5p, auto: in C; cvode_*, ida: SUNDIALS; the rest: scipy
+#: dopri5, adams, rodasp, rodas5p, auto: in C; cvode_*, ida: SUNDIALS; the rest: scipy
+INTEGRATORS = ("dopri5", "adams", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida", "RK45", "DOP853",
+               "Radau", "BDF", "LSODA")
 #: the one default tolerance of every integration: scenes, mbs.System and mbs.runtime.simulate called directly
 #: (tight, because multibody results are read as differences of nearby runs and as conservation checks)
 DEFAULT_RTOL, DEFAULT_ATOL = 1e-8, 1e-10

@@ -34,8 +34,8 @@ from .workspace import Workspace
 #: Tolerances run by default (rtol; atol = ATOL_RATIO * rtol).
 DEFAULT_TOLERANCES = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10)
 #: Integrators run by default: the C methods, SUNDIALS', and scipy's stiff and high-order ones.
-DEFAULT_INTEGRATORS = ("dopri5", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida", "DOP853", "Radau",
-                       "BDF")
+DEFAULT_INTEGRATORS = ("dopri5", "adams", "rodasp", "rodas5p", "auto", "cvode_adams", "cvode_bdf", "ida", "DOP853",
+                       "Radau", "BDF")
 ATOL_RATIO = 1e-2
 #: The reference runs this much below the tightest tolerance ...
 REFERENCE_FACTOR = 1e-3

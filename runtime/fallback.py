@@ -9,8 +9,9 @@ from .integrators import NativeSolver, OdeSolver, get_integrator
 from .model import CompiledModel
 
 #: C method -> the scipy method closest to it: the same Dormand-Prince 5(4) pair; a stiff, L-stable implicit
-#: method for the Rosenbrock one. Methods not listed fall back to Radau (safe on stiff and non-stiff models).
-NEAREST_SCIPY = {"dopri5": "RK45", "rodasp": "Radau", "rodas5p": "Radau"}
+#: method for the Rosenbrock one; LSODA (Adams while the problem is not stiff) for Adams. Methods not listed fall
+#: back to Radau (safe on stiff and non-stiff models).
+NEAREST_SCIPY = {"dopri5": "RK45", "rodasp": "Radau", "rodas5p": "Radau", "adams": "LSODA"}
 
 
 def runnable_integrator(model: CompiledModel, name) -> tuple[type[OdeSolver], str]:

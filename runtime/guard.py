@@ -182,7 +182,7 @@ def stall_message(solver, probe, advanced: float, wall: float, steps: int, rejec
     elif share > 0.5:
         cause = "most steps are rejected: a discontinuity or a kink in a force, an input or a table here " \
                 "(smooth it), or loop closure failing to converge"
-    elif not getattr(solver, "implicit", False) and solver.name in ("dopri5", "RK45", "DOP853"):
+    elif not getattr(solver, "implicit", False) and solver.name in ("dopri5", "adams", "RK45", "DOP853"):
         cause = f"the model is stiff here and the explicit method '{solver.name}' needs tiny steps for " \
                 "stability: use 'rodasp' (or 'Radau'), or loosen rtol"
     else:

@@ -29,6 +29,7 @@
 #include "rosenbrock.c"
 #include "rodasp.c"
 #include "rodas5p.c"
+#include "adams.c"
 
 /* The model of this module (one model per module: each links its own copy of this object). */
 static const mbs_model_info *mbs_model = NULL;
@@ -40,6 +41,7 @@ static const struct { const char *name; mbs_init_fn init; } MBS_METHODS[] = {
     {"dopri5", mbs_dopri5_init},
     {"rodasp", mbs_rodasp_init},
     {"rodas5p", mbs_rodas5p_init},
+    {"adams", mbs_adams_init},
 };
 #define MBS_METHODS_SIZE ((int)(sizeof MBS_METHODS / sizeof MBS_METHODS[0]))
 
@@ -399,8 +401,11 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     /* the mechanism's own rhs in DOPRI5: x' at the integrated state itself (mbs_loop_rhs_direct, the kept
      * partition), the accepted states projected below; the projecting mbs_loop_rhs at every stage would project
      * each stage's state again (the bump: two thirds of the integration's work).  rodasp keeps the projecting
-     * rhs, whose Jacobian loop_jacobian.c assembles. */
-    if (fn->entry->fn == mbs_model->rhs && MBS_METHODS[i].init == mbs_dopri5_init && mbs_model->rhs_direct)
+     * rhs, whose Jacobian loop_jacobian.c assembles.  Adams (adams.c) as DOPRI5 (it evaluates f at each accepted
+     * state after its projection: the direct rhs there is the projecting one's; the projecting rhs at its
+     * predicted states took the same steps on the Iltis bump for half again the wall time). */
+    if (fn->entry->fn == mbs_model->rhs && mbs_model->rhs_direct
+        && (MBS_METHODS[i].init == mbs_dopri5_init || MBS_METHODS[i].init == mbs_adams_init))
         rhs = mbs_model->rhs_direct;
     rc = MBS_METHODS[i].init(&self->ode, mbs_model->nx, rhs, fn->p, fn->work, t0, y0, t_bound, rtol, atol,
                              natol, first_step, max_step, min_step, max_steps);
@@ -410,7 +415,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     /* the mechanism's own right-hand side: keep the integrated state on its loop-closure constraints */
     if (!rc && fn->entry->fn == mbs_model->rhs && mbs_model->project) {
         self->ode.yproj = calloc((size_t)mbs_model->nx + 1, sizeof(double));
-        /* DOPRI5's last stage is at the accepted state: its factors of G serve the projection */
+        /* DOPRI5's last stage is at the accepted state: its factors of G serve the projection (Adams' last
+         * evaluation is not: its projection starts afresh) */
         self->ode.project = rhs == mbs_model->rhs_direct ? mbs_model->project_step : mbs_model->project;
         rc = self->ode.yproj ? 0 : -1;
     }

@@ -116,8 +116,8 @@ def test_the_chain_runs_through_its_flat_positions(cache_dir):
 
 FORTY_T_END, FORTY_SAMPLE = 20.0, 0.1
 #: Every registered integrator (test_the_list_holds_every_integrator keeps it so).
-INTEGRATORS = ["dopri5", "rodasp", "rodas5p", "auto", "RK45", "DOP853", "Radau", "BDF", "LSODA", "cvode_adams",
-               "cvode_bdf", "ida"]
+INTEGRATORS = ["dopri5", "adams", "rodasp", "rodas5p", "auto", "RK45", "DOP853", "Radau", "BDF", "LSODA",
+               "cvode_adams", "cvode_bdf", "ida"]
 #: Wall-time budget of one run [s]: generous (the slowest measured run takes a fraction of it on a loaded
 #: machine), enforced by the run's own guard (runtime/guard.py), which ends the run with status "interrupted"
 #: and a message; the test then fails on the status, never on a time.

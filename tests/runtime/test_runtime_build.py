@@ -134,7 +134,7 @@ def test_the_runtime_object_is_compiled_once_and_linked_into_every_model(tmp_pat
     assert "Python bindings" in cache.read_record(runtime)["model"]
     for result in (first, second):
         module = build.load(result)
-        assert module.METHODS == ("dopri5", "rodasp", "rodas5p")
+        assert module.METHODS == ("dopri5", "rodasp", "rodas5p", "adams")
         p = np.ones(module.NP)  # unit masses, lengths, stiffnesses
         f = module.Function("rhs", p, np.zeros(module.NWORK))
         solver = module.Solver("dopri5", f, 0.0, np.zeros(module.NX), 0.1, 1e-8, 1e-10)

@@ -1,0 +1,198 @@
+"""Work against precision of Adams (c/adams.c) and DOPRI5 on the Iltis bump scenes, in one run.
+
+    python bench/adams.py [--cases bump_5 bump_10 quarter_5 quarter_10] [--rtols 1e-6 1e-7 1e-8 1e-9]
+        [--adams-rtols ...] [--repeat 3] [--variants]
+
+Per case (a scene of library/iltis/vehicle.mbs or quarter_car.mbs, started as `System.start` starts it): a reference
+with DOPRI5 at rtol 1e-11 (atol 1e-13, as bench/integrators.py), then dopri5 and adams over the tolerance ladder
+(atol = rtol / 100, the scenes' ratio), interleaved per tolerance, each run's right-hand sides, steps, rejected
+steps, integration wall time (median of --repeat, every run of the case interleaved per round; `mbs.runtime.simulate`
+without outputs) and its error against the
+reference on the scene's sample grid (the rows at events left out): the weighted RMS norm of runtime/accuracy.py
+per sample (|x - x_ref| / (1e-2 + |x_ref|)), its largest over the samples (`max`: on bump_10 one sample beside a
+leaf spring's stop decides it) and its median (`median`).
+
+Then, per error measure, what adams costs at the accuracy dopri5 reaches at the scene's rtol (1e-7): its rhs calls
+and wall time interpolated log-log between the two adams runs whose errors bracket dopri5's, and their ratios to
+dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restart variants of c/adams.c over the
+same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
+an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
+-DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most).
+
+Nothing is asserted: figures are printed for a reader to compare.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+import mbs
+from mbs.runtime import build
+from mbs.runtime.backends import CBackend
+from mbs.runtime.simulate import output_times, simulate
+from mbs.runtime.workspace import Workspace
+
+ROOT = Path(__file__).resolve().parent.parent
+CASES = {
+    # name: (file, scene)
+    "bump_5": ("library/iltis/vehicle.mbs", "bump_5"),
+    "bump_10": ("library/iltis/vehicle.mbs", "bump_10"),
+    "quarter_5": ("library/iltis/quarter_car.mbs", "bump_5"),
+    "quarter_10": ("library/iltis/quarter_car.mbs", "bump_10"),
+}
+REFERENCE_RTOL, REFERENCE_ATOL = 1e-11, 1e-13
+ATOL_RATIO = 1e-2
+#: the weight's floor of runtime/accuracy.py's error norm
+WEIGHT_FLOOR = 1e-2
+#: the restart variants of c/adams.c: label -> (build flag, what it does); the default keeps the history at order 3
+VARIANTS = {"afresh": ("-DADAMS_RESTART=0", "the history forgotten, order 1 from the event (CVODE's way)"),
+            "re-eval": ("-DADAMS_RESTART=2", "the history re-evaluated with the new branch"),
+            "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had")}
+
+
+@dataclasses.dataclass
+class Run:
+    integrator: str
+    rtol: float
+    nfev: int
+    nsteps: int
+    nreject: int
+    events: int
+    wall: float
+    errors: dict  # measure -> error
+    status: str
+
+
+def run(model, start, settings, integrator, rtol, atol):
+    """(wall time, results) of one integration from the start workspace, without outputs."""
+    work = Workspace(model)
+    work.p, work.t, work.x = start.p, start.t, start.x.copy()
+    began = time.perf_counter()
+    res = simulate(model, work, settings["t_end"], sample=settings.get("sample"), integrator=integrator, rtol=rtol,
+                   atol=atol, max_steps=2_000_000, outputs=False)
+    return time.perf_counter() - began, res
+
+
+def states_at(model, res, times) -> np.ndarray:
+    """The states at the sample times (a run with events has rows at its events between them)."""
+    t = np.asarray(res["time"])
+    on = np.flatnonzero(np.isin(t, times))
+    _, first = np.unique(t[on], return_index=True)
+    rows = on[first]
+    if rows.size != times.size:
+        return np.full((times.size, model.nx), np.nan)
+    return np.column_stack([np.asarray(res[n])[rows] for n in model.x_names])
+
+
+def errors(x, ref) -> dict:
+    norm = np.sqrt(np.mean(((x - ref) / (WEIGHT_FLOOR + np.abs(ref))) ** 2, axis=1))
+    return {"max": float(np.max(norm)), "median": float(np.median(norm))}
+
+
+def ladder(configurations, start, settings, times, ref, repeat) -> list[Run]:
+    """Every configuration (label, compiled model, integrator, rtol), interleaved per round so that the load of a
+    shared machine hits them alike."""
+    walls = {key: [] for key in configurations}
+    last = {}
+    for _ in range(repeat):
+        for key in configurations:
+            _, model, integrator, rtol = key
+            wall, last[key] = run(model, start, settings, integrator, rtol, ATOL_RATIO * rtol)
+            walls[key].append(wall)
+    runs = []
+    for key in configurations:
+        label, model, _, rtol = key
+        res, st = last[key], last[key].metadata["stats"]
+        runs.append(Run(label, rtol, st["nfev"], st["nsteps"], st["nreject"], st.get("nevents", 0),
+                        statistics.median(walls[key]), errors(states_at(model, res, times), ref),
+                        res.metadata["status"]))
+    return runs
+
+
+def at_accuracy(runs: list[Run], target: float, measure: str):
+    """(rhs calls, wall, exact) interpolated log-log at error `target` between the two runs that bracket it; when
+    every run is more accurate than that, the cheapest run's (an upper bound, exact False); else None."""
+    points = sorted((r.errors[measure], r.nfev, r.wall) for r in runs if r.status == "finished"
+                    and r.errors[measure] > 0 and math.isfinite(r.errors[measure]))
+    for (e1, n1, w1), (e2, n2, w2) in zip(points, points[1:]):
+        if e1 <= target <= e2 and e2 > e1:
+            s = math.log(target / e1) / math.log(e2 / e1)
+            return (math.exp(math.log(n1) + s * math.log(n2 / n1)), math.exp(math.log(w1) + s * math.log(w2 / w1)),
+                    True)
+    if points and points[-1][0] <= target:
+        cheapest = min(points, key=lambda point: point[1])
+        return cheapest[1], cheapest[2], False
+    return None
+
+
+def variant_model(system, scene, model, flags: tuple[str, ...] = ()):
+    """The scene's compiled model built in one piece with the flags (every run of a case takes such a build: the
+    scene's own build may be split into units with other optimisation flags, which changes the cost of a rhs)."""
+    code = system.generate(scene).c_source
+    return dataclasses.replace(model, backend=CBackend(build.load(build.build(code, extra_flags=flags))))
+
+
+def bench(name, rtols, adams_rtols, repeat, variants) -> None:
+    path, scene = CASES[name]
+    system = mbs.load(ROOT / path)
+    start, settings = system.start(scene)
+    model = variant_model(system, scene, start.model)
+    times = output_times(float(start.t), settings["t_end"], sample=settings.get("sample"))
+    ref_wall, reference = run(model, start, settings, "dopri5", REFERENCE_RTOL, REFERENCE_ATOL)
+    ref = states_at(model, reference, times)
+    scene_rtol = settings["rtol"]
+    print(f"\n{name} ({path}, scene {scene}; {settings['t_end']:g} s, {times.size} samples; the scene's "
+          f"{settings['integrator']} rtol {scene_rtol:g}); reference dopri5 rtol {REFERENCE_RTOL:g}: "
+          f"{reference.metadata['stats']['nfev']} rhs, {ref_wall:.2f} s")
+    ladders = {"dopri5": sorted(set(rtols) | {scene_rtol}), "adams": sorted(set(adams_rtols) | {scene_rtol})}
+    builds = [("adams", model)] + [(label, variant_model(system, scene, model, (flag,)))
+                                   for label, (flag, _) in (VARIANTS.items() if variants else ())]
+    labels = [label for label, _ in builds]
+    configurations = [("dopri5", model, "dopri5", r) for r in ladders["dopri5"]]
+    configurations += [(label, built, "adams", r) for label, built in builds for r in ladders["adams"]]
+    runs = ladder(configurations, start, settings, times, ref, repeat)
+    print(f"  {'integrator':<10} {'rtol':>7} {'rhs':>7} {'steps':>6} {'rej':>5} {'events':>6} {'wall [ms]':>9} "
+          f"{'max':>9} {'median':>9}  status")
+    for r in runs:
+        print(f"  {r.integrator:<10} {r.rtol:>7.0e} {r.nfev:>7} {r.nsteps:>6} {r.nreject:>5} {r.events:>6} "
+              f"{r.wall * 1e3:>9.1f} {r.errors['max']:>9.2e} {r.errors['median']:>9.2e}  {r.status}")
+    if variants:
+        described = (f"{k}: {flag}, {what}" for k, (flag, what) in VARIANTS.items())
+        print("  (adams: the default build; " + "; ".join(described) + ")")
+    base = next(r for r in runs if r.integrator == "dopri5" and r.rtol == scene_rtol)
+    for measure in ("max", "median"):
+        target = base.errors[measure]
+        print(f"  at dopri5's {measure} error at rtol {scene_rtol:g} ({target:.2e}; {base.nfev} rhs, "
+              f"{base.wall * 1e3:.1f} ms):")
+        for label in labels:
+            found = at_accuracy([r for r in runs if r.integrator == label], target, measure)
+            if found is None:
+                print(f"    {label:<10} no two runs bracket it")
+                continue
+            nfev, wall, exact = found
+            bound = "" if exact else " (at most: its loosest run is more accurate)"
+            print(f"    {label:<10} {nfev:7.0f} rhs, {wall * 1e3:6.1f} ms: rhs ratio {nfev / base.nfev:.2f}, "
+                  f"wall ratio {wall / base.wall:.2f}{bound}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--rtols", nargs="+", type=float, default=[1e-6, 1e-7, 1e-8, 1e-9])
+    parser.add_argument("--adams-rtols", nargs="+", type=float, default=[1e-6, 1e-7, 1e-8, 1e-9, 1e-10])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--variants", action="store_true", help="also the restart variants of c/adams.c")
+    args = parser.parse_args()
+    for name in args.cases:
+        bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,446 @@
+/* Variable-step, variable-order Adams-Bashforth-Moulton PECE (orders 1 to ADAMS_KMAX) with dense output.
+ *
+ * The method of L. F. Shampine and M. K. Gordon, Computer Solution of Ordinary Differential Equations: the Initial
+ * Value Problem (Freeman 1975), ch. 5 and 6, in the Newton form of E. Hairer, S. P. Norsett, G. Wanner, Solving
+ * Ordinary Differential Equations I, III.5 (variable step size Adams methods written with divided differences):
+ *
+ *   predict   y_p = y_n + integral over [t_n, t_n + h] of P, P interpolating f at t_n, ..., t_{n-k+1} (order k);
+ *   evaluate  f_p = f(t_n + h, y_p);
+ *   correct   y_{n+1} = y_n + integral of P*, P* interpolating f_p and f at t_n, ..., t_{n-k+1} (order k + 1: the
+ *             local extrapolation of Shampine & Gordon);
+ *   evaluate  f_{n+1} = f(t_n + h, y_{n+1}): the history's newest value (two right-hand sides per step), at the
+ *             accepted state as ode.c projected it onto the loop constraints (with the direct loop rhs at the
+ *             integrated states, -DADAMS_EVAL_PROJECTED=0, the history's values drifted from the projected solution:
+ *             40 four-bars through their flat positions, tests/runtime/test_fourbar_chain.py, ended 1.1 rad off at
+ *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G).
+ *
+ * The history is the chain of divided differences D_i = f[t_n, ..., t_{n-i}]: adding a point costs O(k n) and the
+ * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
+ * order j is the difference of the correctors through j + 1 and j points, err_j = |E_j integral(w_j)| (E_j the new
+ * chain's differences, w_j its Newton basis polynomial); the step is accepted when err_k <= 1 in the weighted RMS
+ * norm of ode.c.  The order follows Shampine & Gordon's policy (DE/STEP): lower it when the estimates of the lower
+ * orders are no larger (max(err_{k-1}, err_{k-2}) <= err_k; err_1 <= err_2 / 2 at order 2), raise it when
+ * err_{k+1} < err_k after k + 1 steps at order k; on a rejection halve the step, lower the order when
+ * err_{k-1} <= err_k, and from the third rejection in a row go on at order 1 with the step cut by sqrt(1/2 / err)
+ * (between 1/4 and 1/2).  The start (and a fresh restart) is their phase 1: order 1, the order raised and the step
+ * doubled after every step while the doubled step's estimate would pass.  The step after an accepted one is the
+ * usual h (ADAMS_SAFE / err)^(1/(k+1)) at the new order, within [1/2, ADAMS_MAX_GROWTH] and held when it would
+ * grow by less than ADAMS_HOLD (CVODE's rule); Shampine & Gordon's own (-DADAMS_STEP_POLICY=0: double when
+ * err 2^(k+1) <= 1/2, shrink by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, else hold) kept the step
+ * at errors far below the tolerance and took 7 % more right-hand sides on the Iltis bump at 10 m/s.
+ *
+ * The dense output is the corrector's polynomial, y(t) = y_n + integral from t_n to t of P*: of order k + 1, equal
+ * to y_n and to y_{n+1} (before the projection of ode.c) at the step's ends.
+ *
+ * Events (ode.c restarts the run at a switch with the state continuous, f evaluated afresh at the event with the
+ * new branch): the method sees the restart at its next step (t no longer the end of its last step, or t_old = t)
+ * and rebuilds its history there by ADAMS_RESTART:
+ *   0  forget it: order 1 from the event with a starting step, phase 1 (what CVODE does at a reinitialisation);
+ *   1  keep it (the default): the points before the event with their old values of f, the event's f in front, the
+ *      order at most ADAMS_RESTART_ORDER = 3 (the kink's contamination of the divided differences is then measured
+ *      by the error estimate, and the order climbs back as the new branch's points replace the old ones);
+ *   2  re-evaluate it: f of the new branch at the stored states of the points before the event (at most k + 1 of
+ *      them), the new branch's smooth continuation, which the solution after the switch follows to the order of
+ *      the kink (k + 1 evaluations per restart).
+ * Measured on the Iltis (python bench/adams.py --variants): starting afresh costs 15-25 % more right-hand sides at
+ * the same error than keeping the history; re-evaluating it is no better than keeping it on the vehicle and costs
+ * 15 % more on the quarter car.  The kinks there are mild where they are many: the strut damper's curve is smooth
+ * to its first derivative at its breakpoints, so the old branch's values are as good as the new one's; and the new
+ * branch continued back in time is a poor history where it is stiff (the leaf spring's hard stop, 1e7 N/m: its
+ * extrapolation differs from the solution by the stiffness times the step squared).  Kept at the order it had, the
+ * history let the error estimate miss the kink of a stiff stop (1e6 N/m on 2 kg, tests/runtime/models/
+ * handback_stop.mbs): 1.7e-3 against dopri5's 7e-5 at rtol 1e-8; with the order at most 3 after the restart 2e-5,
+ * for the same right-hand sides on the bump (-DADAMS_RESTART_ORDER=12 builds the uncapped restart).
+ * All memory is allocated in mbs_adams_init: a step allocates nothing.
+ */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#ifdef MBS_ODE_TRACE
+#include <stdio.h>
+#endif
+
+#include "mbs_runtime.h"
+
+#ifndef ADAMS_KMAX
+#define ADAMS_KMAX 12                 /* highest order */
+#endif
+#define ADAMS_NPOINT (ADAMS_KMAX + 2) /* points kept: k + 1 past points give the order-(k+1) estimate */
+#ifndef ADAMS_RESTART
+#define ADAMS_RESTART 1
+#endif
+/* The order the step after a restart with the history kept goes on with, at most (see the head of this file). */
+#ifndef ADAMS_RESTART_ORDER
+#define ADAMS_RESTART_ORDER 3
+#endif
+#ifndef ADAMS_EVAL_PROJECTED
+#define ADAMS_EVAL_PROJECTED 1
+#endif
+#ifndef ADAMS_STEP_POLICY
+#define ADAMS_STEP_POLICY 1
+#endif
+#ifndef ADAMS_SAFE
+#define ADAMS_SAFE 0.8
+#endif
+#ifndef ADAMS_MAX_GROWTH
+#define ADAMS_MAX_GROWTH 2.0
+#endif
+#ifndef ADAMS_HOLD
+#define ADAMS_HOLD 1.2
+#endif
+/* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
+ * differences would divide the old branch's values by a vanishing distance). */
+#define ADAMS_RESTART_GAP 1e-3
+
+typedef struct {
+    int k;             /* order of the next step */
+    int nh;            /* points in the history (the newest, t_n, first) */
+    int nconst;        /* accepted steps at the current order */
+    int phase1;        /* start: raise the order and double the step after every step while the estimates allow */
+    int nfail;         /* rejections in a row */
+    double t_hist;     /* the time of the newest point (o->t after the method's own step; NaN: rebuild) */
+    double tt[ADAMS_NPOINT];    /* times of the points, newest first */
+    double *d[ADAMS_NPOINT];    /* divided differences D_i = f[tt[0], ..., tt[i]] */
+    double *e[ADAMS_NPOINT + 1];/* the new chain of a step (f_p, then f_{n+1}, in front) */
+    double *fv[ADAMS_NPOINT];   /* f at the points (for a restart's rebuild) */
+    double *yv[ADAMS_NPOINT];   /* y at the points (integrated, before projection) */
+    double *yp, *fp, *yc, *w, *scratch;
+} am_mem;
+
+/* out[i] = integral from 0 to theta of prod_{j<i} (u - r[j]) du, i = 0 .. m (the Newton basis in the unit of the
+ * step, expanded in powers of u; m <= ADAMS_KMAX + 1). */
+static void am_integrals(const double *r, int m, double theta, double *out)
+{
+    double c[ADAMS_KMAX + 3];  /* coefficients of the product so far, c[p] of u^p */
+    int i, p;
+    c[0] = 1.0;
+    for (i = 0; i <= m; i++) {
+        double s = 0.0, tp = theta;
+        for (p = 0; p <= i; p++) { s += c[p] * tp / (p + 1); tp *= theta; }
+        out[i] = s;
+        if (i == m) break;
+        c[i + 1] = c[i];
+        for (p = i; p > 0; p--) c[p] = c[p - 1] - r[i] * c[p];
+        c[0] = -r[i] * c[0];
+    }
+}
+
+/* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
+static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
+{
+    int i;
+    for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+}
+
+/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected). */
+static double am_norm(int n, double c, const double *v, const double *w)
+{
+    double sum = 0.0;
+    int i;
+    for (i = 0; i < n; i++) {
+        double r = v[i] * w[i];
+        sum += r * r;
+    }
+    sum = n > 0 ? fabs(c) * sqrt(sum / n) : 0.0;
+    return sum == sum && sum < HUGE_VAL ? sum : HUGE_VAL;
+}
+
+/* y += a x */
+static void am_axpy(int n, double a, const double *x, double *y)
+{
+    int i;
+    for (i = 0; i < n; i++) y[i] += a * x[i];
+}
+
+/* The next divided difference: out = (a - b) / dt */
+static void am_divide(int n, const double *a, const double *b, double dt, double *out)
+{
+    double inv = 1.0 / dt;
+    int i;
+    for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
+}
+
+/* The chain of divided differences of the points tt[0..nh) with values fv, into d. */
+static void am_chain(am_mem *m, int n)
+{
+    int i, j;
+    for (i = 0; i < m->nh; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
+    /* in place, column by column: after pass j, d[i] (i >= j) holds f[tt[i-j], ..., tt[i]] */
+    for (j = 1; j < m->nh; j++)
+        for (i = m->nh - 1; i >= j; i--) {
+            double dt = m->tt[i - j] - m->tt[i];
+            am_divide(n, m->d[i - 1], m->d[i], dt, m->d[i]);
+        }
+}
+
+/* Move the point arrays one place back (the oldest's memory to the front) and take (t, y, f) as the newest. */
+static void am_push(am_mem *m, int n, double t, const double *y, const double *f)
+{
+    double *fl = m->fv[ADAMS_NPOINT - 1], *yl = m->yv[ADAMS_NPOINT - 1];
+    memmove(m->fv + 1, m->fv, (ADAMS_NPOINT - 1) * sizeof(double *));
+    memmove(m->yv + 1, m->yv, (ADAMS_NPOINT - 1) * sizeof(double *));
+    memmove(m->tt + 1, m->tt, (ADAMS_NPOINT - 1) * sizeof(double));
+    m->fv[0] = fl; m->yv[0] = yl; m->tt[0] = t;
+    memcpy(fl, f, (size_t)n * sizeof(double));
+    memcpy(yl, y, (size_t)n * sizeof(double));
+    if (m->nh < ADAMS_NPOINT) m->nh++;
+}
+
+/* A fresh start from (o->t, o->y, o->f): order 1, phase 1. */
+static void am_fresh(mbs_ode *o, am_mem *m)
+{
+    m->nh = 0;
+    am_push(m, o->n, o->t, o->y, o->f);
+    memcpy(m->d[0], o->f, (size_t)o->n * sizeof(double));
+    m->k = 1; m->nconst = 0; m->phase1 = 1; m->nfail = 0;
+    m->t_hist = o->t;
+}
+
+/* ode.c restarted the run at an event (o->t inside the last step or at its end, f of the new branch evaluated):
+ * rebuild the history there as ADAMS_RESTART says (see the head of this file). */
+static void am_restart(mbs_ode *o, am_mem *m)
+{
+    const int n = o->n;
+    double te = o->t, gap = ADAMS_RESTART_GAP * o->h;
+    int j, kept = 0, keep = ADAMS_RESTART == 2 ? m->k + 1 : ADAMS_NPOINT - 1;
+    if (ADAMS_RESTART == 0 || !(m->nh > 0)) {
+        double h = mbs_ode_initial_step(o, 2, m->scratch);
+        am_fresh(o, m);
+        if (h < o->h) o->h = h;
+        return;
+    }
+    /* make place 0 free (the oldest point's memory goes there), then move the past points well before the event to
+     * the places 1, 2, ..., newest first */
+    {
+        double *fl = m->fv[ADAMS_NPOINT - 1], *yl = m->yv[ADAMS_NPOINT - 1];
+        int nh = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+        memmove(m->fv + 1, m->fv, (ADAMS_NPOINT - 1) * sizeof(double *));
+        memmove(m->yv + 1, m->yv, (ADAMS_NPOINT - 1) * sizeof(double *));
+        memmove(m->tt + 1, m->tt, (ADAMS_NPOINT - 1) * sizeof(double));
+        m->fv[0] = fl; m->yv[0] = yl;
+        for (j = 1; j <= nh && kept < keep; j++) {
+            double *fs, *ys;
+            if (!(m->tt[j] < te - gap)) continue;
+            kept++;  /* kept <= j: swap point j into place kept */
+            fs = m->fv[kept]; ys = m->yv[kept];
+            m->fv[kept] = m->fv[j]; m->yv[kept] = m->yv[j]; m->tt[kept] = m->tt[j];
+            m->fv[j] = fs; m->yv[j] = ys;
+            if (ADAMS_RESTART == 2 && mbs_ode_eval(o, m->tt[kept], m->yv[kept], m->fv[kept]) != MBS_OK) {
+                kept--;  /* the new branch fails there: keep the points after it only */
+                break;
+            }
+        }
+    }
+    m->tt[0] = te;
+    memcpy(m->fv[0], o->f, (size_t)n * sizeof(double));
+    memcpy(m->yv[0], o->y, (size_t)n * sizeof(double));
+    m->nh = kept + 1;
+    am_chain(m, n);
+    if (m->k > ADAMS_RESTART_ORDER) m->k = ADAMS_RESTART_ORDER;
+    if (m->k > m->nh) m->k = m->nh;
+    if (m->k < 1) m->k = 1;
+    m->nconst = 0;
+    m->nfail = 0;
+    m->phase1 = m->nh == 1;
+    m->t_hist = te;
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "AREST %.17g h %.17g k %d nh %d\n", te, o->h, m->k, m->nh);
+#endif
+}
+
+static int am_step(mbs_ode *o)
+{
+    am_mem *m = o->impl;
+    const int n = o->n;
+    double *y = o->y;
+    int i;
+    if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
+    while (o->status == MBS_ODE_RUNNING) {
+        double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
+        int last, k, kmax_est, knew, s;
+        if (mbs_ode_next_h(o, &h, &last)) break;
+        k = m->k < m->nh ? m->k : m->nh;
+        x0 = last ? o->t_bound : t + h;
+        /* predict: the nodes t_n, t_{n-1}, ... in the unit of the step from t_n */
+        for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
+        am_integrals(r, k - 1, 1.0, a);
+        for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
+        memcpy(m->yp, y, (size_t)n * sizeof(double));
+        for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
+        s = mbs_ode_eval(o, x0, m->yp, m->fp);
+        /* the new chain with f_p: E_0 = f_p, E_i = (E_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the estimate of order
+         * k + 1 when the history has its k + 1 points */
+        kmax_est = k + 1 <= m->nh ? k + 1 : k;
+        if (s == MBS_OK) {
+            memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
+            for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            /* correct: the nodes x0, t_n, t_{n-1}, ... */
+            r[0] = 1.0;
+            for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
+            am_integrals(r, kmax_est, 1.0, a);
+            for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
+            memcpy(m->yc, y, (size_t)n * sizeof(double));
+            for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            am_weights(o, y, m->yc, m->w);
+            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
+            if (err[k] <= 1.0 && !ADAMS_EVAL_PROJECTED) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
+        }
+        if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
+            o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
+            o->nreject++;
+            m->nfail++;
+            continue;
+        }
+#ifdef MBS_ODE_TRACE
+        fprintf(stderr, "ADAMS %.17g %.17g %d %.6g %d nh %d\n", t, h, k, err[k], err[k] <= 1.0, m->nh);
+#endif
+        if (!(err[k] <= 1.0)) {  /* rejected */
+            double fac = 0.5;
+            o->nreject++;
+            m->nfail++;
+            m->phase1 = 0;
+            if (k > 1 && err[k - 1] <= err[k]) { m->k = k - 1; m->nconst = 0; }
+            if (m->nfail >= 3) {
+                fac = fmin(0.5, fmax(0.25, sqrt(0.5 / err[k])));
+                m->k = 1;
+                m->nconst = 0;
+            }
+            o->h = h * fac;
+            continue;
+        }
+        /* accepted: the dense output (the corrector's polynomial), then the history with f_{n+1} */
+        {
+            double *c = o->cont;
+            c[0] = k; c[1] = t; c[2] = h;
+            for (i = 0; i <= k; i++) c[3 + i] = r[i];
+            c += 3 + ADAMS_KMAX + 2;
+            memcpy(c, y, (size_t)n * sizeof(double));
+            for (i = 0; i <= k; i++) memcpy(c + (size_t)(i + 1) * n, m->e[i], (size_t)n * sizeof(double));
+        }
+        /* order and step of the next step (Shampine & Gordon) */
+        knew = k;
+        if (m->phase1) {
+            if (err[k] * ldexp(1.0, k + 1) <= 0.5) {
+                if (k < ADAMS_KMAX) knew = k + 1;
+                o->h = 2.0 * h;
+            } else {
+                m->phase1 = 0;
+            }
+        }
+        if (!m->phase1) {
+            double ek;
+            if (k > 2 && fmax(err[k - 1], err[k - 2]) <= err[k]) knew = k - 1;
+            else if (k == 2 && err[1] <= 0.5 * err[2]) knew = 1;
+            else if (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1
+                     && err[k + 1] < (k == 1 ? 0.5 : 1.0) * err[k]) knew = k + 1;
+            ek = err[knew];
+            if (ADAMS_STEP_POLICY == 0) {
+                if (ek * ldexp(1.0, knew + 1) <= 0.5) o->h = 2.0 * h;
+                else if (ek > 0.5) o->h = h * fmax(0.5, fmin(0.9, pow(0.5 / ek, 1.0 / (knew + 1))));
+                else o->h = h;
+            } else {
+                double eta = ADAMS_SAFE * pow(fmax(ek, 1e-10), -1.0 / (knew + 1));
+                eta = fmin(ADAMS_MAX_GROWTH, fmax(0.5, eta));
+                o->h = eta >= 1.0 && eta < ADAMS_HOLD ? h : h * eta;
+            }
+        }
+        if (knew != k) m->nconst = 0;
+        else m->nconst++;
+        m->k = knew;
+        m->nfail = 0;
+        if (ADAMS_EVAL_PROJECTED) {  /* f_{n+1} at the accepted state as projected */
+            memcpy(y, m->yc, (size_t)n * sizeof(double));
+            mbs_ode_accept(o, h, last);
+            if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
+                o->status = MBS_ODE_MODEL_FAILED;
+                o->fail_h = h;
+                break;
+            }
+        }
+        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
+        {
+            int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+            memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
+            for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
+                double *tmp = m->d[i];
+                m->d[i] = m->e[i];
+                m->e[i] = tmp;
+            }
+        }
+        am_push(m, n, x0, ADAMS_EVAL_PROJECTED ? y : m->yc, m->scratch);
+        memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
+        if (!ADAMS_EVAL_PROJECTED) {
+            memcpy(y, m->yc, (size_t)n * sizeof(double));
+            mbs_ode_accept(o, h, last);
+        }
+        m->tt[0] = o->t;
+        m->t_hist = o->t;
+        break;
+    }
+    return o->status;
+}
+
+/* y(t) = y_n + sum_i E_i h^(i+1) integral from 0 to (t - t_n)/h of prod_{j<i} (u - r_j) du */
+static void am_dense(const mbs_ode *o, double t, double *out)
+{
+    const double *c = o->cont, *y0 = c + 3 + ADAMS_KMAX + 2;
+    const int n = o->n, k = (int)c[0];
+    double h = c[2], a[ADAMS_KMAX + 3], hi;
+    int i;
+    am_integrals(c + 3, k, (t - c[1]) / h, a);
+    for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
+    memcpy(out, y0, (size_t)n * sizeof(double));
+    for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
+}
+
+/* The take_over hook (ode.c mbs_ode_take_over): the history of the solver that handed its event back, rebuilt at the
+ * event by the first step as after a restart in C. */
+static void am_take_over(mbs_ode *to, const mbs_ode *from)
+{
+    am_mem *m = to->impl;
+    const am_mem *was = from->impl;
+    int j;
+    for (j = 0; j < was->nh; j++) {
+        memcpy(m->fv[j], was->fv[j], (size_t)to->n * sizeof(double));
+        memcpy(m->yv[j], was->yv[j], (size_t)to->n * sizeof(double));
+        m->tt[j] = was->tt[j];
+    }
+    m->nh = was->nh;
+    m->k = was->k;
+    m->t_hist = NAN;
+}
+
+/* Set up an Adams run; h0 <= 0 chooses the first step automatically.  Returns 0 or -1 (no memory). */
+static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double *work, double t0, const double *y0,
+                          double t_bound, double rtol, const double *atol, int natol, double h0, double h_max,
+                          double h_min, long max_steps)
+{
+    am_mem *m;
+    double *a;
+    int j;
+    /* cont: order, t_n, h, the nodes (up to KMAX + 2), y_n and up to KMAX + 2 difference vectors */
+    if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
+                      3 + ADAMS_KMAX + 2 + (size_t)(ADAMS_KMAX + 3) * (size_t)n)) return -1;
+    m = calloc(1, sizeof(am_mem) + ((4 * ADAMS_NPOINT + 1 + 6) * (size_t)n + 1) * sizeof(double));
+    if (!m) return -1;
+    o->impl = m;
+    a = (double *)(m + 1);
+    for (j = 0; j < ADAMS_NPOINT; j++) {
+        m->d[j] = a; a += n;
+        m->fv[j] = a; a += n;
+        m->yv[j] = a; a += n;
+    }
+    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += n; }
+    m->yp = a; a += n;
+    m->fp = a; a += n;
+    m->yc = a; a += n;
+    m->w = a; a += n;
+    m->scratch = a;  /* 2n: the initial step's scratch, f_{n+1} */
+    o->step = am_step;
+    o->dense = am_dense;
+    o->take_over = am_take_over;
+    am_fresh(o, m);
+    if (o->h <= 0 && o->status == MBS_ODE_RUNNING) o->h = mbs_ode_initial_step(o, 2, m->scratch);
+    return 0;
+}
