@@ -12,7 +12,10 @@ of one run wander by a factor of two and more with the others' load.  The parts:
 * integration in C (`Solver.sample`: every step, projection, event location and restart that C does itself), and
   of it the right-hand side calls (the run's rhs count times the cost per call of `loop_rhs`, timed inside C at
   states of the run) and the rest, the per-step overhead (stages' arithmetic, error norm, the projection of each
-  accepted step, the dense output, the event indicators and their root finding, the restarts' bookkeeping);
+  accepted step, the dense output, the event indicators and their root finding, the restarts' bookkeeping). The
+  split is an estimate: the cost per call is timed apart from the run, in a warm loop over the rows' states, and
+  moves with the load and the caches (8 to 13 us for the same function on the same machine), so the overhead line
+  swings with it; bench/event_instructions.py --machinery counts the same split in instructions, which do not;
 * the events C handled, booked in Python (`event_loop.replay`: records, run-time values, rows);
 * outputs: the rows of the results (each projected onto the loop constraints, then its outputs with the
   reaction forces: `Function.rows`), per row;
