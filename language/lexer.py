@@ -76,6 +76,35 @@ class _Scanner:
         self.allowed = {t.name for t in kept}
 
 
+class _Scanners(dict):
+    """Parser state -> its scanner, each made when the parser first is in that state: a model's text meets a
+    fraction of the grammar's states, and compiling every state's regex took a tenth of the parse of the Iltis
+    in a fresh process. States that accept the same terminals share one scanner."""
+
+    def __init__(self, lexer: "MbsLexer", states):
+        super().__init__()
+        self._lexer, self._states, self._by_accepts = lexer, states, {}
+
+    def __missing__(self, state) -> _Scanner:
+        lexer = self._lexer
+        accepts = frozenset(a for a in self._states[state] if a in lexer.terminals_by_name) | {NEWLINE}
+        scanner = self._by_accepts.get(accepts)
+        if scanner is None:
+            scanner = self._by_accepts[accepts] = _Scanner([t for t in lexer._tokens if t.name in accepts],
+                                                           lexer._skip)
+        self[state] = scanner
+        return scanner
+
+
+def _all_scanners(lexer: "MbsLexer", states) -> dict:
+    """Every state's scanner made at once (as the lexer did before it made them on first use): the reference the
+    tests hold the lazy ones to."""
+    scanners = _Scanners(lexer, states)
+    for state in states:
+        scanners[state]  # noqa: B018 (made by __missing__)
+    return scanners
+
+
 class MbsLexer(Lexer):
     """lark custom lexer (``Lark(..., lexer=MbsLexer)``), equivalent to lark's contextual lexer plus the
     newline rules of the language; see the module docstring."""
@@ -94,14 +123,8 @@ class MbsLexer(Lexer):
 
     def _scanners(self, states) -> dict[int, _Scanner]:
         if self._states is not states:
-            by_accepts: dict[frozenset, _Scanner] = {}
-            per_state = {}
-            for state, actions in states.items():
-                accepts = frozenset(a for a in actions if a in self.terminals_by_name) | {NEWLINE}
-                if accepts not in by_accepts:
-                    by_accepts[accepts] = _Scanner([t for t in self._tokens if t.name in accepts], self._skip)
-                per_state[state] = by_accepts[accepts]
-            self._states, self._per_state = states, per_state
+            self._states = states
+            self._per_state = _Scanners(self, states)
         return self._per_state
 
     def lex(self, lexer_state, parser_state):

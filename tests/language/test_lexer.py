@@ -155,3 +155,18 @@ def test_tokens_are_those_of_lark_contextual_lexer_on_every_shipped_model(path, 
 ])
 def test_tokens_are_those_of_lark_contextual_lexer_on_odd_text(text, lark_contextual):
     assert positioned(text, _lark()) == positioned(text, lark_contextual)
+
+
+def test_a_state_s_scanner_made_on_first_use_is_the_one_made_with_all_the_others():
+    """The scanners are made when the parser first is in a state (lexer._Scanners): each must match as the one
+    made for every state at once, and states accepting the same terminals share one."""
+    from mbs.language import lexer
+    lark = _lark()
+    states = lark.parser.parser.parser.parse_table.states
+    lazy, eager = lexer._Scanners(lark.parser.lexer, states), lexer._all_scanners(lark.parser.lexer, states)
+    assert not lazy
+    for state in states:
+        made, every = lazy[state], eager[state]
+        assert made.match.__self__.pattern == every.match.__self__.pattern
+        assert made.keywords == every.keywords and made.allowed == every.allowed
+    assert len({id(s) for s in lazy.values()}) == len({id(s) for s in eager.values()}) < len(states)
