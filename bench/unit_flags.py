@@ -2,6 +2,7 @@
 (or any other set), compiler CPU per unit and what the compiled right-hand side costs, in one run.
 
     python bench/unit_flags.py [--repeat 3] [--scene bump_5] [--calls 200] [--flags "-fno-gcse ..."]
+                               [--compiler-instructions] [--no-count]
 
 The vehicle's generated C (derived once) is split into its units (runtime/translation_units.py) and each unit is
 compiled alone with both settings, one compiler at a time, the settings interleaved; printed per unit: its size,
@@ -10,6 +11,10 @@ shared machine; medians of --repeat) with the former and the current flags and t
 
 * former: the model units' flags before the change (FORMER_MODEL_UNIT_FLAGS, the outputs' unit's after them);
 * current: runtime/build.py's (model_unit_flags, OUTPUTS_UNIT_FLAGS), or the model units' flags --flags names.
+
+With --compiler-instructions each model unit's compile is also counted in instructions under cachegrind, once per
+setting (load-independent: the CPU seconds of one compile wander by 15 % on the shared machine; about 30 s of CPU
+for each compile).
 
 Then both settings' libraries are built into one fresh cache and compared: the right-hand side (`rhs`) and the
 outputs at random states around the scene's start, to the bit (GCC does not reassociate without -ffast-math, so
@@ -24,7 +29,6 @@ import argparse
 import contextlib
 import json
 import os
-import re
 import shlex
 import shutil
 import statistics
@@ -37,6 +41,7 @@ import numpy as np
 
 import mbs
 from mbs.runtime import build
+from rhs_instructions import instructions
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
@@ -82,19 +87,31 @@ def compiler_cpu(command: tuple[str, ...], cwd: str) -> float:
     return (after.children_user - before.children_user) + (after.children_system - before.children_system)
 
 
-def unit_cpu(code: str, settings: dict[str, tuple[str, ...] | None], repeat: int) -> dict[str, dict[str, float]]:
-    """{unit: {setting: median compiler CPU seconds}}, every unit compiled alone, the settings interleaved."""
+def compiler_instructions(command: tuple[str, ...], cwd: str) -> float:
+    """The instructions one compile executes (the driver, cc1 and the assembler, under cachegrind without its cache
+    simulation: load-independent, where CPU seconds of the same compile wander by 15 % on the shared machine)."""
+    with tempfile.TemporaryDirectory() as out:
+        subprocess.run(["valgrind", "--tool=cachegrind", "--cache-sim=no", "--trace-children=yes",
+                        f"--cachegrind-out-file={out}/cg.%p", *command], cwd=cwd, check=True, capture_output=True)
+        return float(sum(instructions(dump) for dump in Path(out).glob("cg.*")))
+
+
+def unit_costs(code: str, settings: dict[str, tuple[str, ...] | None], repeat: int,
+               measure=compiler_cpu, units: tuple[str, ...] = ()) -> dict[str, dict[str, float]]:
+    """{unit: {setting: the median of `measure` (compiler CPU seconds)}}, every unit (or those of `units`) compiled
+    alone, the settings interleaved."""
     files = build._build_files(code, "vehicle.c")
     files[build.RUNTIME_UNIT] = build._runtime_unit()
     commands = {label: unit_commands(files, flags) for label, flags in settings.items()}
-    runs: dict[str, dict[str, list[float]]] = {name: {label: [] for label in settings} for name in commands["former"]}
+    runs: dict[str, dict[str, list[float]]] = {name: {label: [] for label in settings} for name in commands["former"]
+                                               if not units or name in units}
     with tempfile.TemporaryDirectory() as tmp:
         for name, text in files.items():
             Path(tmp, name).write_text(text, encoding="utf-8")
         for _ in range(repeat):
             for name in runs:
                 for label in settings:
-                    runs[name][label].append(compiler_cpu(commands[label][name], tmp))
+                    runs[name][label].append(measure(commands[label][name], tmp))
     return {name: {label: statistics.median(times) for label, times in by.items()} for name, by in runs.items()}
 
 
@@ -171,11 +188,8 @@ def instructions_per_call(flags: tuple[str, ...] | None, scene: str, calls: int,
         dumps = sorted(Path(tmp).glob("callgrind.out.*"), key=lambda p: int(p.name.rsplit(".", 1)[1]))
         if done.returncode != 0 or len(dumps) < 2 * len(COUNTED):
             raise SystemExit(f"the valgrind run failed (status {done.returncode}):\n{done.stderr[-3000:]}")
-        counts = []
-        for dump in dumps[-2 * len(COUNTED):][1::2]:  # each function's warm-up dump, then its timed one
-            found = re.search(r"^(?:totals|summary):\s*(\d+)", dump.read_text(errors="replace"), re.M)
-            counts.append(int(found.group(1)) / calls)
-    return dict(zip(COUNTED, counts))
+        # each function's warm-up dump, then its timed one
+        return {name: instructions(dump) / calls for name, dump in zip(COUNTED, dumps[-2 * len(COUNTED):][1::2])}
 
 
 def main(argv=None) -> int:
@@ -186,6 +200,8 @@ def main(argv=None) -> int:
     ap.add_argument("--flags", help="the model units' flags to compare with the former ones (default: "
                     "runtime/build.py's)")
     ap.add_argument("--no-count", action="store_true", help="skip the callgrind counts")
+    ap.add_argument("--compiler-instructions", action="store_true",
+                    help="also count the model units' compiles in instructions (cachegrind; minutes)")
     args = ap.parse_args(argv)
     current = tuple(shlex.split(args.flags)) if args.flags is not None else None
     settings = {"former": FORMER_MODEL_UNIT_FLAGS, "current": current}
@@ -195,7 +211,7 @@ def main(argv=None) -> int:
     print(f"each beyond {' '.join(build.FLAGS)}; the outputs' unit adds {' '.join(build.OUTPUTS_UNIT_FLAGS)}")
     system = mbs.load(MODEL)
     code = system.generate(args.scene).c_source
-    cpu = unit_cpu(code, settings, args.repeat)
+    cpu = unit_costs(code, settings, args.repeat)
     sizes = {**build._build_files(code, "vehicle.c"), build.RUNTIME_UNIT: build._runtime_unit()}
     print(f"\ncompiler CPU per unit, each compiled alone, medians of {args.repeat} interleaved")
     print(f"  {'unit':12s} {'KiB':>6s} {'former':>8s} {'current':>8s} {'ratio':>6s}")
@@ -206,6 +222,14 @@ def main(argv=None) -> int:
     for label, names in (("model units", models), ("all units", list(cpu))):
         a, b = (sum(cpu[n][s] for n in names) for s in ("former", "current"))
         print(f"  {label:19s} {a:7.2f}s {b:7.2f}s {b / a:6.2f}")
+    if args.compiler_instructions and shutil.which("valgrind"):
+        counted = unit_costs(code, settings, 1, compiler_instructions, tuple(models))
+        print("the model units' compiles in instructions (cachegrind: load-independent; once each)")
+        for name, by in counted.items():
+            print(f"  {name:12s} former {by['former'] / 1e9:7.2f} G  current {by['current'] / 1e9:7.2f} G  "
+                  f"{by['current'] / by['former']:6.2f}")
+        a, b = (sum(by[s] for by in counted.values()) for s in ("former", "current"))
+        print(f"  {'model units':12s} former {a / 1e9:7.2f} G  current {b / 1e9:7.2f} G  {b / a:6.2f}")
     with tempfile.TemporaryDirectory() as cache:
         bits, times = compare_builds(code, args.scene, settings, cache)
         print("\nthe same to the bit at random states: " + ", ".join(f"{fn} {'yes' if ok else 'NO'}"
