@@ -72,7 +72,7 @@ FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: Then -fno-schedule-insns2 and a cselib of 50 memory locations (GCC's default 500): of what was left of the
 #: Iltis's model units (-ftime-report), the post-reload CSE over the spill slots took 18 % (cselib's memory
 #: list, walked for every store, 5 % with 50) and the second scheduling 9 %. Both together: the five units'
-#: compiles 32.1 -> 27.0 billion instructions (0.84, cachegrind on the compiler: load-independent), their compiler
+#: compiles 32.4 -> 27.4 billion instructions (0.84, cachegrind on the compiler: load-independent), their compiler
 #: CPU 0.71 and 0.90 in two runs (medians of 3 interleaved, GCC 12; each flag alone 0.85 and 0.90, which is why one
 #: at a time looked like noise). bench/unit_flags.py: rhs and outputs the same to the bit, `loop_rhs` 52,842 ->
 #: 52,859 instructions a call and the outputs 89,817 -> 89,836 (callgrind, bump_5 equilibrium; the out-of-order
