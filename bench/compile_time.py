@@ -2,7 +2,7 @@
 and what the settings cost the compiled model at run time.
 
     python bench/compile_time.py [--models iltis chain40 fourbar40] [--repeat 3] [--units]
-                                 [--baseline former|eager|overlap] [--empty] [--timeline]
+                                 [--baseline former|eager|overlap|flags] [--empty] [--timeline]
 
 Per model, all measured in this run, the two settings' runs interleaved (medians of --repeat; the machine is shared
 and noisy, so CPU seconds are printed beside wall seconds):
@@ -41,6 +41,9 @@ and noisy, so CPU seconds are printed beside wall seconds):
   (runtime/build.py Prebuilds: the runtime unit as the derivation starts, the glue unit from the file's head before
   the functions are printed; before, both with the equations' units), the split's former helper search and the
   former order of the units (bench/compile_time.py former_overlap). The default baseline has them so too.
+* --baseline flags: the baseline is the current settings with the model units' former flags (bench/unit_flags.py
+  FORMER_MODEL_UNIT_FLAGS: before the post-reload CSE's memory and the second scheduling were cut); the default
+  baseline has them so too.
 * --empty: the cache is empty, without the runtime object (a user's very first compile), for both settings.
 * --timeline: when each compiler process of each setting's last compile ran against the derivation's phases
   (mbs/pipeline.py _Phases), in seconds from the compile's start.
@@ -78,6 +81,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 sys.path.insert(0, str(ROOT / "tests" / "runtime"))
 from chain import chain_text  # noqa: E402
 from fourbar_chain import fourbar_chain  # noqa: E402
+from unit_flags import FORMER_MODEL_UNIT_FLAGS, model_flags_set  # noqa: E402
 
 TARGETS = {"iltis": 5.0, "chain40": 10.0}
 #: The flags of the outputs' unit before this bench's change (the model units' level).
@@ -209,6 +213,10 @@ def former_settings(baseline: str = "former"):
         with eager_cold() if baseline == "eager" else former_overlap():
             yield
         return
+    if baseline == "flags":
+        with model_flags_set(FORMER_MODEL_UNIT_FLAGS):
+            yield
+        return
     _EAGER_NUMPY[0] = True
     printer, tape = emit_common.ExprPrinter, tape_module.Tape
     saved = (printer.doprint, printer._print_Add, printer.free_symbols, tape.temp, tape.__dict__["symbols_read"],
@@ -219,7 +227,7 @@ def former_settings(baseline: str = "former"):
     differentiate.sympy_diff = lambda expr, a, memo: emit_common.sp.diff(expr, a)
     build.OUTPUTS_UNIT_FLAGS, build.COLD_UNIT_FLAGS = FORMER_OUTPUTS_FLAGS, FORMER_COLD_FLAGS
     try:
-        with eager_cold(), former_overlap():
+        with eager_cold(), former_overlap(), model_flags_set(FORMER_MODEL_UNIT_FLAGS):
             yield
     finally:
         _EAGER_NUMPY[0] = False
@@ -485,10 +493,11 @@ def main() -> None:
     ap.add_argument("--models", nargs="+", default=["iltis", "chain40", "fourbar40"])
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--units", action="store_true", help="also each unit compiled alone, current and former flags")
-    ap.add_argument("--baseline", choices=("former", "eager", "overlap"), default="former",
+    ap.add_argument("--baseline", choices=("former", "eager", "overlap", "flags"), default="former",
                     help="former: every former setting (the default); eager: the current settings with a tree's cold "
                          "functions compiled with the rest; overlap: the current settings with the compiler started as "
-                         "before the early starts (bench/compile_time.py former_overlap)")
+                         "before the early starts (bench/compile_time.py former_overlap); flags: the current settings "
+                         "with the model units' former flags (bench/unit_flags.py FORMER_MODEL_UNIT_FLAGS)")
     ap.add_argument("--empty", action="store_true",
                     help="compile into a cache without the runtime object every model shares (a user's very first "
                          "compile: the runtime unit is compiled too)")
@@ -506,6 +515,10 @@ def main() -> None:
     if args.baseline == "overlap":
         print("baseline: the current settings with the C compiler started as before (the runtime unit with the "
               "equations' units; bench/compile_time.py former_overlap)")
+    if args.baseline == "flags":
+        print(f"baseline: the current settings with the model units' former flags "
+              f"({' '.join(FORMER_MODEL_UNIT_FLAGS)}; now {' '.join(build.GCC_MODEL_UNIT_FLAGS)}: runtime/build.py "
+              "GCC_MODEL_UNIT_FLAGS, for GCC)")
     if args.baseline == "eager":
         print("baseline: the current settings with a tree's cold functions (mass matrix, forces) derived and compiled "
               "with the rest (mbs/system.py COLD_APART False) and prebuild as before (bench/compile_time.py eager_cold)")
@@ -543,7 +556,9 @@ def main() -> None:
         a, b, r = simulate_times(current[-1], former[-1], name, args.repeat, args.baseline)
         print(f"  simulate: {a * 1e3:.0f} ms against the former build's {b * 1e3:.0f} ms: {r:.2f} x")
         if args.units:
-            now, before = unit_cpu(current[0]["code"], False), unit_cpu(former[0]["code"], args.baseline == "former")
+            now = unit_cpu(current[0]["code"], False)
+            with model_flags_set(FORMER_MODEL_UNIT_FLAGS if args.baseline in ("former", "flags") else None):
+                before = unit_cpu(former[0]["code"], args.baseline == "former")
             print(f"  {'unit':12s} {'KiB':>6s} {'cpu':>7s} {'former':>7s}")
             for unit in {**before, **now}:
                 size, cpu = now.get(unit, before[unit])

@@ -69,8 +69,22 @@ FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: 14 s of CPU the 40-four-bar chain's units took at -O2, 12 s went to its mass matrix. With these 6.4 s, and the
 #: right-hand side as fast (0.96 of -O2 for the chain, 0.94 for the Iltis, interleaved in one process). -O1
 #: would cost the chain's right-hand side 12 %. The glue unit (integrators, loop solver) keeps FLAGS.
+#: Then -fno-schedule-insns2 and a cselib of 50 memory locations (GCC's default 500): of what was left of the
+#: Iltis's model units (-ftime-report), the post-reload CSE over the spill slots took 18 % (cselib's memory
+#: list, walked for every store, 5 % with 50) and the second scheduling 9 %. Both together: the five units'
+#: compiles 32.4 -> 27.4 billion instructions (0.84, cachegrind on the compiler: load-independent), their compiler
+#: CPU 0.71 and 0.90 in two runs (medians of 3 interleaved, GCC 12; each flag alone 0.85 and 0.90, which is why one
+#: at a time looked like noise). bench/unit_flags.py: rhs and outputs the same to the bit, `loop_rhs` 52,842 ->
+#: 52,859 instructions a call and the outputs 89,817 -> 89,836 (callgrind, bump_5 equilibrium; the out-of-order
+#: core does the scheduling: the times per call agree within the machine's noise). On top of the two, model_2.c's
+#: compile went 0.96 with -fno-expensive-optimizations and 0.93 with -fno-tree-slp-vectorize, which costs
+#: `loop_rhs` 0.4 % more instructions (scalar for paired SSE2 arithmetic) and looked slower per call: left out;
+#: alone, -fira-region=one/all, -fira-algorithm=priority, -fno-tree-pre/-vrp/-pta, -fno-reorder-blocks, -fno-dse
+#: and --param=max-cse-path-length=1 moved three units by less than the noise (1.13 the last). Not the glue unit:
+#: its loops' speed is what the integrators see, and instruction counts do not see scheduling.
 GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access=100",
-                        "--param=dse-max-alias-queries-per-store=32")
+                        "--param=dse-max-alias-queries-per-store=32", "-fno-schedule-insns2",
+                        "--param=max-cselib-memory-locations=50")
 #: Appended to those of the outputs' unit (outputs.c, after the model units' flags). The outputs are evaluated once
 #: per sample, not per stage of a step; the Iltis's (135 kB of C) took 2.9 to 3.4 s of CPU at the model units' level
 #: and 2.1 s at -Og (GCC 12, compiled alone), and a bump scene's simulate is as fast within the noise of a shared

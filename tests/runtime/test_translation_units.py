@@ -327,3 +327,47 @@ def test_a_file_with_loops_is_split_from_a_fraction_of_the_size_a_tree_needs(mon
     assert units.split_sources(code, "model.c") is not None
     monkeypatch.setattr(units, "LOOP_SPLIT_FRACTION", 1.0)
     assert units.split_sources(code, "model.c") is None
+
+
+def test_gccs_model_unit_flags_reach_the_model_units_alone_and_keep_the_results(tmp_path, monkeypatch):
+    """runtime/build.py GCC_MODEL_UNIT_FLAGS (GCC only): every model unit's and the outputs' unit's compile command
+    carries them (the outputs' -Og after them), the glue's and the runtime unit's none; and the library computes
+    what the one without them computes, to the bit (they skip or trim passes: nothing reassociates)."""
+    cc = tuple(build.compiler_command())
+    if not build.model_unit_flags(cc):
+        pytest.skip("the compiler is not GCC")
+    assert build.model_unit_flags(cc) == build.GCC_MODEL_UNIT_FLAGS
+    assert not any("fast-math" in f or "associative" in f or "contract" in f for f in build.GCC_MODEL_UNIT_FLAGS)
+    monkeypatch.setattr(units, "SPLIT_MIN_CHARS", 0)
+    monkeypatch.setattr(units, "UNIT_CHARS", 4_000)
+    commands = []
+    run = build._run
+    monkeypatch.setattr(build, "_run", lambda command, cwd, filename: commands.append(command) or run(command, cwd,
+                                                                                                       filename))
+    system = mbs.load(TABLES)
+    code = system.generate().c_source
+    tuned = build.build(code, filename="quarter_car.c", cache_dir=tmp_path)
+    compiles = {command[command.index("-c") + 1]: command for command in commands if "-c" in command}
+    model = [name for name in compiles if name.startswith("model_")]
+    assert model and units.OUTPUTS_UNIT in compiles and units.GLUE_UNIT in compiles and build.RUNTIME_UNIT in compiles
+    flags = build.GCC_MODEL_UNIT_FLAGS
+    for name in model:
+        at = compiles[name].index(flags[0])
+        assert compiles[name][at:at + len(flags)] == flags, name
+    outputs = compiles[units.OUTPUTS_UNIT]
+    at = outputs.index(flags[0])
+    assert outputs[at:at + len(flags) + len(build.OUTPUTS_UNIT_FLAGS)] == (*flags, *build.OUTPUTS_UNIT_FLAGS)
+    for name in (units.GLUE_UNIT, build.RUNTIME_UNIT):
+        assert not set(flags) & set(compiles[name]), name
+    plain = build.build(code, filename="quarter_car.c", cache_dir=tmp_path, model_flags=())
+    assert plain.key != tuned.key and not plain.cached
+    a, b = build.load(tuned), build.load(plain)
+    compiled = system.compile()
+    p = np.zeros(a.NP)
+    p[:len(compiled.p_default)] = compiled.p_default
+    rng = np.random.default_rng(5)
+    for _ in range(4):
+        x = np.asarray(compiled.x0) + 0.01 * rng.standard_normal(a.NX)
+        for name in ("rhs", "outputs"):
+            fa, fb = a.Function(name, p, np.zeros(a.NWORK)), b.Function(name, p, np.zeros(b.NWORK))
+            assert np.array_equal(fa(0.1, x), fb(0.1, x)), name
