@@ -2,6 +2,7 @@
 
     python bench/adams.py [--cases bump_5 bump_10 quarter_5 quarter_10] [--rtols 1e-6 1e-7 1e-8 1e-9]
         [--adams-rtols ...] [--repeat 3] [--variants]
+    python bench/adams.py --whole [--repeat 7]
 
 Per case (a scene of library/iltis/vehicle.mbs or quarter_car.mbs, started as `System.start` starts it): a reference
 with DOPRI5 at rtol 1e-11 (atol 1e-13, as bench/integrators.py), then dopri5 and adams over the tolerance ladder
@@ -18,6 +19,11 @@ dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restar
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
 an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
 -DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most).
+
+`--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (the start from scratch, equilibrium,
+integration, every output) at the scenes' own tolerances with dopri5 (their integrator) and with adams, CPU time of
+this process, interleaved, medians of --repeat, their ratio and real-time factors: what a user gets from
+`--integrator adams`, where the work-precision figures above compare at equal accuracy.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -182,6 +188,26 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
                   f"wall ratio {wall / base.wall:.2f}{bound}")
 
 
+def whole(repeat: int) -> None:
+    """The whole simulate of bump_5 and bump_10 with each integrator at the scene's tolerances (see the docstring)."""
+    system = mbs.load(ROOT / "library/iltis/vehicle.mbs")
+    for scene in ("bump_5", "bump_10"):
+        cpu = {"dopri5": [], "adams": []}
+        runs = {}
+        for integrator in cpu:  # compiled and warm before the clock
+            system.simulate(scene, integrator=integrator)
+        for _ in range(repeat):
+            for integrator in cpu:
+                system.forget_starts()  # every run a first start: the equilibrium counted
+                started = time.process_time()
+                runs[integrator] = system.simulate(scene, integrator=integrator)
+                cpu[integrator].append(time.process_time() - started)
+        simulated = float(runs["dopri5"].t[-1] - runs["dopri5"].t[0])
+        d, a = (statistics.median(cpu[i]) for i in ("dopri5", "adams"))
+        print(f"{scene}: whole simulate, CPU, medians of {repeat}: dopri5 {d * 1e3:.1f} ms ({simulated / d:.1f}x real "
+              f"time), adams {a * 1e3:.1f} ms ({simulated / a:.1f}x); adams / dopri5 {a / d:.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
@@ -189,7 +215,11 @@ def main() -> None:
     parser.add_argument("--adams-rtols", nargs="+", type=float, default=[1e-6, 1e-7, 1e-8, 1e-9, 1e-10])
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--variants", action="store_true", help="also the restart variants of c/adams.c")
+    parser.add_argument("--whole", action="store_true", help="the whole simulate of the vehicle's bump scenes instead")
     args = parser.parse_args()
+    if args.whole:
+        whole(args.repeat)
+        return
     for name in args.cases:
         bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)
 

@@ -6,8 +6,8 @@ Built in: ``dopri5``, ``adams``, ``rodasp`` and ``rodas5p`` (in C, the fast path
 """
 
 from .base import FAILED, FINISHED, RUNNING, DenseOutput, OdeSolver
-from .adams import Adams
-from .dopri5 import Dopri5
+from .dopri5 import Dopri5  # first: registration order is the order available() lists, the default leading
+from .adams import Adams  # noqa: I001
 from .native import NativeSolver
 from .registry import available, get_integrator, register
 from .rodasp import Rodasp
