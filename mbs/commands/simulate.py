@@ -28,7 +28,7 @@ class Simulate:
         p.add_argument("--out", help="results file: .csv, .npz or .h5 (several scenes: one file each, NAME_SCENE.csv)")
         p.add_argument("--plot", help="plot of the outputs (or coordinates) as PNG/PDF/SVG; several scenes: the "
                                       "motion of every scene in one plot, tyre loads in NAME_tyres.png")
-        p.add_argument("--integrator", help="dopri5, rodasp, rodas5p, auto (in C), cvode_adams, cvode_bdf, ida "
+        p.add_argument("--integrator", help="dopri5, adams, rodasp, rodas5p, auto (in C), cvode_adams, cvode_bdf, ida "
                                             "(SUNDIALS), RK45, DOP853, Radau, BDF, LSODA (scipy), or any registered one "
                                             "(default: the scene's, else dopri5)")
         p.add_argument("--error-estimate", action="store_true",
