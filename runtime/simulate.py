@@ -240,9 +240,9 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
             fused = (done, error) if stage == "outputs" else None
         else:
             projected, _ = evaluate_rows(data, "project", ps, ts, unprojected, which, xs)
-        if projected < rows:
-            ts = ts[:projected]
-            status, message = FAILED, f"the closed loops cannot be closed at t = {ts[-1]:.6g} s (see loop_report)"
+        if projected < rows:  # the failing row's time, as the path without events says (and no row may be left)
+            failed_at, ts = float(ts[projected]), ts[:projected]
+            status, message = FAILED, f"the closed loops cannot be closed at t = {failed_at:.6g} s (see loop_report)"
     names = [TIME, *model.x_names]
     if with_outputs:
         if ys is None:
