@@ -10,7 +10,7 @@
  *             local extrapolation of Shampine & Gordon);
  *   evaluate  f_{n+1} = f(t_n + h, y_{n+1}): the history's newest value (two right-hand sides per step), at the
  *             accepted state as ode.c projected it onto the loop constraints (with the direct loop rhs at the
- *             integrated states, -DADAMS_EVAL_PROJECTED=0, the history's values drifted from the projected solution:
+ *             integrated states, as first built, the history's values drifted from the projected solution:
  *             40 four-bars through their flat positions, tests/runtime/test_fourbar_chain.py, ended 1.1 rad off at
  *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G).
  *
@@ -25,7 +25,7 @@
  * (between 1/4 and 1/2).  The start (and a fresh restart) is their phase 1: order 1, the order raised and the step
  * doubled after every step while the doubled step's estimate would pass.  The step after an accepted one is the
  * usual h (ADAMS_SAFE / err)^(1/(k+1)) at the new order, within [1/2, ADAMS_MAX_GROWTH] and held when it would
- * grow by less than ADAMS_HOLD (CVODE's rule); Shampine & Gordon's own (-DADAMS_STEP_POLICY=0: double when
+ * grow by less than ADAMS_HOLD (CVODE's rule); Shampine & Gordon's own (as first built: double when
  * err 2^(k+1) <= 1/2, shrink by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, else hold) kept the step
  * at errors far below the tolerance and took 7 % more right-hand sides on the Iltis bump at 10 m/s.
  *
@@ -72,12 +72,6 @@
 /* The order the step after a restart with the history kept goes on with, at most (see the head of this file). */
 #ifndef ADAMS_RESTART_ORDER
 #define ADAMS_RESTART_ORDER 3
-#endif
-#ifndef ADAMS_EVAL_PROJECTED
-#define ADAMS_EVAL_PROJECTED 1
-#endif
-#ifndef ADAMS_STEP_POLICY
-#define ADAMS_STEP_POLICY 1
 #endif
 #ifndef ADAMS_SAFE
 #define ADAMS_SAFE 0.8
@@ -283,7 +277,6 @@ static int am_step(mbs_ode *o)
             for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
             am_weights(o, y, m->yc, m->w);
             for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
-            if (err[k] <= 1.0 && !ADAMS_EVAL_PROJECTED) s = mbs_ode_eval(o, x0, m->yc, m->scratch);  /* f_{n+1} */
         }
         if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
             o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
@@ -328,34 +321,27 @@ static int am_step(mbs_ode *o)
             }
         }
         if (!m->phase1) {
-            double ek;
+            double ek, eta;
             if (k > 2 && fmax(err[k - 1], err[k - 2]) <= err[k]) knew = k - 1;
             else if (k == 2 && err[1] <= 0.5 * err[2]) knew = 1;
             else if (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1
                      && err[k + 1] < (k == 1 ? 0.5 : 1.0) * err[k]) knew = k + 1;
             ek = err[knew];
-            if (ADAMS_STEP_POLICY == 0) {
-                if (ek * ldexp(1.0, knew + 1) <= 0.5) o->h = 2.0 * h;
-                else if (ek > 0.5) o->h = h * fmax(0.5, fmin(0.9, pow(0.5 / ek, 1.0 / (knew + 1))));
-                else o->h = h;
-            } else {
-                double eta = ADAMS_SAFE * pow(fmax(ek, 1e-10), -1.0 / (knew + 1));
-                eta = fmin(ADAMS_MAX_GROWTH, fmax(0.5, eta));
-                o->h = eta >= 1.0 && eta < ADAMS_HOLD ? h : h * eta;
-            }
+            eta = ADAMS_SAFE * pow(fmax(ek, 1e-10), -1.0 / (knew + 1));
+            eta = fmin(ADAMS_MAX_GROWTH, fmax(0.5, eta));
+            o->h = eta >= 1.0 && eta < ADAMS_HOLD ? h : h * eta;
         }
         if (knew != k) m->nconst = 0;
         else m->nconst++;
         m->k = knew;
         m->nfail = 0;
-        if (ADAMS_EVAL_PROJECTED) {  /* f_{n+1} at the accepted state as projected */
-            memcpy(y, m->yc, (size_t)n * sizeof(double));
-            mbs_ode_accept(o, h, last);
-            if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
-                o->status = MBS_ODE_MODEL_FAILED;
-                o->fail_h = h;
-                break;
-            }
+        /* f_{n+1} at the accepted state as projected */
+        memcpy(y, m->yc, (size_t)n * sizeof(double));
+        mbs_ode_accept(o, h, last);
+        if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
+            o->status = MBS_ODE_MODEL_FAILED;
+            o->fail_h = h;
+            break;
         }
         /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
         {
@@ -368,12 +354,8 @@ static int am_step(mbs_ode *o)
                 m->e[i] = tmp;
             }
         }
-        am_push(m, n, x0, ADAMS_EVAL_PROJECTED ? y : m->yc, m->scratch);
+        am_push(m, n, x0, y, m->scratch);
         memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
-        if (!ADAMS_EVAL_PROJECTED) {
-            memcpy(y, m->yc, (size_t)n * sizeof(double));
-            mbs_ode_accept(o, h, last);
-        }
         m->tt[0] = o->t;
         m->t_hist = o->t;
         break;
