@@ -12,6 +12,9 @@ arguments simulate passes to the rows pass (recorded from a run):
   load-independent): the projection, the loop solve, the outputs' own expressions, and the rest (the loop over
   the rows, the rows copied at an event's two sides); beside them the instructions of the rhs the integrator calls
   (`loop_rhs`, over the same states), so that a row reads in right-hand sides;
+* bump_5's rows projected alone, as a run without outputs projects them (rows.project_rows: `project_row`, each
+  row's Newton steps from the factors the row before left) against `project` row by row (mbs_project: G evaluated
+  and factored twice a row), the former path, in instructions;
 * the scene `positions` is bump_5 with outputs of positions alone (heave, pitch, roll, a wheel's travel): its
   mbs_outputs solves no loops, and its rows are counted and timed against the former build (-DMBS_LOOP_ROWS_FORMER=1:
   each row projected afresh by mbs_project, as every row of such outputs was before their projection started from
@@ -189,6 +192,12 @@ def main(argv=None) -> int:
             counts = callgrind(library, saved_path, tmp)
             rhs = callgrind(library, saved_path, tmp, "loop_rhs")["total"] / rows
             split_line(scene, counts, rows, rhs)
+            if scene == "bump_5":  # the same rows without outputs: projected alone (simulate(outputs=False))
+                alone = {name: callgrind(library, saved_path, tmp, name)["total"] / rows
+                         for name in ("project_row", "project")}
+                print(f"    the same rows projected alone (simulate(outputs=False), rows.project_rows): project_row "
+                      f"{alone['project_row']:,.0f} instructions a row, project (the former) {alone['project']:,.0f}, "
+                      f"ratio {alone['project_row'] / alone['project']:.2f}")
             if scene == "positions":
                 code = system.generate(scene).c_source
                 former = build.build(code, cache_dir=args.cache_dir, extra_flags=FORMER_FLAGS).path

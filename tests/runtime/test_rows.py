@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mbs
-from mbs.runtime.rows import evaluate_rows, project_and_evaluate_rows
+from mbs.runtime.rows import evaluate_rows, project_and_evaluate_rows, project_rows
 from mbs.runtime.simulate import simulate
 
 SLIDER_CRANK = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
@@ -173,6 +173,26 @@ def test_one_pass_of_outputs_without_loop_solve_projects_each_row_as_project_doe
     np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(ys, one_by_one(data, "outputs", ps, ts, reference, which), rtol=1e-12, atol=1e-14)
     assert np.ptp(ys[:, 0]) > 0.1  # the slider moves over the run: the comparison means something
+
+
+def test_the_rows_projection_gives_project_row_by_row(crank_positions_numeric):
+    """The rows of a run without outputs (rows.project_rows: `project_row`, c/loops.c mbs_loop_project_row): each
+    row's Newton steps start from the factors the row before it left; the same projection as project afresh to
+    round-off, rows after a change of the loop's length included, and a row that cannot be closed stops them."""
+    data, ts, xs = crank_positions_numeric
+    assert "project_row" in data.model.functions
+    longer = data.p.copy()
+    longer[data.model.parameter_index("L")] *= 1.1
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)
+    projected = np.empty_like(xs)
+    assert project_rows(data, ps, ts, xs, which, projected) == (len(ts), None)
+    reference = one_by_one(data, "project", ps, ts, xs, which)
+    np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
+    assert not np.array_equal(projected, xs)  # the rows were off the constraints
+    xs[5, 0] = np.nan
+    done, error = project_rows(data, ps, ts, xs, which, projected)
+    assert done == 5 and error is not None
 
 
 def test_one_pass_names_the_stage_that_failed(crank_outputs):
