@@ -1702,15 +1702,20 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
  * reduce the residual by MBS_LOOP_SLOW, as the simplified Newton of mbs_loop_positions_iterate. */
 #define MBS_LOOP_ROW_MAXIT 8
 
-/* Are the factors of the previous row's solve in the work, with the partition still the kept one? */
+/* Are the factors of the previous row in the work, with the partition still the kept one: its solve's
+ * (MBS_LOOP_ROW_MARK), or, when its outputs solved no loops (positions alone: no mbs_loop_rates after the
+ * projection), its projection's (the stamp of mbs_project, of the kept partition's blocks)?  Without the latter every
+ * row of such outputs was projected afresh (the Iltis over the bump: 40,000 instructions a row against 30,000). */
 static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
 {
 #ifdef MBS_CLOSED_FORM  /* its rows are projected in closed form first (mbs_project), whose scratch overlaps G */
     (void)w;
     return 0;
 #else
-    return !MBS_LOOP_ROWS_FORMER && w->stamp[0] == MBS_LOOP_ROW_MARK && w->keep[0] == MBS_LOOP_KEEP_MARK
-           && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
+    const int projected = MBS_LOOP_PROJECTED_STAMP && w->stamp[0] == MBS_LOOP_PROJECTED_MARK
+                          && ((int)w->stamp[4] & 7) == 4;  /* blocked, neither fresh nor singular (the flags' packing) */
+    return !MBS_LOOP_ROWS_FORMER && (w->stamp[0] == MBS_LOOP_ROW_MARK || projected)
+           && w->keep[0] == MBS_LOOP_KEEP_MARK && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
 #endif
 }
 
