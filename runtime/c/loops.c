@@ -82,7 +82,7 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 5 + 3 NC + 3 NV + 2 NC NV ints in
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 3 NC + 3 NV + 2 NC NV ints in
  * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
@@ -471,7 +471,8 @@ typedef struct {
     int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
-    int *ng;     /* the entries of G the blocks hold (at most NC x NV): */
+    int *ng;     /* the entries of G the blocks hold (at most NC x NV), */
+    int *nz;     /* the first nz of them G's structural nonzeros, the others its structural zeros: */
     int *src;    /* ng: each one's offset in G (row-major, w->G0) */
     int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
 } mbs_loop_blocks;
@@ -489,6 +490,7 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.col = s; s += MBS_NV;
     b.row = s; s += MBS_NC;
     b.ng = s; s += 1;
+    b.nz = s; s += 1;
     b.src = s; s += MBS_NC * MBS_NV;
     b.dst = s;
     return b;
@@ -506,6 +508,36 @@ static int mbs_loop_root(const int *parent, int j)
 {
     while (parent[j] != j) j = parent[j];
     return j;
+}
+
+/* Is G's entry (row i, column j) a structural nonzero (mbs_colour_column, compiler/jacobian_colours.py)? */
+static int mbs_loop_structural(int i, int j)
+{
+    int c;
+    for (c = 0; c < MBS_NCOLOUR; c++)
+        if (mbs_colour_column[i * MBS_NCOLOUR + c] == j) return 1;
+    return 0;
+}
+
+/* The plan's gather offsets from entry n on: those of the blocks' entries that are structural nonzeros of G
+ * (`nonzero`) or zeros, block by block, row by row, dependent then independent columns; returns the next entry. */
+static int mbs_loop_plan_gather(const mbs_loop_blocks *bl, int nonzero, int n)
+{
+    int b, k, c, e;
+    for (b = 0; b < *bl->nb; b++)
+        for (k = bl->k0[b]; k < bl->k0[b + 1]; k++) {
+            for (c = bl->k0[b]; c < bl->k0[b + 1]; c++)
+                if (mbs_loop_structural(bl->row[k], bl->col[c]) == nonzero) {
+                    bl->src[n] = bl->row[k] * MBS_NV + bl->col[c];
+                    bl->dst[n++] = k * MBS_NV + c;
+                }
+            for (e = bl->j0[b]; e < bl->j0[b + 1]; e++)
+                if (mbs_loop_structural(bl->row[k], bl->col[bl->jl[e]]) == nonzero) {
+                    bl->src[n] = bl->row[k] * MBS_NV + bl->col[bl->jl[e]];
+                    bl->dst[n++] = k * MBS_NV + bl->jl[e];
+                }
+        }
+    return n;
 }
 
 /* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
@@ -561,18 +593,10 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     memcpy(kp + 4 + MBS_NV, rows, r * sizeof(double));
     for (j = 0; j < MBS_NV; j++) bl.col[j] = (int)cols[j];
     for (k = 0; k < r; k++) bl.row[k] = (int)rows[k];
-    for (b = 0, n = 0; b < *bl.nb; b++)  /* the gather: each block's rows, its dependent then independent columns */
-        for (k = bl.k0[b]; k < bl.k0[b + 1]; k++) {
-            for (c = bl.k0[b]; c < bl.k0[b + 1]; c++, n++) {
-                bl.src[n] = bl.row[k] * MBS_NV + bl.col[c];
-                bl.dst[n] = k * MBS_NV + c;
-            }
-            for (e = bl.j0[b]; e < bl.j0[b + 1]; e++, n++) {
-                bl.src[n] = bl.row[k] * MBS_NV + bl.col[bl.jl[e]];
-                bl.dst[n] = k * MBS_NV + bl.jl[e];
-            }
-        }
-    *bl.ng = n;
+    /* the gather: each block's rows, its dependent then independent columns; G's structural nonzeros first (read
+     * from G0), then its structural zeros within the blocks (set to 0: the elimination fills some of them in) */
+    *bl.nz = mbs_loop_plan_gather(&bl, 1, 0);
+    *bl.ng = mbs_loop_plan_gather(&bl, 0, *bl.nz);
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -599,12 +623,13 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (e = 0; e < *bl.ng; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
+    for (e = 0; e < *bl.nz; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
         const double g = G0[bl.src[e]], a = fabs(g);
         A[bl.dst[e]] = g;
         amax0 = a > amax0 ? a : amax0;
         probe += 0.0 * g;
     }
+    for (; e < *bl.ng; e++) A[bl.dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
             for (c = 0; c < MBS_NCOLOUR; c++) {
@@ -1073,47 +1098,65 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
 
 /* T, start and c0 as mbs_loop_null_space, from factors of the kept partition made block by block (w->blocked,
  * mbs_loop_factor_blocks): each independent column's dependent velocities are those of its block, from that
- * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order). */
+ * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order).  Block
+ * by block (the plan lists the independent columns a block moves block by block, the unit ones last): c0_D's
+ * forward substitution, then the back substitutions with U11 of c0_D and of the block's first independent column
+ * in one pass (a loop's block has one such column on the Iltis: one pass over U11 instead of two), then those of
+ * its other columns. */
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
 {
     const double *G = w->G;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *T = w->T, *y = w->y;
+    double *T = w->T, *y = w->y, yt[MBS_NC];
     int *Ti = w->Ti, b, j, k, c, e = 0;
     const int m = MBS_NV - r;
-    for (j = 0; j < m; j++) {
-        start[j] = e;
-        T[e] = 1.0;
-        Ti[e++] = cpi[r + j];
-        if ((b = bl.block[r + j]) >= 0) {  /* U11 y = -U12 e_j on the block's rows, upwards */
-            const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
-            for (k = k1 - 1; k >= k0; k--) {
-                double sum = -G[k * MBS_NV + r + j];
-                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
-                y[k] = sum / G[k * MBS_NV + k];
-            }
-            for (k = k0; k < k1; k++) {
-                T[e] = y[k];
-                Ti[e++] = cpi[k];
-            }
-        }
-    }
-    start[m] = e;
     memset(w->c0, 0, MBS_NV * sizeof(double));
-    for (b = 0; b < *bl.nb; b++) {  /* L11 U11 c0_D = -gddot0 on each block's rows */
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
-        for (k = k0; k < k1; k++) {
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], j0 = bl.j0[b], j1 = bl.j0[b + 1];
+        for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
             double sum = -w->h[(int)w->rp[k]];
             for (c = k0; c < k; c++) sum -= G[k * MBS_NV + c] * y[c];
             y[k] = sum;
         }
-        for (k = k1 - 1; k >= k0; k--) {
-            double sum = y[k];
-            for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
-            y[k] = sum / G[k * MBS_NV + k];
+        for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
+            const int col = bl.jl[j];
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = cpi[col];
+            for (k = k1 - 1; k >= k0; k--) {
+                const double *g = G + k * MBS_NV;
+                double sum = -g[col];
+                if (j == j0) {
+                    double s0 = y[k];
+                    for (c = k + 1; c < k1; c++) {
+                        s0 -= g[c] * y[c];
+                        sum -= g[c] * yt[c];
+                    }
+                    y[k] = s0 / g[k];
+                } else {
+                    for (c = k + 1; c < k1; c++) sum -= g[c] * yt[c];
+                }
+                yt[k] = sum / g[k];
+            }
+            for (k = k0; k < k1; k++) {
+                T[e] = yt[k];
+                Ti[e++] = cpi[k];
+            }
         }
+        if (j0 == j1)  /* no independent column moves this block: c0_D alone */
+            for (k = k1 - 1; k >= k0; k--) {
+                double sum = y[k];
+                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
+                y[k] = sum / G[k * MBS_NV + k];
+            }
         for (k = k0; k < k1; k++) w->c0[cpi[k]] = y[k];
     }
+    for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
+        start[j] = e;
+        T[e] = 1.0;
+        Ti[e++] = cpi[r + j];
+    }
+    start[m] = e;
 }
 
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
