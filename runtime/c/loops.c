@@ -647,8 +647,11 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         for (k = k0; k < k1; k++) {
             int pi = k;
             double amax = fabs(A[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
-            for (i = k + 1; i < k1; i++)
-                if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
+            const double *a = A + (k + 1) * MBS_NV + k;  /* down column k */
+            for (i = k + 1; i < k1; i++, a += MBS_NV) {
+                const double v = fabs(*a);
+                if (v > amax) { amax = v; pi = i; }
+            }
             if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
             minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
             if (pi != k) {
@@ -658,11 +661,15 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
                 tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
             }
             for (i = k + 1; i < k1; i++) {
-                double l;
-                if (A[i * MBS_NV + k] == 0.0) continue;
-                l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
-                for (c = k + 1; c < k1; c++) A[i * MBS_NV + c] -= l * A[k * MBS_NV + c];
-                for (e = 0; e < nj; e++) A[i * MBS_NV + jl[e]] -= l * A[k * MBS_NV + jl[e]];
+                double l, *ai = A + i * MBS_NV;
+                const double *ak = A + k * MBS_NV;
+                if (ai[k] == 0.0) continue;
+                l = ai[k] /= ak[k];
+                for (c = k + 1; c < k1; c++) ai[c] -= l * ak[c];
+                if (nj == 1)  /* a loop's block with one independent column (the Iltis's): no loop for it */
+                    ai[jl[0]] -= l * ak[jl[0]];
+                else
+                    for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
             }
         }
     }
@@ -1292,31 +1299,16 @@ static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
     return s;
 }
 
-/* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
- * position (mbs_loop_limit_rows). */
-static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
+/* The lower triangle of A = T^T M T (m x m, row stride NV) and a = T^T (f - M c0) for any T (packed columns):
+ * per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities, or a
+ * row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and a_j = T_j^T f - mt^T c0
+ * (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at least). */
+static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
 {
-    int r = *rank, m;
-    double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
-    int i, j, k, s;
-    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
-                    * the same state finds h replaced at a singular position) */
-        w->terms = 0;
-    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
-        return s;
-    r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
-    if (s != 0) return s;
-    if (r < 0) return MBS_LOOP_NONFINITE;
-    m = MBS_NV - r;
-    /* the null-space basis T (NV x m, packed columns) and c0 */
-    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
-        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
-        mbs_loop_null_space(w, r, start, cpi);
-    /* per column j of T: mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities,
-     * or a row of M for a unit column), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of
-     * T_i, and a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 zero on the independent velocities) */
+    const double *T = w->T, *M = w->M;
+    const int *Ti = w->Ti;
+    double *A = w->A, dmax = 0.0;
+    int i, j;
     for (j = 0; j < m; j++) {
         const double *mt;
         double sum = 0.0;
@@ -1335,6 +1327,69 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
+    return dmax;
+}
+
+/* A and a as mbs_loop_reduced_mass forms them (the same arithmetic in the same order) for T from
+ * mbs_loop_null_space_blocks: its first na columns are those a loop moves (its blocks' independent velocities), the
+ * others unit columns (independent velocities no loop moves, the plan puts them last), so the kind of each entry
+ * of A is known by its place, not tested: an entry of M T_j for a unit row, an entry of M itself where both
+ * columns are unit ones.  Returns the largest diagonal entry. */
+static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
+{
+    const double *T = w->T, *M = w->M;
+    const int *Ti = w->Ti;
+    const int m = MBS_NV - r, na = mbs_loop_plan_blocks(w).j0[*mbs_loop_plan_blocks(w).nb];
+    double *A = w->A, dmax = 0.0;
+    int i, j, e;
+    for (j = 0; j < na; j++) {
+        const double *mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
+                                                      w->b);
+        double sum = 0.0;
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
+        w->a[j] = sum - mbs_loop_dot(mt, w->c0);
+        for (i = j; i < na; i++) {
+            for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
+            A[i * MBS_NV + j] = sum;
+        }
+        for (; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+    }
+    for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
+        const double *mt = M + cpi[r + j] * MBS_NV;
+        w->a[j] = (0.0 + w->f[cpi[r + j]]) - mbs_loop_dot(mt, w->c0);
+        for (i = j; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+    }
+    return dmax;
+}
+
+/* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
+ * position (mbs_loop_limit_rows). */
+static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
+{
+    int r = *rank, m;
+    double *T = w->T, *A = w->A, dmax;
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
+    int i, j, k, s;
+    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
+                    * the same state finds h replaced at a singular position) */
+        w->terms = 0;
+    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
+        return s;
+    r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
+    if (s != 0) return s;
+    if (r < 0) return MBS_LOOP_NONFINITE;
+    m = MBS_NV - r;
+    /* the null-space basis T (NV x m, packed columns) and c0 */
+    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
+        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
+    else
+        mbs_loop_null_space(w, r, start, cpi);
+    if (w->blocked)  /* the kept partition's columns of T in the order of its plan */
+        dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
+    else
+        dmax = mbs_loop_reduced_mass(w, m, start);
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia.  Row i of A is
      * zero left of first[i] (its envelope: the Iltis's corners couple through the body only, and with the body's
      * columns last a corner's row of A is its diagonal alone), and so is row i of L: the sums skip those exact
@@ -1344,10 +1399,10 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         first[i] = k;
     }
     for (j = 0; j < m; j++) {
-        double d = A[j * MBS_NV + j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
+        double *aj = A + j * MBS_NV, d = aj[j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
         for (k = first[j]; k < j; k++) {
-            ld[k] = A[j * MBS_NV + k] * A[k * MBS_NV + k];
-            d -= A[j * MBS_NV + k] * ld[k];
+            ld[k] = aj[k] * A[k * MBS_NV + k];
+            d -= aj[k] * ld[k];
         }
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
@@ -1358,10 +1413,10 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         }
         A[j * MBS_NV + j] = d;
         for (i = j + 1; i < m; i++) {
-            double sum = A[i * MBS_NV + j];
+            double *ai = A + i * MBS_NV, sum = ai[j];
             if (first[i] > j) continue;  /* L_ij = 0 */
-            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= A[i * MBS_NV + k] * ld[k];
-            A[i * MBS_NV + j] = sum / d;
+            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= ai[k] * ld[k];
+            ai[j] = sum / d;
         }
     }
     for (j = 0; j < m; j++)
