@@ -82,7 +82,7 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 3 NC + 3 NV + 2 NC NV ints in
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 4 NC + 3 NV + 2 NC NV ints in
  * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
@@ -475,6 +475,8 @@ typedef struct {
     int *nz;     /* the first nz of them G's structural nonzeros, the others its structural zeros: */
     int *src;    /* ng: each one's offset in G (row-major, w->G0) */
     int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
+    int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
+                  * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
 } mbs_loop_blocks;
 
 static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -492,7 +494,8 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.ng = s; s += 1;
     b.nz = s; s += 1;
     b.src = s; s += MBS_NC * MBS_NV;
-    b.dst = s;
+    b.dst = s; s += MBS_NC * MBS_NV;
+    b.reach = s;
     return b;
 }
 
@@ -538,6 +541,28 @@ static int mbs_loop_plan_gather(const mbs_loop_blocks *bl, int nonzero, int n)
                 }
         }
     return n;
+}
+
+/* Does M couple the velocities of block b (its dependent and independent columns) with those of block c: is
+ * any of the latter among the structural nonzeros of a row of M at one of the former (the runs of
+ * mbs_mass_row, the rows mbs_loop_mass_axpy adds up)?  Without the table: yes. */
+static int mbs_loop_blocks_coupled(const mbs_loop_blocks *bl, int b, int c)
+{
+#ifdef MBS_MASS_PATTERN
+    int x, y, run;
+    for (x = bl->k0[b]; x < bl->k0[b + 1] + bl->j0[b + 1] - bl->j0[b]; x++) {
+        const int u = bl->col[x < bl->k0[b + 1] ? x : bl->jl[bl->j0[b] + x - bl->k0[b + 1]]];
+        for (y = bl->k0[c]; y < bl->k0[c + 1] + bl->j0[c + 1] - bl->j0[c]; y++) {
+            const int v = bl->col[y < bl->k0[c + 1] ? y : bl->jl[bl->j0[c] + y - bl->k0[c + 1]]];
+            for (run = mbs_mass_row[u]; run < mbs_mass_row[u + 1]; run++)
+                if (mbs_mass_begin[run] <= v && v < mbs_mass_end[run]) return 1;
+        }
+    }
+    return 0;
+#else
+    (void)bl; (void)b; (void)c;
+    return 1;
+#endif
 }
 
 /* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
@@ -597,6 +622,9 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
      * from G0), then its structural zeros within the blocks (set to 0: the elimination fills some of them in) */
     *bl.nz = mbs_loop_plan_gather(&bl, 1, 0);
     *bl.ng = mbs_loop_plan_gather(&bl, 0, *bl.nz);
+    for (b = 0; b < *bl.nb; b++)
+        for (bl.reach[b] = b, c = b + 1; c < *bl.nb; c++)
+            if (mbs_loop_blocks_coupled(&bl, b, c)) bl.reach[b] = c;
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -1121,8 +1149,9 @@ static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, cons
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], k1 = bl.k0[b + 1], j0 = bl.j0[b], j1 = bl.j0[b + 1];
         for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
+            const double *g = G + k * MBS_NV;
             double sum = -w->h[(int)w->rp[k]];
-            for (c = k0; c < k; c++) sum -= G[k * MBS_NV + c] * y[c];
+            for (c = k0; c < k; c++) sum -= g[c] * y[c];
             y[k] = sum;
         }
         for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
@@ -1334,24 +1363,28 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
  * mbs_loop_null_space_blocks: its first na columns are those a loop moves (its blocks' independent velocities), the
  * others unit columns (independent velocities no loop moves, the plan puts them last), so the kind of each entry
  * of A is known by its place, not tested: an entry of M T_j for a unit row, an entry of M itself where both
- * columns are unit ones.  Returns the largest diagonal entry. */
+ * columns are unit ones, and an exact zero where M couples no velocity of T_i with one of T_j (another loop's
+ * block beyond the reach of T_j's, mbs_loop_blocks_coupled).  Returns the largest diagonal entry. */
 static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
 {
     const double *T = w->T, *M = w->M;
     const int *Ti = w->Ti;
-    const int m = MBS_NV - r, na = mbs_loop_plan_blocks(w).j0[*mbs_loop_plan_blocks(w).nb];
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    const int m = MBS_NV - r, na = bl.j0[*bl.nb];
     double *A = w->A, dmax = 0.0;
     int i, j, e;
     for (j = 0; j < na; j++) {
         const double *mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
                                                       w->b);
+        const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
         double sum = 0.0;
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
         w->a[j] = sum - mbs_loop_dot(mt, w->c0);
-        for (i = j; i < na; i++) {
+        for (i = j; i < coupled; i++) {
             for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
             A[i * MBS_NV + j] = sum;
         }
+        for (; i < na; i++) A[i * MBS_NV + j] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
         for (; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
