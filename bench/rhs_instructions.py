@@ -2,6 +2,7 @@
 in instructions per call rather than timed (issue 12: Iltis rhs <= 3 x the open chain).
 
     python bench/rhs_instructions.py [--scene bump_5] [--calls 200] [--profile N] [--baseline DIR]
+                                     [--simulate SCENE --repeat N]
 
 Wall times on a shared machine wander by a factor of three between runs (bench/iltis.py printed the open chain
 at 3.4 and at 10.5 us in one day); instructions executed do not depend on the load.  One child process, run
@@ -21,7 +22,11 @@ with the ratios to the open chain.  --profile N also prints the N functions with
 instructions inside the Iltis `loop_rhs` (callgrind_annotate).  --baseline DIR also counts the vehicle's `rhs` and
 `loop_rhs` built with the run-time C files of DIR (a copy of another revision's runtime/c, e.g. `git archive main
 runtime/c | tar -x -C /tmp/main`; its mbs_glue.c and loops.c are found there first, `-I DIR`) in the same run, and
-prints the current counts against them as ratios.  Takes a minute or two (more when the models are
+prints the current counts against them as ratios.  With it, --simulate SCENE also times the whole
+`System.simulate(SCENE)` (CPU seconds of this process, each run from a first start) with the current build and the
+baseline's, interleaved --repeat times, and prints the medians and their ratio, and each run's rhs calls and
+steps (so that a ratio that comes from another step sequence shows as one): a wall-time figure, unlike the
+counts, so noisy on a shared machine.  Takes a minute or two (more when the models are
 not in the build cache: the first run compiles them outside valgrind).
 """
 
@@ -113,6 +118,43 @@ def profile(dump: Path, top: int) -> str:
     return "\n".join(lines[:top])
 
 
+def simulate_times(scene: str, baseline: str, repeat: int) -> None:
+    """Print the CPU seconds of System.simulate(scene) with the current build and with the baseline's run-time C
+    (-I baseline), interleaved `repeat` times: medians, their ratio, and each build's rhs calls and steps."""
+    import dataclasses
+    import statistics
+    import time
+
+    import mbs
+    from mbs.runtime import build
+    from mbs.runtime.backends import CBackend
+    system = mbs.load(MODEL)
+    compiled = system.compile(scene)
+    built = build.build(system.generate(scene).c_source, extra_flags=(f"-I{baseline}",))
+    models = {"current": compiled, "baseline": dataclasses.replace(compiled, backend=CBackend(build.load(built)))}
+    keys = [key for key, value in system._compiled.items() if value is compiled]
+    seconds: dict[str, list[float]] = {name: [] for name in models}
+    stats: dict[str, dict] = {}
+    try:
+        for _ in range(repeat):
+            for name, model in models.items():
+                for key in keys:
+                    system._compiled[key] = model
+                system.forget_starts()
+                start = time.process_time()
+                res = system.simulate(scene)
+                seconds[name].append(time.process_time() - start)
+                stats[name] = res.metadata["stats"]
+    finally:
+        for key in keys:
+            system._compiled[key] = compiled
+    current, former = statistics.median(seconds["current"]), statistics.median(seconds["baseline"])
+    print(f"\nSystem.simulate({scene!r}), CPU seconds, medians of {repeat} interleaved runs:")
+    for name, median in (("current", current), ("baseline", former)):
+        print(f"  {name:9s} {median * 1e3:8.1f} ms   rhs calls {stats[name]['nfev']}, steps {stats[name]['nsteps']}")
+    print(f"  ratio     {current / former:.3f}")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="bump_5")
@@ -124,7 +166,12 @@ def main(argv=None) -> int:
     parser.add_argument("--baseline", metavar="DIR", default="",
                         help="also count rhs and loop_rhs built with the run-time C files of DIR (another revision's "
                              "runtime/c), and print the ratios")
+    parser.add_argument("--simulate", metavar="SCENE", default="",
+                        help="with --baseline: also time System.simulate(SCENE) with both builds, interleaved")
+    parser.add_argument("--repeat", type=int, default=5, help="runs of each build for --simulate")
     args = parser.parse_args(argv)
+    if args.simulate and not args.baseline:
+        parser.error("--simulate needs --baseline")
     if shutil.which("valgrind") is None:
         print("valgrind is not on the PATH: nothing to count")
         return 1
@@ -154,6 +201,8 @@ def main(argv=None) -> int:
             print(f"\nIltis loop_rhs, the {args.profile} functions with the most inclusive instructions "
                   f"({args.calls} calls):")
             print(profile(counted[1], args.profile))
+    if args.simulate:
+        simulate_times(args.simulate, baseline, args.repeat)
     return 0
 
 

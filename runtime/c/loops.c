@@ -179,6 +179,8 @@ typedef struct {
     double *plan;               /* the blocks of the kept partition (mbs_loop_plan_build), kept between calls */
     int blocked;                /* w->G holds the factors of the kept partition, block by block (its plan) */
     int terms;                  /* M, f, G0 and h = gddot0 hold at w->xc (mbs_loop_terms_at, used once) */
+    int forward;                /* w->y holds L11^-1 (-gddot0) on the pivot rows, from the blocks' elimination
+                                 * (mbs_loop_factor_blocks, when w->terms), for mbs_loop_null_space_blocks */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one),
                                  * or they are in the band around one (mbs_loop_partition) */
@@ -209,7 +211,7 @@ static inline mbs_loop_work mbs_loop_layout_keeping(double *work)
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
-    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = 0;
+    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = w.forward = 0;
     w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
     w.M = s; s += MBS_NV * MBS_NV;  /* [M; f; G0; h] in a row: what mbs_loop_terms writes */
@@ -385,7 +387,7 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
     int i, j, k, r = 0;
     *minpivot = 0.0;
     w->rband = 0;
-    w->blocked = 0;
+    w->blocked = w->forward = 0;
     mbs_loop_plan_dirty(w);
     if (amax0 < 0.0) return -1;
     for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
@@ -634,16 +636,22 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
  * block's pivot rows in the kept column order into w->G, the rest of its r rows zero, row exchanges among the
  * block's rows only (they leave the partition unchanged).  rp, cp set.  Returns the smallest pivot relative to
  * max |G| over all rows (read at the structural nonzeros only), 0 when a pivot vanishes, -1 when G is not
- * finite. */
+ * finite.  With gddot0 at hand (w->terms: mbs_loop_rhs_direct) the forward substitution of c0_D rides along as one
+ * more column, y = L11^-1 (-gddot0) in w->y (w->forward): the same terms in the same order as its own pass in
+ * mbs_loop_null_space_blocks, one product a row instead of a pass over L11. */
 static double mbs_loop_factor_blocks(mbs_loop_work *w)
 {
     const double *kp = w->keep, *G0 = w->G0;
     const int r = (int)kp[1];
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *A = w->G, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    double *A = w->G, *y = w->y, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    const int forward = w->terms;  /* gddot0 at hand: its forward substitution rides along (w->forward) */
     int i, k, c, b, e;
+    w->forward = 0;
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
+    if (forward)
+        for (k = 0; k < r; k++) y[k] = -w->h[(int)w->rp[k]];
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
@@ -687,6 +695,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
                 for (c = k0; c < k1; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
                 for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
                 tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+                if (forward) { tmp = y[k]; y[k] = y[pi]; y[pi] = tmp; }
             }
             for (i = k + 1; i < k1; i++) {
                 double l, *ai = A + i * MBS_NV;
@@ -698,9 +707,11 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
                     ai[jl[0]] -= l * ak[jl[0]];
                 else
                     for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
+                if (forward) y[i] -= l * y[k];  /* the forward substitution's terms, in its order */
             }
         }
     }
+    w->forward = forward;
     return minpivot;
 }
 
@@ -1135,7 +1146,7 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * mbs_loop_factor_blocks): each independent column's dependent velocities are those of its block, from that
  * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order).  Block
  * by block (the plan lists the independent columns a block moves block by block, the unit ones last): c0_D's
- * forward substitution, then the back substitutions with U11 of c0_D and of the block's first independent column
+ * forward substitution (unless the elimination did it, w->forward), then the back substitutions with U11 of c0_D and of the block's first independent column
  * in one pass (a loop's block has one such column on the Iltis: one pass over U11 instead of two), then those of
  * its other columns. */
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
@@ -1148,12 +1159,13 @@ static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, cons
     memset(w->c0, 0, MBS_NV * sizeof(double));
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], k1 = bl.k0[b + 1], j0 = bl.j0[b], j1 = bl.j0[b + 1];
-        for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
-            const double *g = G + k * MBS_NV;
-            double sum = -w->h[(int)w->rp[k]];
-            for (c = k0; c < k; c++) sum -= g[c] * y[c];
-            y[k] = sum;
-        }
+        if (!w->forward)
+            for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
+                const double *g = G + k * MBS_NV;
+                double sum = -w->h[(int)w->rp[k]];
+                for (c = k0; c < k; c++) sum -= g[c] * y[c];
+                y[k] = sum;
+            }
         for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
             const int col = bl.jl[j];
             start[j] = e;
@@ -1187,6 +1199,7 @@ static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, cons
             }
         for (k = k0; k < k1; k++) w->c0[cpi[k]] = y[k];
     }
+    w->forward = 0;  /* y is c0_D now */
     for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
         start[j] = e;
         T[e] = 1.0;
