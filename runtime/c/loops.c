@@ -651,7 +651,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
     if (forward)
-        for (k = 0; k < r; k++) y[k] = -w->h[(int)w->rp[k]];
+        for (k = 0; k < r; k++) y[k] = -w->h[bl.row[k]];  /* (bl.row: rp as ints, before the row exchanges) */
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
