@@ -31,7 +31,8 @@ def stacked_text() -> str:
                         '        frame right_pivot at (d, -1, 0)\n    }\n\n    rigid left_coupler', 1)
     text = text.replace("connect base.right_crank -> right_crank_link",
                         "connect left_crank_link.right_crank -> right_crank_link")
-    text = text.replace("connect base.right_pivot -> right_rocker", "connect left_crank_link.right_pivot -> right_rocker")
+    text = text.replace("connect base.right_pivot -> right_rocker",
+                        "connect left_crank_link.right_pivot -> right_rocker")
     assert text.count("left_crank_link.right_") == 2
     return text
 
