@@ -111,13 +111,14 @@ def test_the_start_vectors_are_worked_out_once_per_binding(text, monkeypatch):
     made = []
     real = mbs.system.pipeline.initial_state
     monkeypatch.setattr(mbs.system.pipeline, "initial_state", lambda *a: made.append(1) or real(*a))
-    first, _ = system.start("rest")
+    first, _ = system.start("rest")  # (its compile evaluates the default initial state too)
+    made.clear()
     system.forget_starts()
     again, _ = system.start("rest")
-    assert len(made) == 1
+    assert made == []
     assert np.array_equal(again.x, first.x) and np.array_equal(again.p, first.p)
     assert np.array_equal(again.work, first.work)  # solved afresh, to the bit
     other, _ = system.start("rest", params={"l0": "0.42 m"})
-    assert len(made) == 2 and not np.array_equal(other.p, first.p)
+    assert len(made) == 1 and not np.array_equal(other.p, first.p)
     fresh, _ = mbs.loads(text).start("rest", params={"l0": "0.42 m"})
     assert np.array_equal(other.x, fresh.x) and np.array_equal(other.p, fresh.p)
