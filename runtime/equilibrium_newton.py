@@ -77,26 +77,28 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             return rhs(t, state)[nq:]
 
         rows = _Rows(data, t, free.size)
-        columns = (np.arange(free.size), nq + free)
+        speeds = np.zeros((free.size, x.size - nq))  # the probes' speeds: e_j DIFFERENCE_STEP per free column j
+        speeds[np.arange(free.size), free] = DIFFERENCE_STEP
 
         def jacobian(state: np.ndarray, acc: np.ndarray) -> np.ndarray:
             """The forward differences of every independent column, as move and accelerations give them column
             by column, in one pass per function over all the probes (qdot, project, rhs: on the C back end one
             call each, runtime/rows.py) instead of three Python calls per column."""
-            probes = np.repeat(state[None, :], free.size, axis=0)
-            probes[:, nq:] = 0.0
-            probes[columns] = DIFFERENCE_STEP
-            moved = np.repeat(state[None, :], free.size, axis=0)
-            moved[:, :nq] += rows("qdot", probes, nq)
+            probes = np.empty((free.size, state.size))
+            probes[:, :nq] = state[:nq]
+            probes[:, nq:] = speeds
+            moved = np.empty_like(probes)
+            np.add(state[:nq], rows("qdot", probes, nq), out=moved[:, :nq])
             moved[:, nq:] = 0.0
             if loops:
                 moved = rows("project", moved, moved.shape[1])
             return ((rows("rhs", moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
 
         acc = accelerations(x)
+        largest = _largest(acc)
         J = np.zeros((nv, free.size))
         for _ in range(MAX_ITERATIONS):
-            if _largest(acc) <= TOLERANCE:
+            if largest <= TOLERANCE:
                 return x if _stable(J, free) else None
             if free.size:
                 J = jacobian(x, acc)
@@ -105,12 +107,13 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
                 trial = move(x, dv)
                 trial_acc = accelerations(trial)
-                if _largest(trial_acc) < _largest(acc):
+                trial_largest = _largest(trial_acc)
+                if trial_largest < largest:
                     break
                 dv *= 0.5
             else:
                 return None
-            x, acc = trial, trial_acc
+            x, acc, largest = trial, trial_acc, trial_largest
     except Exception:  # a failing evaluation far from the start: leave it to the kinetic damping
         return None
     return None
@@ -189,7 +192,10 @@ def _stable(J: np.ndarray, free: np.ndarray) -> bool:
     velocities) have no positive real part."""
     if free.size == 0 or not np.any(J):
         return True
-    eig = np.linalg.eigvals(J[free, :])
+    with np.errstate(**_LAPACK_ERRORS):  # np.linalg.eigvals without its wrapper (its complex result taken as is:
+        eig = _umath_linalg.eigvals(J[free, :], signature="d->D")  # real parts and moduli the same)
+    if not np.isfinite(eig).all():  # (np.linalg.eigvals refuses a non-finite matrix)
+        raise LinAlgError("Array must not contain infs or NaNs")
     return bool(np.max(eig.real) <= UNSTABLE * np.max(np.abs(eig)))
 
 
