@@ -177,13 +177,15 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
     chosen: list[int] = []
     for _ in range(k):
         norms = np.einsum("ij,ij->j", R, R)
-        norms[chosen] = -1.0
+        for taken in chosen:  # (one by one: an index list costs numpy more than these few)
+            norms[taken] = -1.0
         j = int(norms.argmax())
-        if not norms[j] > 0.0:
+        largest = norms.item(j)
+        if not largest > 0.0:
             break
         chosen.append(j)
-        q = R[:, j] / math.sqrt(norms[j])  # (both correctly rounded: the same bits as np.sqrt)
-        R -= q[:, None] * (q @ R)[None, :]  # np.outer(q, q @ R), as it computes it
+        q = R[:, j] / math.sqrt(largest)  # (both correctly rounded: the same bits as np.sqrt)
+        R -= q[:, None] * (q @ R)  # np.outer(q, q @ R), as it computes it
     return chosen
 
 
