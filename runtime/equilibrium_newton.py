@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.linalg import LinAlgError, _umath_linalg
 
 from .rows import evaluate_rows
 
@@ -76,26 +77,28 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             return rhs(t, state)[nq:]
 
         rows = _Rows(data, t, free.size)
-        columns = (np.arange(free.size), nq + free)
+        speeds = np.zeros((free.size, x.size - nq))  # the probes' speeds: e_j DIFFERENCE_STEP per free column j
+        speeds[np.arange(free.size), free] = DIFFERENCE_STEP
 
         def jacobian(state: np.ndarray, acc: np.ndarray) -> np.ndarray:
             """The forward differences of every independent column, as move and accelerations give them column
             by column, in one pass per function over all the probes (qdot, project, rhs: on the C back end one
             call each, runtime/rows.py) instead of three Python calls per column."""
-            probes = np.repeat(state[None, :], free.size, axis=0)
-            probes[:, nq:] = 0.0
-            probes[columns] = DIFFERENCE_STEP
-            moved = np.repeat(state[None, :], free.size, axis=0)
-            moved[:, :nq] += rows("qdot", probes, nq)
+            probes = np.empty((free.size, state.size))
+            probes[:, :nq] = state[:nq]
+            probes[:, nq:] = speeds
+            moved = np.empty_like(probes)
+            np.add(state[:nq], rows("qdot", probes, nq), out=moved[:, :nq])
             moved[:, nq:] = 0.0
             if loops:
                 moved = rows("project", moved, moved.shape[1])
             return ((rows("rhs", moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
 
         acc = accelerations(x)
+        largest = _largest(acc)
         J = np.zeros((nv, free.size))
         for _ in range(MAX_ITERATIONS):
-            if _largest(acc) <= TOLERANCE:
+            if largest <= TOLERANCE:
                 return x if _stable(J, free) else None
             if free.size:
                 J = jacobian(x, acc)
@@ -104,12 +107,13 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
                 trial = move(x, dv)
                 trial_acc = accelerations(trial)
-                if _largest(trial_acc) < _largest(acc):
+                trial_largest = _largest(trial_acc)
+                if trial_largest < largest:
                     break
                 dv *= 0.5
             else:
                 return None
-            x, acc = trial, trial_acc
+            x, acc, largest = trial, trial_acc, trial_largest
     except Exception:  # a failing evaluation far from the start: leave it to the kinetic damping
         return None
     return None
@@ -121,14 +125,28 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
     step = np.zeros(J.shape[1])
     if not J.size or not J.any():
         return step
-    _, s, vt = np.linalg.svd(J, full_matrices=False)
-    rank = int(np.count_nonzero(s > RCOND * s[0]))
-    # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
-    kept = np.ones(J.shape[1], dtype=bool)
-    kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
-    kept = np.flatnonzero(kept)
-    step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
+    # np.linalg.svd(J, full_matrices=False) and np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND) without their
+    # wrappers (the same LAPACK calls, the same bits; a wrapper costs some 30 k instructions a call, the SVD of the
+    # Iltis' 34 x 10 J 250 k), in one error state (the pivots' arithmetic on the unit vectors of vt between them
+    # neither overflows nor, finite, turns invalid)
+    with np.errstate(**_LAPACK_ERRORS):
+        _, s, vt = _umath_linalg.svd_s(J, signature="d->ddd")
+        rank = int(np.count_nonzero(s > RCOND * s[0]))
+        # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
+        kept = np.ones(J.shape[1], dtype=bool)
+        kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
+        kept = np.flatnonzero(kept)
+        solution = _umath_linalg.lstsq(J[:, kept], -acc[:, None], RCOND, signature="ddd->ddid")[0]
+    step[kept] = solution[:, 0]
     return step
+
+
+def _raise_lapack_error(err, flag):
+    raise LinAlgError("LAPACK did not converge")
+
+
+#: numpy.linalg's error state around its LAPACK calls: a failure (NaN results, the invalid flag) raises LinAlgError.
+_LAPACK_ERRORS = dict(call=_raise_lapack_error, invalid="call", over="ignore", divide="ignore", under="ignore")
 
 
 class _Rows:
@@ -160,13 +178,15 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
     chosen: list[int] = []
     for _ in range(k):
         norms = np.einsum("ij,ij->j", R, R)
-        norms[chosen] = -1.0
+        for taken in chosen:  # (one by one: an index list costs numpy more than these few)
+            norms[taken] = -1.0
         j = int(norms.argmax())
-        if not norms[j] > 0.0:
+        largest = norms.item(j)
+        if not largest > 0.0:
             break
         chosen.append(j)
-        q = R[:, j] / math.sqrt(norms[j])  # (both correctly rounded: the same bits as np.sqrt)
-        R -= q[:, None] * (q @ R)[None, :]  # np.outer(q, q @ R), as it computes it
+        q = R[:, j] / math.sqrt(largest)  # (both correctly rounded: the same bits as np.sqrt)
+        R -= q[:, None] * (q @ R)  # np.outer(q, q @ R), as it computes it
     return chosen
 
 
@@ -175,7 +195,11 @@ def _stable(J: np.ndarray, free: np.ndarray) -> bool:
     velocities) have no positive real part."""
     if free.size == 0 or not np.any(J):
         return True
-    eig = np.linalg.eigvals(J[free, :])
+    # np.linalg.eigvals without its wrapper, its complex result taken as is (the same real parts and moduli)
+    with np.errstate(**_LAPACK_ERRORS):
+        eig = _umath_linalg.eigvals(J[free, :], signature="d->D")
+    if not np.isfinite(eig).all():  # (np.linalg.eigvals refuses a non-finite matrix)
+        raise LinAlgError("Array must not contain infs or NaNs")
     return bool(np.max(eig.real) <= UNSTABLE * np.max(np.abs(eig)))
 
 

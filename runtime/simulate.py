@@ -159,7 +159,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "notes": [note] if note else [],
         "warnings": warnings,
     }
-    return Results(names, np.hstack(columns), metadata)
+    return Results(tuple(names), np.hstack(columns), metadata)
 
 
 #: Step of the central differences that stand in for the generated Jacobian where it fails [relative, at least
@@ -269,7 +269,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
-    return Results(names, table, metadata, events=[r.as_row() for r in records], copy=False)
+    return Results(tuple(names), table, metadata, events=records.rows(), copy=False)
 
 
 def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> None:
