@@ -27,7 +27,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.linalg import LinAlgError, _umath_linalg
 
 from .rows import evaluate_rows
 
@@ -125,28 +124,17 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
     step = np.zeros(J.shape[1])
     if not J.size or not J.any():
         return step
-    # np.linalg.svd(J, full_matrices=False) and np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND) without their
-    # wrappers (the same LAPACK calls, the same bits; a wrapper costs some 30 k instructions a call, the SVD of the
-    # Iltis' 34 x 10 J 250 k), in one error state (the pivots' arithmetic on the unit vectors of vt between them
-    # neither overflows nor, finite, turns invalid)
-    with np.errstate(**_LAPACK_ERRORS):
-        _, s, vt = _umath_linalg.svd_s(J, signature="d->ddd")
-        rank = int(np.count_nonzero(s > RCOND * s[0]))
-        # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
-        kept = np.ones(J.shape[1], dtype=bool)
-        kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
-        kept = np.flatnonzero(kept)
-        solution = _umath_linalg.lstsq(J[:, kept], -acc[:, None], RCOND, signature="ddd->ddid")[0]
-    step[kept] = solution[:, 0]
+    # numpy's public wrappers (about 30 k instructions a call around the LAPACK routine, a few hundredths of a ms
+    # per Newton step): numpy.linalg's private gufuncs would skip them, but a private module is no interface to
+    # build on
+    _, s, vt = np.linalg.svd(J, full_matrices=False)
+    rank = int(np.count_nonzero(s > RCOND * s[0]))
+    # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
+    kept = np.ones(J.shape[1], dtype=bool)
+    kept[_pivot_columns(vt[rank:], J.shape[1] - rank)] = False
+    kept = np.flatnonzero(kept)
+    step[kept] = np.linalg.lstsq(J[:, kept], -acc, rcond=RCOND)[0]
     return step
-
-
-def _raise_lapack_error(err, flag):
-    raise LinAlgError("LAPACK did not converge")
-
-
-#: numpy.linalg's error state around its LAPACK calls: a failure (NaN results, the invalid flag) raises LinAlgError.
-_LAPACK_ERRORS = dict(call=_raise_lapack_error, invalid="call", over="ignore", divide="ignore", under="ignore")
 
 
 class _Rows:
@@ -195,11 +183,7 @@ def _stable(J: np.ndarray, free: np.ndarray) -> bool:
     velocities) have no positive real part."""
     if free.size == 0 or not np.any(J):
         return True
-    # np.linalg.eigvals without its wrapper, its complex result taken as is (the same real parts and moduli)
-    with np.errstate(**_LAPACK_ERRORS):
-        eig = _umath_linalg.eigvals(J[free, :], signature="d->D")
-    if not np.isfinite(eig).all():  # (np.linalg.eigvals refuses a non-finite matrix)
-        raise LinAlgError("Array must not contain infs or NaNs")
+    eig = np.linalg.eigvals(J[free, :])
     return bool(np.max(eig.real) <= UNSTABLE * np.max(np.abs(eig)))
 
 
