@@ -120,34 +120,39 @@ static void am_integrals(const double *r, int m, double theta, double *out)
 }
 
 /* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
-static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
+MBS_ODE_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
 {
     int i;
     for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
 }
 
-/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected). */
-static double am_norm(int n, double c, const double *v, const double *w)
+/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected).  The squares are
+ * computed in chunks elementwise (vectorized) and summed in the order of the elements: the same sum to the bit. */
+MBS_ODE_ELEMENTWISE static double am_norm(int n, double c, const double *v, const double *w)
 {
-    double sum = 0.0;
-    int i;
-    for (i = 0; i < n; i++) {
-        double r = v[i] * w[i];
-        sum += r * r;
+    double sum = 0.0, squares[MBS_ODE_NORM_CHUNK];
+    int i, j;
+    for (i = 0; i < n; i += MBS_ODE_NORM_CHUNK) {
+        const int m = n - i < MBS_ODE_NORM_CHUNK ? n - i : MBS_ODE_NORM_CHUNK;
+        for (j = 0; j < m; j++) {
+            const double r = v[i + j] * w[i + j];
+            squares[j] = r * r;
+        }
+        for (j = 0; j < m; j++) sum += squares[j];
     }
     sum = n > 0 ? fabs(c) * sqrt(sum / n) : 0.0;
     return sum == sum && sum < HUGE_VAL ? sum : HUGE_VAL;
 }
 
 /* y += a x */
-static void am_axpy(int n, double a, const double *x, double *y)
+MBS_ODE_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x, double *restrict y)
 {
     int i;
     for (i = 0; i < n; i++) y[i] += a * x[i];
 }
 
-/* The next divided difference: out = (a - b) / dt */
-static void am_divide(int n, const double *a, const double *b, double dt, double *out)
+/* The next divided difference: out = (a - b) / dt (out may be b) */
+MBS_ODE_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
 {
     double inv = 1.0 / dt;
     int i;
@@ -343,9 +348,13 @@ static int am_step(mbs_ode *o)
             o->fail_h = h;
             break;
         }
-        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
+        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the
+         * difference the next step can read: it goes on at order knew at most, reading D_0 .. D_knew, and the order
+         * rises by one a step at most, so D'_(knew + 1) (from D_knew) is the highest any later step needs; the
+         * differences above it, stale, are never read (a restart builds the chain afresh from the points, am_chain) */
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+            if (top > knew + 1) top = knew + 1;
             memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
             for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
