@@ -82,6 +82,16 @@
 #ifndef ADAMS_HOLD
 #define ADAMS_HOLD 1.2
 #endif
+/* -DADAMS_STEP_FORMER=1 builds the former arithmetic of a step: its loops over the state scalar, the chain with
+ * f_{n+1} updated to the oldest point every step (the same bits; the same-run baseline of bench/adams.py
+ * --instructions). */
+#ifdef ADAMS_STEP_FORMER
+#define ADAMS_ELEMENTWISE
+#define ADAMS_FULL_CHAIN 1
+#else
+#define ADAMS_ELEMENTWISE MBS_ODE_ELEMENTWISE
+#define ADAMS_FULL_CHAIN 0
+#endif
 /* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
  * differences would divide the old branch's values by a vanishing distance). */
 #define ADAMS_RESTART_GAP 1e-3
@@ -120,7 +130,7 @@ static void am_integrals(const double *r, int m, double theta, double *out)
 }
 
 /* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
-MBS_ODE_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
+ADAMS_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
 {
     int i;
     for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
@@ -128,7 +138,7 @@ MBS_ODE_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, c
 
 /* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected).  The squares are
  * computed in chunks elementwise (vectorized) and summed in the order of the elements: the same sum to the bit. */
-MBS_ODE_ELEMENTWISE static double am_norm(int n, double c, const double *v, const double *w)
+ADAMS_ELEMENTWISE static double am_norm(int n, double c, const double *v, const double *w)
 {
     double sum = 0.0, squares[MBS_ODE_NORM_CHUNK];
     int i, j;
@@ -145,14 +155,14 @@ MBS_ODE_ELEMENTWISE static double am_norm(int n, double c, const double *v, cons
 }
 
 /* y += a x */
-MBS_ODE_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x, double *restrict y)
+ADAMS_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x, double *restrict y)
 {
     int i;
     for (i = 0; i < n; i++) y[i] += a * x[i];
 }
 
 /* The next divided difference: out = (a - b) / dt (out may be b) */
-MBS_ODE_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
+ADAMS_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
 {
     double inv = 1.0 / dt;
     int i;
@@ -354,7 +364,7 @@ static int am_step(mbs_ode *o)
          * differences above it, stale, are never read (a restart builds the chain afresh from the points, am_chain) */
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
-            if (top > knew + 1) top = knew + 1;
+            if (!ADAMS_FULL_CHAIN && top > knew + 1) top = knew + 1;
             memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
             for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {

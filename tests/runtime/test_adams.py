@@ -254,7 +254,7 @@ def function_bodies(source: str) -> dict[str, str]:
     """name -> body of every top-level C function of source (from its signature to the closing brace in column 0),
     comments removed."""
     source = re.sub(r"/\*.*?\*/", "", source, flags=re.S)
-    signature = r"^(?:MBS_ODE_ELEMENTWISE )?static [^\n(]*?(\w+)\([^;{]*?\)\n\{.*?^\}"  # vectorized ones too
+    signature = r"^(?:ADAMS_ELEMENTWISE )?static [^\n(]*?(\w+)\([^;{]*?\)\n\{.*?^\}"  # vectorized ones too
     return {m.group(1): m.group(0) for m in re.finditer(signature, source, re.S | re.M)}
 
 
