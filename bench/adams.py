@@ -18,7 +18,8 @@ and wall time interpolated log-log between the two adams runs whose errors brack
 dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restart variants of c/adams.c over the
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
 an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
--DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most).
+-DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most); and the
+former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
 
 `--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (the start from scratch, equilibrium,
 integration, every output) at the scenes' own tolerances with dopri5 (their integrator) and with adams, CPU time of
@@ -76,7 +77,8 @@ WEIGHT_FLOOR = 1e-2
 #: the restart variants of c/adams.c: label -> (build flag, what it does); the default keeps the history at order 3
 VARIANTS = {"afresh": ("-DADAMS_RESTART=0", "the history forgotten, order 1 from the event (CVODE's way)"),
             "re-eval": ("-DADAMS_RESTART=2", "the history re-evaluated with the new branch"),
-            "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had")}
+            "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had"),
+            "growth2": ("-DADAMS_MAX_GROWTH=2", "the step grown by 2 at most, as before (3 now)")}
 
 
 @dataclasses.dataclass
