@@ -370,12 +370,13 @@ static int am_step(mbs_ode *o)
             break;
         }
         /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the
-         * difference the next step can read: it goes on at order knew at most, reading D_0 .. D_knew, and the order
-         * rises by one a step at most, so D'_(knew + 1) (from D_knew) is the highest any later step needs; the
-         * differences above it, stale, are never read (a restart builds the chain afresh from the points, am_chain) */
+         * highest difference the next step reads: it goes on at order knew at most, reading D_0 .. D_knew (the
+         * predictor D_0 .. D_(knew-1), the estimate of order knew + 1 D_knew), and its own chain then needs the
+         * differences below its new order, at most knew + 1; the differences above, stale, are never read (a restart
+         * builds the chain afresh from the points, am_chain; tests/runtime/test_adams.py checks the bits) */
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
-            if (!ADAMS_FULL_CHAIN && top > knew + 1) top = knew + 1;
+            if (!ADAMS_FULL_CHAIN && top > knew) top = knew;
             memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
             for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
