@@ -94,8 +94,8 @@
 #define ADAMS_HOLD 1.2
 #endif
 /* -DADAMS_STEP_FORMER=1 builds the former arithmetic of a step: its loops over the state scalar, the chain with
- * f_{n+1} updated to the oldest point every step (the same bits; the same-run baseline of bench/adams.py
- * --instructions). */
+ * f_{n+1} updated to the oldest point every step and a restart's chain built to it (the same bits; the same-run
+ * baseline of bench/adams.py --instructions). */
 #ifdef ADAMS_STEP_FORMER
 #define ADAMS_ELEMENTWISE
 #define ADAMS_FULL_CHAIN 1
@@ -143,8 +143,13 @@ static void am_integrals(const double *r, int m, double theta, double *out)
 /* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
 ADAMS_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
 {
+    const double rtol = o->rtol, *atol = o->atol;
+    const int n = o->n;
     int i;
-    for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+    for (i = 0; i < n; i++) {  /* fmax(a, b) written out (as ode.c's error norm) so that the loop vectorizes */
+        const double a = fabs(y0[i]), b = fabs(y1[i]);
+        w[i] = 1.0 / (atol[i] + rtol * (a >= b || b != b ? a : b));
+    }
 }
 
 /* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected).  The squares are
@@ -180,14 +185,15 @@ ADAMS_ELEMENTWISE static void am_divide(int n, const double *a, const double *b,
     for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
 }
 
-/* The chain of divided differences of the points tt[0..nh) with values fv, into d. */
-static void am_chain(am_mem *m, int n)
+/* The chain of divided differences of the points tt[0..nh) with values fv, into d[0 .. top] (top < nh: the higher
+ * ones are not read before the chain is built again, see the chain with f_{n+1} in am_step). */
+static void am_chain(am_mem *m, int n, int top)
 {
     int i, j;
-    for (i = 0; i < m->nh; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
-    /* in place, column by column: after pass j, d[i] (i >= j) holds f[tt[i-j], ..., tt[i]] */
-    for (j = 1; j < m->nh; j++)
-        for (i = m->nh - 1; i >= j; i--) {
+    for (i = 0; i <= top; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
+    /* in place, column by column: after pass j, d[i] (j <= i <= top) holds f[tt[i-j], ..., tt[i]] */
+    for (j = 1; j <= top; j++)
+        for (i = top; i >= j; i--) {
             double dt = m->tt[i - j] - m->tt[i];
             am_divide(n, m->d[i - 1], m->d[i], dt, m->d[i]);
         }
@@ -255,10 +261,11 @@ static void am_restart(mbs_ode *o, am_mem *m)
     memcpy(m->fv[0], o->f, (size_t)n * sizeof(double));
     memcpy(m->yv[0], o->y, (size_t)n * sizeof(double));
     m->nh = kept + 1;
-    am_chain(m, n);
     if (m->k > ADAMS_RESTART_ORDER) m->k = ADAMS_RESTART_ORDER;
     if (m->k > m->nh) m->k = m->nh;
     if (m->k < 1) m->k = 1;
+    /* the first step reads D_0 .. D_k (D_k: its estimate of order k + 1) */
+    am_chain(m, n, ADAMS_FULL_CHAIN || m->k > m->nh - 1 ? m->nh - 1 : m->k);
     m->nconst = 0;
     m->nfail = 0;
     m->phase1 = m->nh == 1;
