@@ -284,7 +284,7 @@ static int am_step(mbs_ode *o)
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
         double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
-        int last, k, kmax_est, knew, s;
+        int last, k, kmax_est, kmax_err, knew, s;
         if (mbs_ode_next_h(o, &h, &last)) break;
         k = m->k < m->nh ? m->k : m->nh;
         x0 = last ? o->t_bound : t + h;
@@ -309,7 +309,9 @@ static int am_step(mbs_ode *o)
             memcpy(m->yc, y, (size_t)n * sizeof(double));
             for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
             am_weights(o, y, m->yc, m->w);
-            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
+            /* the estimates the order control reads: k - 2 .. k, and k + 1 once the order may rise */
+            kmax_err = k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1 ? kmax_est : k;
+            for (i = k >= 3 ? k - 2 : 1; i <= kmax_err; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
         }
         if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
             o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
