@@ -1650,6 +1650,22 @@ static int mbs_loop_stamp_p_holds(const mbs_loop_work *w, const double *p)
     return memcmp(mbs_loop_stamp_p(w), p, MBS_NP * sizeof(double)) == 0;
 }
 
+/* The factors of G at the stamp's positions serve positions within MBS_LOOP_STAMP_NEAR of them (relative):
+ * DOPRI5's last stage is at its accepted state itself (bit for bit); Adams' last evaluation is at the predicted
+ * state, which the corrector moves by the step's local error (about rtol).  With G off by that much, each polishing
+ * Newton step still cuts the position residual by about that factor, and the velocities' one correction leaves a
+ * residual of (G(q_c) - G(q_stamp)) dv: the product of two small quantities.  A residual the polish does not take
+ * below MBS_LOOP_TOL still goes the way of mbs_project. */
+#define MBS_LOOP_STAMP_NEAR 1e-6
+
+static int mbs_loop_stamp_q_near(const double *stamp_q, const double *x)
+{
+    int i;
+    for (i = 0; i < MBS_NQ; i++)
+        if (!(fabs(stamp_q[i] - x[i]) <= MBS_LOOP_STAMP_NEAR * (1.0 + fabs(x[i])))) return 0;
+    return 1;
+}
+
 /* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
 static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs_loop_work *w, int r)
 {
@@ -1664,12 +1680,13 @@ static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs
 static int mbs_loop_stamp_holds(double t, const double *x, const double *p, const mbs_loop_work *w)
 {
     return w->stamp[0] == MBS_LOOP_KEEP_MARK && w->stamp[1] == t && w->keep[0] == MBS_LOOP_KEEP_MARK
-           && w->stamp[3] == w->keep[1] && memcmp(w->stamp + 4, x, MBS_NQ * sizeof(double)) == 0
+           && w->stamp[3] == w->keep[1] && mbs_loop_stamp_q_near(w->stamp + 4, x)
            && mbs_loop_stamp_p_holds(w, p);
 }
 
-/* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions:
- * the integrated state of an accepted step is the state of its last stage (DOPRI5's first-same-as-last), already
+/* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions or
+ * near them (Adams' predicted state: mbs_loop_stamp_q_near): the integrated state of an accepted step is the
+ * state of its last stage (DOPRI5's first-same-as-last) or its corrected prediction (Adams), already
  * on the position constraints to the integration's drift (about 1e-13), so the projection is one residual, the
  * polishing Newton steps of mbs_loop_positions_iterate with those factors, and the velocities from one gdot,
  * instead of two fresh evaluations and factorisations of G.  The velocities use G at the positions before the
