@@ -13,7 +13,8 @@ reference on the scene's sample grid (the rows at events left out): the weighted
 per sample (|x - x_ref| / (1e-2 + |x_ref|)), its largest over the samples (`max`: on bump_10 one sample beside a
 leaf spring's stop decides it) and its median (`median`).
 
-Then, per error measure, what adams costs at the accuracy dopri5 reaches at the scene's rtol (1e-7): its rhs calls
+Then, per error measure, what adams costs at the accuracy dopri5 reaches at rtol 1e-7 (atol 1e-9: the bump scenes'
+settings before they moved to adams, bench/dopri5_former.py DOPRI5_FORMER, always in dopri5's ladder): its rhs calls
 and wall time interpolated log-log between the two adams runs whose errors bracket dopri5's, and their ratios to
 dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restart variants of c/adams.c over the
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
@@ -22,11 +23,12 @@ an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with th
 former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
 
 `--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (the start from scratch, equilibrium,
-integration, every output) at the scenes' own tolerances with dopri5 (their integrator) and with adams, CPU time of
-this process, interleaved, medians of --repeat, their ratio and real-time factors: what a user gets from
-`--integrator adams`, where the work-precision figures above compare at equal accuracy.  `--adams-rtols R [R ...]`:
-adams at these rtols instead (atol R / 100; one per scene, bump_5's first, or one for both), each run's errors against
-the reference printed beside (the measures above): the whole simulate at equal accuracy.
+integration, every output) with dopri5 at the scenes' former settings (rtol 1e-7, atol 1e-9, DOPRI5_FORMER) and with
+adams at the scene's own (adams since the scenes moved to it), CPU time of this process, interleaved, medians of
+--repeat, their ratio and real-time factors, where the work-precision figures above compare at equal accuracy.
+`--adams-rtols R [R ...]`: adams at these rtols instead (atol R / 100; one per scene, bump_5's first, or one for
+both), each run's errors against the reference printed beside (the measures above): the whole simulate at equal
+accuracy.
 
     python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former]
 
@@ -34,8 +36,9 @@ the reference printed beside (the measures above): the whole simulate at equal a
 (load-independent), split by part: the rhs calls, the projection of the accepted steps, the indicators (`mbs_events`,
 at the steps' ends, in the root finding, at the restarts), the root finding's own work, the restarts' own, and the
 method's own (its steps' arithmetic, the dense output at the samples, the rest), each also per accepted step; dopri5
-and adams at the scene's rtol, adams at --adams-rtols (atol / 100) when given, and with --former adams built with
--DADAMS_STEP_FORMER=1 (its step's loops scalar, the whole chain of differences updated every step: the same bits).
+at the scenes' former settings (rtol 1e-7, atol 1e-9) and adams at the scene's own, adams at --adams-rtols
+(atol / 100) when given, and with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
+whole chain of differences updated every step: the same bits).
 valgrind's libm rounds a little differently, so its step counts may differ by a few from a run's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
@@ -61,6 +64,10 @@ from mbs.runtime import build
 from mbs.runtime.backends import CBackend
 from mbs.runtime.simulate import output_times, simulate
 from mbs.runtime.workspace import Workspace
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+#: the bump scenes' settings before they moved to adams: dopri5's side of every comparison here
+from dopri5_former import DOPRI5_FORMER  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = {
@@ -171,11 +178,11 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
     times = output_times(float(start.t), settings["t_end"], sample=settings.get("sample"))
     ref_wall, reference = run(model, start, settings, "dopri5", REFERENCE_RTOL, REFERENCE_ATOL)
     ref = states_at(model, reference, times)
-    scene_rtol = settings["rtol"]
+    scene_rtol, dopri5_rtol = settings["rtol"], DOPRI5_FORMER["rtol"]
     print(f"\n{name} ({path}, scene {scene}; {settings['t_end']:g} s, {times.size} samples; the scene's "
           f"{settings['integrator']} rtol {scene_rtol:g}); reference dopri5 rtol {REFERENCE_RTOL:g}: "
           f"{reference.metadata['stats']['nfev']} rhs, {ref_wall:.2f} s")
-    ladders = {"dopri5": sorted(set(rtols) | {scene_rtol}), "adams": sorted(set(adams_rtols) | {scene_rtol})}
+    ladders = {"dopri5": sorted(set(rtols) | {dopri5_rtol}), "adams": sorted(set(adams_rtols) | {scene_rtol})}
     builds = [("adams", model)] + [(label, variant_model(system, scene, model, (flag,)))
                                    for label, (flag, _) in (VARIANTS.items() if variants else ())]
     labels = [label for label, _ in builds]
@@ -190,10 +197,11 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
     if variants:
         described = (f"{k}: {flag}, {what}" for k, (flag, what) in VARIANTS.items())
         print("  (adams: the default build; " + "; ".join(described) + ")")
-    base = next(r for r in runs if r.integrator == "dopri5" and r.rtol == scene_rtol)
+    base = next(r for r in runs if r.integrator == "dopri5" and r.rtol == dopri5_rtol)
     for measure in ("max", "median"):
         target = base.errors[measure]
-        print(f"  at dopri5's {measure} error at rtol {scene_rtol:g} ({target:.2e}; {base.nfev} rhs, "
+        print(f"  at dopri5's {measure} error at rtol {dopri5_rtol:g} (the bump scenes' former setting; "
+              f"{target:.2e}; {base.nfev} rhs, "
               f"{base.wall * 1e3:.1f} ms):")
         for label in labels:
             found = at_accuracy([r for r in runs if r.integrator == label], target, measure)
@@ -207,11 +215,11 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
 
 
 def whole(repeat: int, adams_rtols: list[float] | None) -> None:
-    """The whole simulate of bump_5 and bump_10 with each integrator at the scene's tolerances, or adams at its own
-    (see the docstring)."""
+    """The whole simulate of bump_5 and bump_10 with dopri5 at the scenes' former settings and adams at the scene's
+    own or at `adams_rtols` (see the docstring)."""
     system = mbs.load(ROOT / "library/iltis/vehicle.mbs")
     for number, scene in enumerate(("bump_5", "bump_10")):
-        tolerances = {"dopri5": {}, "adams": {}}
+        tolerances = {"dopri5": {k: DOPRI5_FORMER[k] for k in ("rtol", "atol")}, "adams": {}}
         if adams_rtols:
             rtol = adams_rtols[min(number, len(adams_rtols) - 1)]
             tolerances["adams"] = {"rtol": rtol, "atol": ATOL_RATIO * rtol}
@@ -228,8 +236,9 @@ def whole(repeat: int, adams_rtols: list[float] | None) -> None:
         simulated = float(runs["dopri5"].t[-1] - runs["dopri5"].t[0])
         d, a = (statistics.median(cpu[i]) for i in ("dopri5", "adams"))
         rtols = {i: runs[i].metadata.get("rtol", tolerances[i].get("rtol")) for i in cpu}
-        print(f"{scene}: whole simulate, CPU, medians of {repeat}: dopri5 {d * 1e3:.1f} ms ({simulated / d:.1f}x real "
-              f"time), adams {a * 1e3:.1f} ms ({simulated / a:.1f}x); adams / dopri5 {a / d:.2f}")
+        print(f"{scene}: whole simulate, CPU, medians of {repeat}: dopri5 rtol {rtols['dopri5']:g} {d * 1e3:.1f} ms "
+              f"({simulated / d:.1f}x real time), adams rtol {rtols['adams']:g} {a * 1e3:.1f} ms "
+              f"({simulated / a:.1f}x); adams / dopri5 {a / d:.2f}")
         if adams_rtols:
             start, settings = system.start(scene)
             model = start.model
@@ -294,7 +303,7 @@ def instructions(cases, adams_rtols, former: bool) -> None:
     """--instructions: the integration's instructions by part (see the docstring)."""
     for name in cases:
         path, scene = CASES[name]
-        runs = [("dopri5", "dopri5", "scene", ()), ("adams", "adams", "scene", ())]
+        runs = [("dopri5", "dopri5", repr(DOPRI5_FORMER["rtol"]), ()), ("adams", "adams", "scene", ())]
         if former:
             runs.append(("adams former", "adams", "scene", ("-DADAMS_STEP_FORMER=1",)))
         runs += [(f"adams {r:g}", "adams", repr(r), ()) for r in adams_rtols or ()]

@@ -3,23 +3,31 @@
     python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--former rows|lambda]
                               [--no-former] [--instructions]
 
-Per scene, the whole `System.simulate(scene)` (equilibrium included, results with every output; DOPRI5 in C, the
-scene's own tolerances), medians of --repeat runs, split by timing each part inside the same runs.  All times are
+Per scene, the whole `System.simulate(scene)` as a user runs it (equilibrium included, results with every output;
+the scene's own integrator in C at its own tolerances, printed from the results' metadata: adams since the bump
+scenes moved to it), medians of --repeat runs, split by timing each part inside the same runs.  All times are
 CPU seconds of this process (single-threaded, so a quiet machine's wall time): on a shared machine the wall times
 of one run wander by a factor of two and more with the others' load.  The parts:
 
 * equilibrium: `static_equilibrium` (Newton on the reduced equations);
 * integration in C (`Solver.sample`: every step, projection, event location and restart that C does itself), and
-  of it the right-hand side calls (the run's rhs count times the cost per call of `loop_rhs`, timed inside C at
-  states of the run) and the rest, the per-step overhead (stages' arithmetic, error norm, the projection of each
-  accepted step, the dense output, the event indicators and their root finding, the restarts' bookkeeping). The
-  split is an estimate: the cost per call is timed apart from the run, in a warm loop over the rows' states, and
-  moves with the load and the caches (8 to 13 us for the same function on the same machine), so the overhead line
-  swings with it; bench/event_instructions.py --machinery counts the same split in instructions, which do not;
+  of it the right-hand side calls (the run's rhs count, whatever the method's rhs calls per step, times the cost
+  per call of `loop_rhs`, timed inside C at states of the run) and everything else in the integration, per
+  accepted step (the method's own arithmetic: DOPRI5's stages or Adams' predictor, corrector and differences, the
+  error norm, the step size control; the projection of each accepted step, the dense output, the event indicators
+  and their root finding, the restarts' bookkeeping). The split is an estimate: the cost per call is timed apart
+  from the run, in a warm loop over the rows' states, and moves with the load and the caches (8 to 13 us for the
+  same function on the same machine), so the line of all but the rhs swings with it; instructions do not:
+  bench/adams.py --instructions counts the same split for adams and dopri5, bench/event_instructions.py
+  --machinery for DOPRI5 at the former settings;
 * the events C handled, booked in Python (`event_loop.replay`: records, run-time values, rows);
 * outputs: the rows of the results (each projected onto the loop constraints, then its outputs with the
   reaction forces: `Function.rows`), per row;
 * the Python driver: the rest (the workspace, the switches' start, the results' assembly).
+
+Beside them, interleaved in the same rounds, the whole simulate with DOPRI5 at the bump scenes' settings before they
+moved to adams (rtol 1e-7, atol 1e-9: bench/dopri5_former.py DOPRI5_FORMER), from a first start as well: the
+scene change's before and after, printed with its rhs calls and the ratio scene / former settings.
 
 Every timed run is a first start: the start states the System keeps (mbs/system.py System._kept_start) are let go
 before it (System.forget_starts), so that the loops' assembly and the static equilibrium are solved in each.  Beside
@@ -71,6 +79,8 @@ from mbs.runtime.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).parent))
 from chain import chain_text  # noqa: E402
+#: the baseline line: the bump scenes' settings before they moved to adams (DOPRI5 at rtol 1e-7, atol 1e-9)
+from dopri5_former import DOPRI5_FORMER, described, scene_settings  # noqa: E402
 
 simulate_module = importlib.import_module("mbs.runtime.simulate")  # the package exports its function
 
@@ -116,9 +126,10 @@ class PartTimer:
             setattr(owner, name, real)
 
 
-def timed_run(system, scene: str, first_start: bool = True):
+def timed_run(system, scene: str, first_start: bool = True, **settings):
     """One whole simulate(): (wall, seconds per part, results); first_start: the System's kept start states let go
-    first (mbs/system.py System._kept_start), so that the loops' assembly and the equilibrium are solved in it."""
+    first (mbs/system.py System._kept_start), so that the loops' assembly and the equilibrium are solved in it;
+    settings: overrides of the scene's (integrator, rtol, atol), none: the scene as it is."""
     if first_start:
         system.forget_starts()
     parts = PartTimer()
@@ -135,7 +146,7 @@ def timed_run(system, scene: str, first_start: bool = True):
     parts.wrap(simulate_module, "project_rows", "outputs")  # (rows projected alone: a run without outputs)
     try:
         start = clock()
-        res = system.simulate(scene)
+        res = system.simulate(scene, **settings)
         wall = clock() - start
     finally:
         RunGuard.watch = real_watch
@@ -284,8 +295,8 @@ def print_instructions(system, scene: str, former) -> None:
 
 
 def rhs_cost(system, scene: str, res) -> float:
-    """CPU seconds per call of the rhs DOPRI5 calls (`loop_rhs`, no projection) inside C, over the states of the
-    run one after another (its rows, in one `Function.rows` call: no Python between them), the run-time values of
+    """CPU seconds per call of the rhs the C integrators call (`loop_rhs`, no projection) inside C, over the states of
+    the run one after another (its rows, in one `Function.rows` call: no Python between them), the run-time values of
     the scene's start (a switch's branch changes which side of a kink is evaluated, not the cost).  One state
     called again and again (`time_call`) finds the caches warm and costs about two thirds of this."""
     compiled = system.compile(scene)
@@ -330,15 +341,19 @@ def main(argv=None) -> int:
     chain_data = Workspace(chain)
     chain_rhs = statistics.median(cpu_per_call(chain, chain_data.function("rhs"), chain.x0, 10 * RHS_CALLS)
                                   for _ in range(5))
-    print(f"Iltis bump scenes, DOPRI5 in C, whole simulate() (equilibrium to results with every output), CPU time, "
-          f"medians of {args.repeat}; open chain of {compiled.nv} links: rhs {chain_rhs * 1e6:.2f} us per call")
+    print(f"Iltis bump scenes as a user runs them (each scene's own integrator in C, at its own tolerances), whole "
+          f"simulate() (equilibrium to results with every output), CPU time, medians of {args.repeat}; baseline: "
+          f"{described()} (the bump scenes' settings before adams), interleaved; open chain of {compiled.nv} links: "
+          f"rhs {chain_rhs * 1e6:.2f} us per call")
     for scene in args.scenes:
         t_end = system.scene(scene).t_end
         system.simulate(scene)  # compile and warm up
+        system.simulate(scene, **DOPRI5_FORMER)
         former = None if args.no_former else former_model(system, scene, FORMER_FLAGS[args.former], args.cache_dir)
-        runs, former_runs, kept_runs = [], [], []
+        runs, former_runs, kept_runs, dopri5_runs = [], [], [], []
         for _ in range(args.repeat):  # interleaved: the load drifts
             runs.append(timed_run(system, scene))
+            dopri5_runs.append(timed_run(system, scene, **DOPRI5_FORMER))  # the scene's former settings
             kept_runs.append(timed_run(system, scene, first_start=False))  # from the start the run before kept
             if former is not None:
                 with using(system, scene, former):
@@ -358,15 +373,18 @@ def main(argv=None) -> int:
 
         def line(name, seconds, note=""):
             print(f"  {name:34s} {seconds * 1e3:8.1f} ms {100 * seconds / wall:5.1f} %  {note}")
-        print(f"\n{scene}: {t_end:g} s simulated in {wall * 1e3:.0f} ms, real-time factor {t_end / wall:.1f} (target "
-              f"{TARGET_RTF:g}); {stats['nsteps']} steps, {stats.get('nreject', 0)} rejected, {nfev} rhs, "
-              f"{stats.get('nevents', 0)} events, {rows} rows")
+        print(f"\n{scene} ({scene_settings(res)}): {t_end:g} s simulated in {wall * 1e3:.0f} ms, real-time factor "
+              f"{t_end / wall:.1f} (target {TARGET_RTF:g}); {stats['nsteps']} steps, {stats.get('nreject', 0)} "
+              f"rejected, {nfev} rhs ({nfev / max(1, stats['nsteps']):.2f} per step), {stats.get('nevents', 0)} "
+              f"events, {rows} rows")
         line("equilibrium", part["equilibrium"])
         line("integration in C", part["integration"])
         line("  of it rhs calls", rhs_total, f"{nfev} x {rhs * 1e6:.2f} us (loop_rhs over the run's rows)")
-        line("  of it per-step overhead", part["integration"] - rhs_total,
-             f"{(part['integration'] - rhs_total) / max(1, stats['nsteps']) * 1e6:.1f} us per step (projection, "
-             f"dense output, indicators, root finding, restarts)")
+        accepted = max(1, stats["nsteps"] - stats.get("nreject", 0))
+        line("  of it all but the rhs calls", part["integration"] - rhs_total,
+             f"{(part['integration'] - rhs_total) / accepted * 1e6:.1f} us per accepted step "
+             f"({res.metadata['integrator']}: the method's own arithmetic, projection, dense output, indicators, "
+             f"root finding, restarts)")
         line("events booked in Python", part["events booked"])
         line("outputs", part["outputs"], f"{rows} rows, {part['outputs'] / max(1, rows) * 1e6:.1f} us per row "
              f"({part['outputs'] / max(1, rows) / rhs:.1f} rhs)")
@@ -374,6 +392,12 @@ def main(argv=None) -> int:
         print(f"  tree-speed bound: {nfev} rhs x {chain_rhs * 1e6:.2f} us (open chain) = {bound * 1e3:.1f} ms: "
               f"real-time factor {t_end / bound:.0f} with nothing else costing; {t_end / rest_at_tree:.1f} with the "
               f"other parts as measured (now {t_end / wall:.1f})")
+        was = med(r[0] for r in dopri5_runs)
+        was_stats = dopri5_runs[-1][2].metadata["stats"]
+        print(f"  baseline, the scene's former settings ({scene_settings(dopri5_runs[-1][2])}; same run, interleaved): "
+              f"whole simulate {was * 1e3:.1f} ms, real-time factor {t_end / was:.1f}; {was_stats['nsteps']} steps, "
+              f"{was_stats['nfev']} rhs; the scene now / former: {wall / was:.2f} (rhs calls "
+              f"{nfev / was_stats['nfev']:.2f})")
         kept = med(r[0] for r in kept_runs)
         same = all(np.array_equal(r[2].data, res.data) for r in kept_runs)
         start_first, start_kept = start_times(system, scene, 3 * args.repeat)

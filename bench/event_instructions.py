@@ -10,6 +10,10 @@ instruction count of one whole `simulate` (equilibrium, integration, rows, event
 included).  The ratio event / smooth is issue 10's figure ("no slower": <= 1).  Takes a few minutes: callgrind
 runs about 50 times slower than the machine.
 
+Every run here, in the children and in this process, is DOPRI5 at rtol 1e-7, atol 1e-9, set explicitly
+(bench/dopri5_former.py DOPRI5_FORMER): the bump scenes' settings before they moved to adams, what this bench studies
+(the restarts and the machinery around DOPRI5's steps; the former builds' paths are DOPRI5's and c/ode.c's).
+
     python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events] [--repeat 7]
 
 The integration of one run of the event form (`Solver.sample`, callgrind collecting inside it only: every step,
@@ -52,9 +56,12 @@ from pathlib import Path
 import numpy as np
 
 MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+#: the bump scenes' settings before they moved to adams: what this bench studies (DOPRI5 at rtol 1e-7, atol 1e-9)
+from dopri5_former import DOPRI5_FORMER, described, scene_settings  # noqa: E402
 
-#: The child: the vehicle with `switches` set in its model header, `count` runs of the scene.
-CHILD = """
+#: The child: the vehicle with `switches` set in its model header, `count` runs of the scene (DOPRI5_FORMER).
+CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\n" + """
 import sys
 from pathlib import Path
 import mbs
@@ -63,7 +70,7 @@ text = path.read_text()
 header = next(line for line in text.splitlines() if line.startswith("model "))
 system = mbs.loads(text.replace(header, header + "\\n    switches = " + form, 1), path=str(path))
 for _ in range(count):
-    system.simulate(scene)
+    system.simulate(scene, **DOPRI5_FORMER)
 """
 
 
@@ -83,8 +90,9 @@ def instructions(form: str, scene: str, count: int, workdir: Path) -> int:
 FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",)}
 FORMER_FLAGS = FORMERS["events"]
 
-#: The child of --machinery: the event form's scene once, its model built with the flags given (none: as usual).
-MACHINERY_CHILD = """
+#: The child of --machinery: the event form's scene once (DOPRI5_FORMER), its model built with the flags given (none:
+#: as usual).
+MACHINERY_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\n" + """
 import dataclasses, sys
 from pathlib import Path
 import mbs
@@ -98,7 +106,7 @@ if flags:
         system.generate(scene).c_source, extra_flags=flags))))
     for key in [key for key, value in system._compiled.items() if value is compiled]:
         system._compiled[key] = model
-stats = system.simulate(scene).metadata["stats"]
+stats = system.simulate(scene, **DOPRI5_FORMER).metadata["stats"]
 print("ACCEPTED", stats["nsteps"] - stats["nreject"])
 """
 
@@ -215,14 +223,14 @@ def compare_runs(scene: str, flags: tuple[str, ...], repeat: int) -> None:
     from former_builds import flagged_build
     system = mbs.load(MODEL)
     former = flagged_build(system, scene, flags)
-    system.simulate(scene)
+    system.simulate(scene, **DOPRI5_FORMER)
     with using(system, scene, former):
-        system.simulate(scene)
+        system.simulate(scene, **DOPRI5_FORMER)
     now_runs, was_runs = [], []
     for _ in range(repeat):  # interleaved: the load drifts
-        now_runs.append(timed_run(system, scene))
+        now_runs.append(timed_run(system, scene, **DOPRI5_FORMER))
         with using(system, scene, former):
-            was_runs.append(timed_run(system, scene))
+            was_runs.append(timed_run(system, scene, **DOPRI5_FORMER))
     seconds = {label: statistics.median(run[1].get("integration", 0.0) for run in runs)
                for label, runs in (("current", now_runs), ("former", was_runs))}
     print(f"  wall (CPU seconds of the integration, medians of {repeat} interleaved runs; the machine's load moves "
@@ -249,7 +257,7 @@ def compare_runs(scene: str, flags: tuple[str, ...], repeat: int) -> None:
             worst, column = gap, name
     print(f"  results: {len(current.names) - bits} of {len(current.names)} columns the same to the bit; the largest "
           f"difference {worst:.2e}{f' ({column})' if column else ''} (relative to the column's largest magnitude, "
-          f"absolute below 1); the scene's rtol {current.metadata.get('rtol', 'n/a')}")
+          f"absolute below 1); the runs' settings {scene_settings(current)}")
 
 
 #: The rows of --machinery's table: label, part, the key of its count of calls (or None).
@@ -281,8 +289,8 @@ def machinery(scene: str, former: str, repeat: int) -> int:
     for parts in counts.values():
         parts["machinery"] = parts["integration"] - parts["rhs"]
     now, was = counts["current"], counts["former"]
-    print(f"Iltis {scene} (event form), dopri5: instructions of one run's integration (Solver.sample, callgrind), "
-          f"the current build against {' '.join(flags)}, and per accepted step ({now['accepted']} now, "
+    print(f"Iltis {scene} (event form), {described()}: instructions of one run's integration (Solver.sample, "
+          f"callgrind), the current build against {' '.join(flags)}, and per accepted step ({now['accepted']} now, "
           f"{was['accepted']} before):")
     print(f"  {'part':<28}{'current':>10}{'former':>10}{'ratio':>8}{'calls now':>11}{'before':>8}"
           f"{'per step':>10}{'before':>8}")
@@ -318,7 +326,7 @@ def main(argv=None) -> int:
             one, three = (instructions(form, args.scene, n, Path(tmp)) for n in (1, 3))
             per_run[form] = (three - one) / 2
     smooth, events = per_run["false"], per_run["true"]
-    print(f"Iltis {args.scene}, dopri5, instructions of one whole simulate() (callgrind, load-independent):")
+    print(f"Iltis {args.scene}, {described()}, instructions of one whole simulate() (callgrind, load-independent):")
     print(f"  smooth form (switches = false, baseline) {smooth / 1e6:10.1f} M")
     print(f"  event form  (switches = true)            {events / 1e6:10.1f} M   ratio {events / smooth:.3f}")
     return 0

@@ -8,7 +8,9 @@
    driver's fixed cost (workspace, results table), and of the event machinery only one test per step in C
    (``nev == 0``) and one attribute test in Python.
 2. The bouncing ball example to its accumulation point: events per second of wall time.
-3. The Iltis quarter car and the full Iltis (library/iltis/vehicle.mbs) over the bump at 10 m/s with dopri5:
+3. The Iltis quarter car and the full Iltis (library/iltis/vehicle.mbs) over the bump at 10 m/s, each scene with its
+   own integrator and tolerances (printed from the results' metadata: dopri5 for the quarter car, adams for the full
+   Iltis since its bump scenes moved to it):
    the tyre contact, leaf stop and damper kinks as switches (events) against the smooth form of the same model
    (``switches = false``, the baseline), median of R runs each, the two forms interleaved; wall time and the
    process's CPU time (the steadier figure when other jobs share the cores); the ratio event / smooth is the
@@ -113,7 +115,9 @@ def compare_forms(mbs, label: str, path: Path, header: str, repeats: int, python
         stats = res.metadata["stats"]
         return f"nfev {stats['nfev']:6d}, rejected {stats['nreject']:4d}"
 
-    print(f"{label}, bump at 10 m/s, dopri5, median of {repeats} (wall; process CPU, steadier on a busy machine):")
+    settings = smooth.metadata
+    print(f"{label}, bump at 10 m/s, {settings['integrator']} rtol {settings['rtol']:g} atol {settings['atol']:g}, "
+          f"median of {repeats} (wall; process CPU, steadier on a busy machine):")
     print(f"  smooth form (baseline)        {med['smooth'] * 1e3:8.1f} ms; {med_cpu['smooth'] * 1e3:7.1f} ms   "
           f"{counts(smooth)}")
     print(f"  event form, restarts in C     {med['events'] * 1e3:8.1f} ms; {med_cpu['events'] * 1e3:7.1f} ms   "

@@ -36,7 +36,8 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
   kinetic damping alone (the former method) as the baseline, and how far the two results lie apart;
 * per scene: the whole `System.simulate(scene)` (equilibrium included, results with all outputs), its
   real-time factor (simulated / wall time), and the breakdown: equilibrium, integration (with the projections
-  and the assembled start; outputs=False) and outputs (the rest), with DOPRI5 in C (the default integrator);
+  and the assembled start; outputs=False) and outputs (the rest), with the scene's own integrator in C at its own
+  tolerances (adams since the bump scenes moved to it; printed from the results' metadata);
   and the tree-speed bound: the run's rhs count times the open chain's rhs (the wall time if the closed-loop rhs
   were as cheap as an open tree and nothing else cost anything) as a real-time factor, and the factor with the
   rhs at tree speed and the other parts as measured (the rhs estimated as rhs count x `loop_rhs` at the
@@ -45,7 +46,8 @@ Printed, all measured in this run (medians of --repeat; the machine is shared an
 * per scene, both forms of the model's kinks (unless --no-switches): the smooth form (`switches = false`: the
   tyre contact, leaf stop and damper kinks as min/max inside the rhs, which the step size control meets as
   rejections) and the event form (`switches = true`: each kink a located event, the integrator restarted there),
-  the whole `simulate` each, with steps, rejections and rhs calls; the ratio is event / smooth wall time.
+  the whole `simulate` each (the scene's own integrator), with steps, rejections and rhs calls; the ratio is
+  event / smooth wall time.
 """
 
 from __future__ import annotations
@@ -73,6 +75,7 @@ from mbs.runtime.workspace import Workspace
 
 sys.path.insert(0, str(Path(__file__).parent))
 from chain import chain_text  # noqa: E402
+from dopri5_former import scene_settings  # noqa: E402
 from compile_time import former_settings, fresh_compile, seed_runtime  # noqa: E402
 
 MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.mbs"
@@ -235,14 +238,14 @@ def main() -> None:
             if args.rk45:
                 base, _ = median_time(lambda: system.simulate(scene, integrator="RK45"), max(1, args.repeat // 2))
                 line += f" {base * 1e3:6.0f}ms {base / wall:9.1f}"
-            print(line + ("" if res.success else f"  ({res.message})"))
+            print(line + f"  {scene_settings(res)}" + ("" if res.success else f"  ({res.message})"))
             bound = stats.get("nfev", 0) * open_rhs  # the rhs as cheap as the open tree, nothing else costing
             print(f"{'':8s} tree-speed bound: {stats.get('nfev', 0)} rhs x {open_rhs * 1e6:.2f} us (open chain) = "
                   f"{bound * 1e3:.0f} ms, real-time factor {t_end / bound:.0f}; with the rest as measured "
                   f"{t_end / (wall - min(stats.get('nfev', 0) * direct, integ) + bound):.1f} (bench/bump_cost.py "
                   f"splits the parts)")
-        print(f"(RTF = simulated / wall time, from the start of simulate to the results with every output; "
-              f"target >= {TARGET_RTF:g})")
+        print(f"(RTF = simulated / wall time, from the start of simulate to the results with every output, each "
+              f"scene with its own integrator and tolerances, named at the end of its line; target >= {TARGET_RTF:g})")
         if not args.no_switches:
             compare_forms(cache, args.scenes, args.repeat)
 
@@ -274,7 +277,8 @@ def compare_forms(cache: str, scenes, repeat: int) -> None:
             stats, res = last[flag].metadata["stats"], last[flag]
             print(f"{scene:8s} {name:>7s} {wall[flag] * 1e3:6.0f}ms {t_end / wall[flag]:6.1f} {stats.get('nsteps', 0):6d} "
                   f"{stats.get('nreject', 0):6d} {stats.get('nfev', 0):6d} {len(res.events):6d}"
-                  + (f" {wall['true'] / wall['false']:13.2f}" if flag == "true" else ""))
+                  + (f" {wall['true'] / wall['false']:13.2f}" if flag == "true" else f" {'':13s}")
+                  + f"  {scene_settings(res)}")
 
 
 def one_unit_build(code: str) -> float:

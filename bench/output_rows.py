@@ -15,7 +15,8 @@ arguments simulate passes to the rows pass (recorded from a run):
 * bump_5's rows projected alone, as a run without outputs projects them (rows.project_rows: `project_row`, each
   row's Newton steps from the factors the row before left) against `project` row by row (mbs_project: G evaluated
   and factored twice a row), the former path, in instructions;
-* the scene `positions` is bump_5 with outputs of positions alone (heave, pitch, roll, a wheel's travel): its
+* the scene `positions` is bump_5 (its integrator and tolerances taken from it) with outputs of positions alone
+  (heave, pitch, roll, a wheel's travel): its
   mbs_outputs solves no loops, and its rows are counted and timed against the former build (-DMBS_LOOP_ROWS_FORMER=1:
   each row projected afresh by mbs_project, as every row of such outputs was before their projection started from
   the factors the previous row's projection left), interleaved in this process, with their ratio;
@@ -47,17 +48,19 @@ from mbs.runtime import build
 
 sys.path.insert(0, str(Path(__file__).parent))
 from bump_cost import MODEL, saved_rows  # noqa: E402
+from dopri5_former import scene_settings  # noqa: E402
 
-#: bump_5 with outputs that read no accelerations (mbs_outputs then calls no mbs_loop_rates).
+#: bump_5 with outputs that read no accelerations (mbs_outputs then calls no mbs_loop_rates); its integrator and
+#: tolerances are bump_5's (positions_scene fills them in).
 POSITIONS_SCENE = """
 scene positions "bump_5 with outputs of positions alone" {
     param v = 5 m/s
     start = equilibrium
     t_end = 2.5 s
     sample = 0.005 s
-    integrator = dopri5
-    rtol = 1e-7
-    atol = 1e-9
+    integrator = INTEGRATOR
+    rtol = RTOL
+    atol = ATOL
     output heave
     output pitch
     output roll
@@ -68,6 +71,13 @@ scene positions "bump_5 with outputs of positions alone" {
 PARTS = {"projection": "rows_project", "loop solve": "mbs_loop_rates", "outputs": "mbs_outputs"}
 FORMER_FLAGS = ("-DMBS_LOOP_ROWS_FORMER=1",)
 clock = time.process_time
+
+
+def positions_scene(cache_dir=None) -> str:
+    """POSITIONS_SCENE with the integrator and tolerances of the vehicle's bump_5 as the model file sets them."""
+    bump = mbs.load(MODEL, cache_dir=cache_dir).scene("bump_5")
+    return (POSITIONS_SCENE.replace("INTEGRATOR", bump.integrator).replace("RTOL", repr(bump.rtol))
+            .replace("ATOL", repr(bump.atol)))
 
 
 def load_module(path: Path):
@@ -139,15 +149,15 @@ def interleaved(modules: dict, saved, repeat: int) -> tuple[dict, dict]:
     return {k: statistics.median(v) for k, v in times.items()}, outs
 
 
-def split_line(scene: str, counts: dict, rows: int, rhs: float) -> None:
+def split_line(scene: str, counts: dict, rows: int, rhs: float, settings: str) -> None:
     total = counts["total"]
     parts = {name: counts.get(fn, 0) for name, fn in PARTS.items()}
     own = parts["outputs"] - parts["loop solve"]  # mbs_outputs calls mbs_loop_rates
     shares = {"projection": parts["projection"], "loop solve": parts["loop solve"], "outputs' own": own}
     shares["the rest"] = total - sum(shares.values())
     text = ", ".join(f"{name} {value / rows:,.0f} ({100 * value / total:.0f} %)" for name, value in shares.items())
-    print(f"  {scene}: {rows} rows, {total / rows:,.0f} instructions a row ({total / rows / rhs:.2f} rhs of "
-          f"{rhs:,.0f}): {text}")
+    print(f"  {scene} ({settings}): {rows} rows, {total / rows:,.0f} instructions a row ({total / rows / rhs:.2f} "
+          f"rhs of {rhs:,.0f}): {text}")
 
 
 def unit_cpu(code: str, outputs_flags: tuple[str, ...]) -> float:
@@ -179,19 +189,20 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if shutil.which("valgrind") is None or shutil.which("callgrind_annotate") is None:
         raise SystemExit("needs valgrind (callgrind, callgrind_annotate) on the PATH")
-    system = mbs.loads(MODEL.read_text() + POSITIONS_SCENE, path=str(MODEL), cache_dir=args.cache_dir)
+    system = mbs.loads(MODEL.read_text() + positions_scene(args.cache_dir), path=str(MODEL),
+                       cache_dir=args.cache_dir)
     print("Rows of the Iltis over the bump (one Function.rows over a run's rows; instructions: callgrind, per row)")
     with tempfile.TemporaryDirectory(prefix="mbs-bench-output-rows-") as tmp:
         tmp = Path(tmp)
         for scene in args.scenes:
-            system.simulate(scene)
+            settings = scene_settings(system.simulate(scene))
             saved_path = tmp / f"{scene}.npz"
             rows = saved_rows(system, scene, saved_path)
             saved = np.load(saved_path)
             library = Path(system.compile(scene).backend.module.__file__)
             counts = callgrind(library, saved_path, tmp)
             rhs = callgrind(library, saved_path, tmp, "loop_rhs")["total"] / rows
-            split_line(scene, counts, rows, rhs)
+            split_line(scene, counts, rows, rhs, settings)
             if scene == "bump_5":  # the same rows without outputs: projected alone (simulate(outputs=False))
                 alone = {name: callgrind(library, saved_path, tmp, name)["total"] / rows
                          for name in ("project_row", "project")}

@@ -3,7 +3,7 @@
     python bench/restart_steps.py [--scenes bump_5 bump_10 anti_5 anti_10] [--speeds 0.3 0.6] [--where]
                                   [--accuracy] [--instructions] [--former steps|handback|machinery]
 
-Each scene's run (DOPRI5 in C, the scene's rtol 1e-7, atol 1e-9, events restarted in C) with the current c/dopri5.c
+Each scene's run (DOPRI5 in C at rtol 1e-7, atol 1e-9, events restarted in C) with the current c/dopri5.c
 against the former retry, the same model built with -DMBS_ODE_STEPS_FORMER=1 (after a rejection the step always
 shrinks by err^0.17 / 0.9, the 5th-order model of the error), both in the same run: steps (accepted + rejected),
 rejected steps, rhs calls and events, with the ratios current / former.  Step counts do not depend on the machine's
@@ -22,13 +22,18 @@ controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted
 a step drifted by at most 1e-13 keeps its positions, one drifted beyond 1e-12 is polished with the factors at hand
 instead of projected afresh; the trajectories part by round-off, then by the integration error).
 
+Every run here is DOPRI5 at rtol 1e-7, atol 1e-9, set explicitly (bench/dopri5_former.py DOPRI5_FORMER): the bump
+scenes' settings before they moved to adams (anti_5 and anti_10 still have them), what this bench studies; the
+reference of --accuracy is DOPRI5 too.
+
 --where: the trace build (-DMBS_ODE_TRACE=1, every attempt and restart written to stderr) of either retry, and where
 its rejections are: by the accepted steps since the last restart in C (0: the first step after it), the first
 steps' by the indicators that fired (tyre touch-down, leaf spring stop, damper kinks), runs of rejections in a row,
 and the rhs calls they and the restarts cost.
 
---accuracy: each output column of both runs against a reference of the same scene at rtol 1e-11 (atol 1e-13), the
-largest difference relative to the column's largest magnitude (absolute below 1), and the two runs' difference.
+--accuracy: each output column of both runs against a reference of the same scene, DOPRI5 at rtol 1e-11 (atol
+1e-13), the largest difference relative to the column's largest magnitude (absolute below 1), and the two runs'
+difference.
 
 --instructions: the instructions of one run's integration (Solver.sample) under callgrind, as
 bench/event_instructions.py --machinery counts them, for both builds (valgrind on the PATH; a few minutes).
@@ -50,6 +55,11 @@ MODEL = Path(__file__).resolve().parent.parent / "library" / "iltis" / "vehicle.
 # the flagged build and the run with it: the tests' helper (the tests compare the same two builds)
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
 from former_builds import flagged_build, simulate_with  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+#: the bump scenes' settings before they moved to adams: what this bench studies (DOPRI5 at rtol 1e-7, atol 1e-9)
+from dopri5_former import DOPRI5_FORMER, described  # noqa: E402
+#: the reference of --accuracy: DOPRI5 (named: the bump scenes' own integrator is adams now) at rtol 1e-11
+REFERENCE = {"integrator": "dopri5", "rtol": 1e-11, "atol": 1e-13}
 #: --former: the former behaviour a flag builds back, and what it is
 FORMERS = {"steps": (("-DMBS_ODE_STEPS_FORMER=1",), "the former retry (-DMBS_ODE_STEPS_FORMER=1)"),
            "handback": (("-DMBS_ODE_HANDBACK_FORMER=1",), "the former hand-back (-DMBS_ODE_HANDBACK_FORMER=1: the "
@@ -63,8 +73,9 @@ KEYS = ("nsteps", "nreject", "nfev", "nevents")
 #: the DOPRI5 stages a rejected step costs (first same as last: the seventh is the next step's first)
 STAGES = 6
 
-#: The child of --where: one run of the scene built with the trace flags (and the former retry's if given).
-TRACE_CHILD = """
+#: The child of --where: one run of the scene built with the trace flags (and the former retry's if given), DOPRI5 at
+#: the bump scenes' former settings (DOPRI5_FORMER).
+TRACE_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\n" + """
 import dataclasses, sys
 from pathlib import Path
 import mbs
@@ -80,7 +91,7 @@ for key in [key for key, value in system._compiled.items() if value is compiled]
 print("\\n".join(spec.name for spec in compiled.events), flush=True)
 sys.stderr.write("BEGIN\\n")
 sys.stderr.flush()
-stats = system.simulate(scene).metadata["stats"]
+stats = system.simulate(scene, **DOPRI5_FORMER).metadata["stats"]
 sys.stderr.flush()
 print("STATS", stats["nsteps"], stats["nreject"], stats["nfev"], stats["nevents"], flush=True)
 """
@@ -98,8 +109,9 @@ def counts(system, former, scenes, speeds) -> None:
     for scene in scenes:
         for dv in (0.0, *[s for d in speeds for s in (-d, d)]):
             params = {"v": speed_of(scene) + dv} if dv else {}
-            runs = {"current": system.simulate(scene, params=params).metadata["stats"],
-                    "former": simulate_with(system, scene, former[scene], params=params).metadata["stats"]}
+            runs = {"current": system.simulate(scene, params=params, **DOPRI5_FORMER).metadata["stats"],
+                    "former": simulate_with(system, scene, former[scene], params=params,
+                                            **DOPRI5_FORMER).metadata["stats"]}
             label = scene if not dv else f"{scene} v{dv:+.1f}"
             for which in ("former", "current"):
                 s = runs[which]
@@ -200,12 +212,13 @@ def where(scene: str, former: bool, former_flags=FORMER_FLAGS, former_label=FORM
 
 
 def accuracy(system, former, scenes) -> None:
-    """--accuracy: both runs against a reference at rtol 1e-11."""
-    print("\nlargest difference per run against the scene at rtol 1e-11, atol 1e-13 (relative to a column's largest "
-          "magnitude, absolute below 1):")
+    """--accuracy: both runs against a reference, DOPRI5 at rtol 1e-11."""
+    print(f"\nlargest difference per run against the scene with {described(REFERENCE)} (relative to a column's "
+          "largest magnitude, absolute below 1):")
     for scene in scenes:
-        reference = system.simulate(scene, rtol=1e-11, atol=1e-13)
-        runs = {"current": system.simulate(scene), "former": simulate_with(system, scene, former[scene])}
+        reference = system.simulate(scene, **REFERENCE)
+        runs = {"current": system.simulate(scene, **DOPRI5_FORMER),
+                "former": simulate_with(system, scene, former[scene], **DOPRI5_FORMER)}
         gaps = {}
         for which, run in [*runs.items(), ("current - former", None)]:
             worst, column = 0.0, ""
@@ -250,7 +263,7 @@ def main(argv=None) -> int:
     parser.add_argument("--speeds", nargs="*", type=float, default=[],
                         help="also run each scene at v +- these offsets (m/s)")
     parser.add_argument("--where", action="store_true", help="where the rejections are (trace builds)")
-    parser.add_argument("--accuracy", action="store_true", help="both runs against a reference at rtol 1e-11")
+    parser.add_argument("--accuracy", action="store_true", help="both runs against a DOPRI5 reference at rtol 1e-11")
     parser.add_argument("--instructions", action="store_true", help="callgrind counts of the integration")
     parser.add_argument("--former", choices=sorted(FORMERS), default="steps",
                         help="the baseline: the former retry (steps) or the former hand-back (handback)")
@@ -259,7 +272,8 @@ def main(argv=None) -> int:
     system = mbs.load(MODEL)
     flags, label = FORMERS[args.former]
     former = {scene: flagged_build(system, scene, flags) for scene in args.scenes}
-    print(f"Iltis scenes, DOPRI5 (the scenes' rtol and atol): the current build against {label}, same run")
+    print(f"Iltis scenes, {described()} (the bump scenes' settings before adams, set explicitly): the current build "
+          f"against {label}, same run")
     counts(system, former, args.scenes, args.speeds)
     if args.where:
         for scene in args.scenes:
