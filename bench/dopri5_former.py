@@ -19,7 +19,7 @@ def described(settings: dict = DOPRI5_FORMER) -> str:
 
 
 def scene_settings(results) -> str:
-    """The integrator and tolerances a run used, from its results' metadata (`adams rtol 3e-08 atol 3e-10`)."""
+    """The integrator and tolerances a run used, from its results' metadata (`adams rtol 2e-08 atol 2e-10`)."""
     meta = results.metadata
     nan = float("nan")
     return f"{meta.get('integrator', '?')} rtol {meta.get('rtol', nan):g} atol {meta.get('atol', nan):g}"
