@@ -261,13 +261,20 @@ class CEmitter:
     def _header(self) -> str:
         """The file up to its first contract function: head() and the static helpers every file has."""
         lines = [self.head(),
+                 "/* 1 if every a[i] is finite: a[i] * 0 is 0 for a finite entry and NaN for an infinite or NaN one, and",
+                 " * a NaN stays in the sums; two sums the compiler keeps in one register pair (a test and branch per",
+                 " * entry cost the Iltis's loop terms 410 instructions a call for their 58 entries, this 260). */",
                  "static int mbs_all_finite(const double *a, int n)",
                  "{",
+                 "    double s0 = 0.0, s1 = 0.0;",
                  "    int i;",
-                 "    for (i = 0; i < n; ++i)",
-                 "        if (!isfinite(a[i]))",
-                 "            return 0;",
-                 "    return 1;",
+                 "    for (i = 0; i + 1 < n; i += 2) {",
+                 "        s0 += a[i] * 0.0;",
+                 "        s1 += a[i + 1] * 0.0;",
+                 "    }",
+                 "    if (i < n)",
+                 "        s0 += a[i] * 0.0;",
+                 "    return s0 + s1 == 0.0;",
                  "}",
                  ""]
         if not self.cold_apart:  # (the mass matrix's test alone calls it: unused, a warning)
