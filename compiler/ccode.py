@@ -261,11 +261,12 @@ class CEmitter:
     def _header(self) -> str:
         """The file up to its first contract function: head() and the static helpers every file has."""
         lines = [self.head(),
-                 "/* 1 if every a[i] is finite: a[i] * 0 is 0 for a finite entry and NaN for an infinite or NaN one, and",
-                 " * a NaN stays in the sums; two sums the compiler keeps in one register pair (a test and branch per",
-                 " * entry cost the Iltis's loop terms 410 instructions a call for their 58 entries, this 260). */",
                  "static int mbs_all_finite(const double *a, int n)",
                  "{",
+                 "    /* 1 if every a[i] is finite: a[i] * 0 is 0 for a finite entry and NaN for an infinite or NaN one,",
+                 "     * and a NaN stays in the sums (a test and branch per entry cost the Iltis's loop terms 410",
+                 "     * instructions a call for their 58 entries, these two sums 260; the comment is inside the function:",
+                 "     * the file's head, which runtime/translation_units.py compiles early, ends at its first line) */",
                  "    double s0 = 0.0, s1 = 0.0;",
                  "    int i;",
                  "    for (i = 0; i + 1 < n; i += 2) {",
