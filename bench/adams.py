@@ -18,12 +18,25 @@ and wall time interpolated log-log between the two adams runs whose errors brack
 dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restart variants of c/adams.c over the
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
 an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
--DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most).
+-DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most); and the
+former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
 
 `--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (the start from scratch, equilibrium,
 integration, every output) at the scenes' own tolerances with dopri5 (their integrator) and with adams, CPU time of
 this process, interleaved, medians of --repeat, their ratio and real-time factors: what a user gets from
-`--integrator adams`, where the work-precision figures above compare at equal accuracy.
+`--integrator adams`, where the work-precision figures above compare at equal accuracy.  `--adams-rtols R [R ...]`:
+adams at these rtols instead (atol R / 100; one per scene, bump_5's first, or one for both), each run's errors against
+the reference printed beside (the measures above): the whole simulate at equal accuracy.
+
+    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former]
+
+`--instructions`: the integration of one run (`Solver.sample`) counted in instructions under valgrind's callgrind
+(load-independent), split by part: the rhs calls, the projection of the accepted steps, the indicators (`mbs_events`,
+at the steps' ends, in the root finding, at the restarts), the root finding's own work, the restarts' own, and the
+method's own (its steps' arithmetic, the dense output at the samples, the rest), each also per accepted step; dopri5
+and adams at the scene's rtol, adams at --adams-rtols (atol / 100) when given, and with --former adams built with
+-DADAMS_STEP_FORMER=1 (its step's loops scalar, the whole chain of differences updated every step: the same bits).
+valgrind's libm rounds a little differently, so its step counts may differ by a few from a run's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -33,7 +46,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import re
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -60,7 +77,8 @@ WEIGHT_FLOOR = 1e-2
 #: the restart variants of c/adams.c: label -> (build flag, what it does); the default keeps the history at order 3
 VARIANTS = {"afresh": ("-DADAMS_RESTART=0", "the history forgotten, order 1 from the event (CVODE's way)"),
             "re-eval": ("-DADAMS_RESTART=2", "the history re-evaluated with the new branch"),
-            "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had")}
+            "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had"),
+            "growth2": ("-DADAMS_MAX_GROWTH=2", "the step grown by 2 at most, as before (3 now)")}
 
 
 @dataclasses.dataclass
@@ -188,24 +206,131 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
                   f"wall ratio {wall / base.wall:.2f}{bound}")
 
 
-def whole(repeat: int) -> None:
-    """The whole simulate of bump_5 and bump_10 with each integrator at the scene's tolerances (see the docstring)."""
+def whole(repeat: int, adams_rtols: list[float] | None) -> None:
+    """The whole simulate of bump_5 and bump_10 with each integrator at the scene's tolerances, or adams at its own
+    (see the docstring)."""
     system = mbs.load(ROOT / "library/iltis/vehicle.mbs")
-    for scene in ("bump_5", "bump_10"):
+    for number, scene in enumerate(("bump_5", "bump_10")):
+        tolerances = {"dopri5": {}, "adams": {}}
+        if adams_rtols:
+            rtol = adams_rtols[min(number, len(adams_rtols) - 1)]
+            tolerances["adams"] = {"rtol": rtol, "atol": ATOL_RATIO * rtol}
         cpu = {"dopri5": [], "adams": []}
         runs = {}
         for integrator in cpu:  # compiled and warm before the clock
-            system.simulate(scene, integrator=integrator)
+            system.simulate(scene, integrator=integrator, **tolerances[integrator])
         for _ in range(repeat):
             for integrator in cpu:
                 system.forget_starts()  # every run a first start: the equilibrium counted
                 started = time.process_time()
-                runs[integrator] = system.simulate(scene, integrator=integrator)
+                runs[integrator] = system.simulate(scene, integrator=integrator, **tolerances[integrator])
                 cpu[integrator].append(time.process_time() - started)
         simulated = float(runs["dopri5"].t[-1] - runs["dopri5"].t[0])
         d, a = (statistics.median(cpu[i]) for i in ("dopri5", "adams"))
+        rtols = {i: runs[i].metadata.get("rtol", tolerances[i].get("rtol")) for i in cpu}
         print(f"{scene}: whole simulate, CPU, medians of {repeat}: dopri5 {d * 1e3:.1f} ms ({simulated / d:.1f}x real "
               f"time), adams {a * 1e3:.1f} ms ({simulated / a:.1f}x); adams / dopri5 {a / d:.2f}")
+        if adams_rtols:
+            start, settings = system.start(scene)
+            model = start.model
+            times = output_times(float(start.t), settings["t_end"], sample=settings.get("sample"))
+            _, reference = run(model, start, settings, "dopri5", REFERENCE_RTOL, REFERENCE_ATOL)
+            ref = states_at(model, reference, times)
+            for integrator in cpu:
+                e = errors(states_at(model, runs[integrator], times), ref)
+                st = runs[integrator].metadata["stats"]
+                print(f"  {integrator:<7} rtol {rtols[integrator] or settings['rtol']:g}: {st['nfev']} rhs, "
+                      f"{st['nsteps']} steps; error against dopri5 at rtol {REFERENCE_RTOL:g}: max {e['max']:.2e}, "
+                      f"median {e['median']:.2e}")
+
+
+#: The child of --instructions: one simulate of a case's scene with an integrator and tolerances, its model built in
+#: one piece with the flags given; callgrind collects inside Solver.sample only.
+INSTRUCTIONS_CHILD = """
+import dataclasses, sys
+from pathlib import Path
+import mbs
+from mbs.runtime import build
+from mbs.runtime.backends import CBackend
+path, scene, integrator, rtol, flags = Path(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], tuple(sys.argv[5:])
+system = mbs.load(path)
+compiled = system.compile(scene)
+model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
+    system.generate(scene).c_source, extra_flags=flags))))
+for key in [key for key, value in system._compiled.items() if value is compiled]:
+    system._compiled[key] = model
+tolerances = {} if rtol == "scene" else {"rtol": float(rtol), "atol": float(rtol) * %r}
+stats = system.simulate(scene, integrator=integrator, **tolerances).metadata["stats"]
+print("STATS", stats["nsteps"] - stats["nreject"], stats["nfev"], stats["nreject"])
+""" % ATOL_RATIO
+
+
+def instruction_parts(path: Path, total: int) -> dict[str, float]:
+    """The integration's instructions by part (see the docstring), from a callgrind output file."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from event_instructions import PROJECT_NAMES, RESTART, RHS_NAMES, ROOT_FINDER, profile
+    _, pairs = profile(path)
+
+    def calls(callers, callees) -> tuple[int, int]:  # calls into callees from callers (any but themselves)
+        found = [v for (a, b), v in pairs.items()
+                 if (callers is None or a in callers) and b in callees and a not in callees]
+        return sum(v[0] for v in found), sum(v[1] for v in found)
+    rhs, rhs_restarts = calls(None, RHS_NAMES), calls(RESTART, RHS_NAMES)
+    projection = calls(("mbs_ode_accept",), PROJECT_NAMES)
+    indicators = calls(None, ("mbs_events",))
+    at = {"ends": calls(("mbs_ode_find_event",), ("mbs_events",)), "roots": calls(ROOT_FINDER, ("mbs_events",)),
+          "restarts": calls(RESTART, ("mbs_events",))}
+    parts = {"integration": (0, total), "rhs": rhs, "rhs at restarts": rhs_restarts, "projection": projection,
+             "indicators": indicators, "indicators at ends": at["ends"], "indicators in roots": at["roots"],
+             "indicators at restarts": at["restarts"],
+             "root finding": (0, calls(None, ROOT_FINDER)[1] - at["roots"][1]),
+             "restarts": (0, calls(None, RESTART)[1] - rhs_restarts[1] - at["restarts"][1])}
+    parts["method"] = (0, total - sum(parts[k][1] for k in ("rhs", "projection", "indicators", "root finding",
+                                                             "restarts")))
+    return parts
+
+
+def instructions(cases, adams_rtols, former: bool) -> None:
+    """--instructions: the integration's instructions by part (see the docstring)."""
+    for name in cases:
+        path, scene = CASES[name]
+        runs = [("dopri5", "dopri5", "scene", ()), ("adams", "adams", "scene", ())]
+        if former:
+            runs.append(("adams former", "adams", "scene", ("-DADAMS_STEP_FORMER=1",)))
+        runs += [(f"adams {r:g}", "adams", repr(r), ()) for r in adams_rtols or ()]
+        counts = {}
+        with tempfile.TemporaryDirectory() as tmp:
+            for label, integrator, rtol, flags in runs:
+                child = [sys.executable, "-c", INSTRUCTIONS_CHILD, str(ROOT / path), scene, integrator, rtol, *flags]
+                subprocess.run(child, check=True, capture_output=True)  # the build, outside valgrind
+                out = Path(tmp) / "callgrind.out"
+                done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no",
+                                       "--toggle-collect=solver_sample", f"--callgrind-out-file={out}", *child],
+                                      capture_output=True, text=True)
+                total = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+                stats = re.search(r"^STATS (\d+) (\d+) (\d+)$", done.stdout, re.M)
+                if done.returncode != 0 or not total or not stats:
+                    raise SystemExit(f"valgrind run failed ({label}):\n{done.stderr[-2000:]}")
+                counts[label] = (instruction_parts(out, int(total.group(1))), *map(int, stats.groups()))
+        print(f"\n{name} ({path}, scene {scene}): instructions of one run's integration (Solver.sample, callgrind), "
+              f"by part, and per accepted step")
+        print("  " + f"{'part':<24}" + "".join(f"{label:>24}" for label, *_ in runs))
+        print("  " + f"{'accepted steps, rhs, rej':<24}"
+              + "".join(f"{f'{c[1]} {c[2]} {c[3]}':>24}" for c in counts.values()))
+        for key in ("integration", "rhs", "rhs at restarts", "projection", "indicators", "indicators at ends",
+                    "indicators in roots", "indicators at restarts", "root finding", "restarts", "method"):
+            cells = []
+            for parts, accepted, _, _ in counts.values():
+                number, cost = parts[key]
+                count = f" {number:6d}" if number else " " * 7
+                cells.append(f"{cost / 1e6:7.1f}M {cost / max(1, accepted):7.0f}{count}")
+            print("  " + f"{key:<24}" + "".join(f"{cell:>24}" for cell in cells))
+        base = counts["dopri5"][0]["integration"][1]
+        print("  integration / dopri5's: " + ", ".join(
+            f"{label} {c[0]['integration'][1] / base:.3f}" for label, c in counts.items() if label != "dopri5"))
+        if former:
+            now, was = (counts[label][0]["integration"][1] for label in ("adams", "adams former"))
+            print(f"  adams / adams former: {now / was:.3f}")
 
 
 def main() -> None:
@@ -216,9 +341,17 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--variants", action="store_true", help="also the restart variants of c/adams.c")
     parser.add_argument("--whole", action="store_true", help="the whole simulate of the vehicle's bump scenes instead")
+    parser.add_argument("--instructions", action="store_true",
+                        help="the integration's instructions by part under callgrind instead")
+    parser.add_argument("--former", action="store_true", help="--instructions: also adams built -DADAMS_STEP_FORMER=1")
     args = parser.parse_args()
+    given = any(a.startswith("--adams-rtol") for a in sys.argv[1:])
     if args.whole:
-        whole(args.repeat)
+        whole(args.repeat, args.adams_rtols if given else None)
+        return
+    if args.instructions:
+        instructions(args.cases if any(a.startswith("--cases") for a in sys.argv[1:]) else ["bump_10"],
+                     args.adams_rtols if given else None, args.former)
         return
     for name in args.cases:
         bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)

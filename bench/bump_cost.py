@@ -132,6 +132,7 @@ def timed_run(system, scene: str, first_start: bool = True):
     parts.wrap(event_loop, "replay", "events booked")
     parts.wrap(simulate_module, "project_and_evaluate_rows", "outputs")
     parts.wrap(simulate_module, "evaluate_rows", "outputs")
+    parts.wrap(simulate_module, "project_rows", "outputs")  # (rows projected alone: a run without outputs)
     try:
         start = clock()
         res = system.simulate(scene)

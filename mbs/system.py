@@ -32,7 +32,7 @@ from . import derivation_cache, model_cache, pipeline
 from .quantities import parameter_overrides
 from .gimbal import warn_gimbal
 
-#: Parameter bindings a System keeps, the last ones asked for (System._parameter_values): a scene run again with
+#: Parameter bindings a System keeps, the last ones asked for (System._binding): a scene run again with
 #: the same overrides binds and checks its parameters once; a sweep over many values keeps no more than these.
 KEPT_BINDINGS = 8
 #: Start states a System keeps (System._kept_start): a scene started again with the same compiled model, parameters
@@ -162,20 +162,27 @@ class System:
 
     def _parameter_values(self, sc: M.Scene | None, params: Mapping[str, float | str] | None) -> dict[str, float]:
         """Every parameter's value of a scene with the caller's overrides (pipeline.parameter_values: checked),
-        kept for the last KEPT_BINDINGS overrides (the model is immutable: the same overrides bind the same
-        values); a copy, which the caller may change."""
+        kept for the last KEPT_BINDINGS overrides (System._binding); a copy, which the caller may change."""
+        return dict(self._binding(sc, params)[0])
+
+    def _binding(self, sc: M.Scene | None, params: Mapping[str, float | str] | None) -> tuple[dict, dict | None]:
+        """(every parameter's value, the start vectors kept with them): the values pipeline.parameter_values binds
+        and checks for a scene's and the caller's overrides, kept for the last KEPT_BINDINGS overrides (the model is
+        immutable: the same overrides bind the same values), with a dict for what is worked out of them alone
+        (System._start_vectors), None for values bound afresh (an unhashable override). Both are the System's:
+        read, never changed by the caller."""
         overrides = {**pipeline.scene_overrides(sc), **parameter_overrides(self.model, params)}
         try:
             key = frozenset(overrides.items())
         except TypeError:  # an unhashable value (an array): bound afresh
-            return pipeline.parameter_values(self.model, overrides)
-        values = self._bindings.pop(key, None)
-        if values is None:
-            values = pipeline.parameter_values(self.model, overrides)
+            return pipeline.parameter_values(self.model, overrides), None
+        kept = self._bindings.pop(key, None)
+        if kept is None:
+            kept = (pipeline.parameter_values(self.model, overrides), {})
             while len(self._bindings) >= KEPT_BINDINGS:
                 del self._bindings[next(iter(self._bindings))]
-        self._bindings[key] = values  # the most recent last
-        return dict(values)
+        self._bindings[key] = kept  # the most recent last
+        return kept
 
     def coordinate_owners(self, compiled: CompiledModel) -> dict[str, str]:
         """Coordinate name -> "interaction NAME: force A, B", to name the culprit of a diagnosis."""
@@ -200,7 +207,7 @@ class System:
         settings = _settings(sc, *(overrides.get(k) for k in ("t_end", "sample", "integrator", "rtol", "atol")))
         if jacobian is None and settings["integrator"] and pipeline.needs_jacobian(None, settings["integrator"]):
             jacobian = True
-        values = self._parameter_values(sc, params)  # parameters checked before the (slow) first compile
+        values, vectors = self._binding(sc, params)  # parameters checked before the (slow) first compile
         binding = _hooks.bind(self.model.hooks, hooks, self.model.name)
         compiled = self.compile(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian, hooks=binding)
         if binding is not None:
@@ -208,8 +215,8 @@ class System:
         gen = self.generate(scene, jacobian=jacobian, parameter_jacobian=parameter_jacobian)
         equilibrium = x0 is None and sc is not None and sc.start == "equilibrium"
         if binding is None and drive is None and x0 is None:  # a function of the model, p and x0 alone: kept
-            return self._kept_start(compiled, gen, values, equilibrium), settings
-        data = self._start(compiled, gen, values, report=False)[0]
+            return self._kept_start(compiled, gen, values, equilibrium, vectors), settings
+        data = self._start(compiled, gen, dict(values), report=False)[0]
         if drive is not None:
             drive(data)
         if x0 is not None:
@@ -224,15 +231,15 @@ class System:
         self._starts.clear()
 
     def _kept_start(self, compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float],
-                    equilibrium: bool) -> Workspace:
+                    equilibrium: bool, vectors: dict | None = None) -> Workspace:
         """A workspace at the start of a run without hooks, inputs or a given x0: the loops assembled near the
         initial state, then the static equilibrium when asked for, as `start` makes them, or the state and the work
         memory the last such start with the same compiled model, parameters and initial state left (KEPT_STARTS of
         them). The work memory goes with the state: the loop solver keeps its partition there from call to call,
-        and the run goes on from the one the equilibrium's last call chose, as after a fresh start."""
+        and the run goes on from the one the equilibrium's last call chose, as after a fresh start. vectors: the
+        binding's (System._binding), where p and the initial state are kept."""
         data = Workspace(compiled)
-        data.p = pipeline.parameter_vector(compiled.p_names, values)
-        data.x = pipeline.initial_state(gen, values)
+        data.p, data.x = System._start_vectors(compiled, gen, values, vectors)
         key = (id(compiled), equilibrium, data.p.tobytes(), data.x.tobytes())
         kept = self._starts.pop(key, None)
         if kept is None or kept[0] is not compiled:  # (an id is reused only after its object is gone)
@@ -247,6 +254,25 @@ class System:
             data.work[:] = kept[2]
         self._starts[key] = kept  # the most recent last
         return data
+
+    @staticmethod
+    def _start_vectors(compiled: CompiledModel, gen: pipeline.Generated, values: Mapping[str, float],
+                       vectors: dict | None) -> tuple[np.ndarray, np.ndarray]:
+        """(p, x0) of a start: pipeline.parameter_vector and pipeline.initial_state of the parameters' values, kept in
+        the binding's `vectors` (None: worked out afresh) per compiled model and generated code, of which and of the
+        values they are functions alone (evaluating the Iltis' 73 initial values and its 165 parameters in order cost
+        a 20th of the Python of its start). Read-only: the workspace copies them."""
+        key = (id(compiled), id(gen))
+        kept = vectors.get(key) if vectors is not None else None
+        if kept is None or kept[0] is not compiled or kept[1] is not gen:  # (an id is reused only after it is gone)
+            p = np.array(pipeline.parameter_vector(compiled.p_names, values), dtype=float)
+            x0 = pipeline.initial_state(gen, values)
+            for a in (p, x0):
+                a.flags.writeable = False
+            kept = (compiled, gen, p, x0)
+            if vectors is not None:
+                vectors[key] = kept
+        return kept[2], kept[3]
 
     def accuracy(self, scene: str | None = None, *, params: Mapping[str, float] | None = None,
                  t_end: float | None = None, hooks: Mapping | None = None, **options):

@@ -88,7 +88,11 @@ GCC_MODEL_UNIT_FLAGS = ("-fno-gcse", "--param=sccvn-max-alias-queries-per-access
 #: Appended to those of the outputs' unit (outputs.c, after the model units' flags). The outputs are evaluated once
 #: per sample, not per stage of a step; the Iltis's (135 kB of C) took 2.9 to 3.4 s of CPU at the model units' level
 #: and 2.1 s at -Og (GCC 12, compiled alone), and a bump scene's simulate is as fast within the noise of a shared
-#: machine (its mbs_outputs first solves the loops for the accelerations, in the model units).
+#: machine (its mbs_outputs first solves the loops for the accelerations, in the model units).  Measured again with
+#: `python bench/output_rows.py --flags` (GCC 12): the unit 0.31 s of CPU at -Og, 0.39 s at -O1, 0.55 s at the model
+#: units' level; a bump row 98,200 instructions at -Og, 95,300 at both others (0.97: the outputs' own expressions are
+#: 17 % of a row, the projection and the loop solve the rest), its CPU time the same within the noise (1.00 and 1.01
+#: of -Og, medians of 9 interleaved rounds), one output in 20,000 one ulp apart: -Og stays.
 OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 #: Appended to those of the units of the functions no integrator calls (runtime/translation_units.py
 #: COLD_FUNCTIONS: an open tree's mass matrix and forces), from what bench/compile_time.py --units measures: the

@@ -76,26 +76,28 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             return rhs(t, state)[nq:]
 
         rows = _Rows(data, t, free.size)
-        columns = (np.arange(free.size), nq + free)
+        speeds = np.zeros((free.size, x.size - nq))  # the probes' speeds: e_j DIFFERENCE_STEP per free column j
+        speeds[np.arange(free.size), free] = DIFFERENCE_STEP
 
         def jacobian(state: np.ndarray, acc: np.ndarray) -> np.ndarray:
             """The forward differences of every independent column, as move and accelerations give them column
             by column, in one pass per function over all the probes (qdot, project, rhs: on the C back end one
             call each, runtime/rows.py) instead of three Python calls per column."""
-            probes = np.repeat(state[None, :], free.size, axis=0)
-            probes[:, nq:] = 0.0
-            probes[columns] = DIFFERENCE_STEP
-            moved = np.repeat(state[None, :], free.size, axis=0)
-            moved[:, :nq] += rows("qdot", probes, nq)
+            probes = np.empty((free.size, state.size))
+            probes[:, :nq] = state[:nq]
+            probes[:, nq:] = speeds
+            moved = np.empty_like(probes)
+            np.add(state[:nq], rows("qdot", probes, nq), out=moved[:, :nq])
             moved[:, nq:] = 0.0
             if loops:
                 moved = rows("project", moved, moved.shape[1])
             return ((rows("rhs", moved, moved.shape[1])[:, nq:] - acc) / DIFFERENCE_STEP).T
 
         acc = accelerations(x)
+        largest = _largest(acc)
         J = np.zeros((nv, free.size))
         for _ in range(MAX_ITERATIONS):
-            if _largest(acc) <= TOLERANCE:
+            if largest <= TOLERANCE:
                 return x if _stable(J, free) else None
             if free.size:
                 J = jacobian(x, acc)
@@ -104,12 +106,13 @@ def newton_equilibrium(model, data, x0: np.ndarray, t: float = 0.0) -> np.ndarra
             for _ in range(8):  # halve a step that makes things worse (far from the solution)
                 trial = move(x, dv)
                 trial_acc = accelerations(trial)
-                if _largest(trial_acc) < _largest(acc):
+                trial_largest = _largest(trial_acc)
+                if trial_largest < largest:
                     break
                 dv *= 0.5
             else:
                 return None
-            x, acc = trial, trial_acc
+            x, acc, largest = trial, trial_acc, trial_largest
     except Exception:  # a failing evaluation far from the start: leave it to the kinetic damping
         return None
     return None
@@ -121,6 +124,9 @@ def _step(J: np.ndarray, acc: np.ndarray) -> np.ndarray:
     step = np.zeros(J.shape[1])
     if not J.size or not J.any():
         return step
+    # numpy's public wrappers (about 30 k instructions a call around the LAPACK routine, a few hundredths of a ms
+    # per Newton step): numpy.linalg's private gufuncs would skip them, but a private module is no interface to
+    # build on
     _, s, vt = np.linalg.svd(J, full_matrices=False)
     rank = int(np.count_nonzero(s > RCOND * s[0]))
     # the kept columns by a mask: np.setdiff1d would import numpy.ma (30 ms of a warm command line)
@@ -160,13 +166,15 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
     chosen: list[int] = []
     for _ in range(k):
         norms = np.einsum("ij,ij->j", R, R)
-        norms[chosen] = -1.0
+        for taken in chosen:  # (one by one: an index list costs numpy more than these few)
+            norms[taken] = -1.0
         j = int(norms.argmax())
-        if not norms[j] > 0.0:
+        largest = norms.item(j)
+        if not largest > 0.0:
             break
         chosen.append(j)
-        q = R[:, j] / math.sqrt(norms[j])  # (both correctly rounded: the same bits as np.sqrt)
-        R -= q[:, None] * (q @ R)[None, :]  # np.outer(q, q @ R), as it computes it
+        q = R[:, j] / math.sqrt(largest)  # (both correctly rounded: the same bits as np.sqrt)
+        R -= q[:, None] * (q @ R)  # np.outer(q, q @ R), as it computes it
     return chosen
 
 

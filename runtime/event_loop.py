@@ -82,7 +82,7 @@ class Segments:
 
     def in_force(self, p: np.ndarray) -> int:
         """The index of the p copy equal to ``p``, the last one or a new copy."""
-        if not self.p_blocks or not np.array_equal(self.p_blocks[-1][-1], p):
+        if not self.p_blocks or not (self.p_blocks[-1][-1] == p).all():  # (np.array_equal's test, without its wrapper)
             self.add_values(p[None, :].copy())
         return self.p_count - 1
 
@@ -130,11 +130,66 @@ class Segments:
         return times, states, which, twin
 
 
+class EventLog:
+    """The run's event log as it is booked: the EventRecords the Python loop makes, and the entries of a C log whose
+    events only flip switches' branches as columns (times, event names, directions, changes: replay's
+    _book_branches), without an object per entry: bump_10 books 390, and an EventRecord each, then a row each for
+    res.events, cost 2.0 M of the 16.9 M instructions of its Python (bench/driver_instructions.py).  ``rows()``:
+    res.events, a dict per entry in the order booked, as EventRecord.as_row makes them."""
+
+    __slots__ = ("_blocks", "_size")
+
+    def __init__(self, records=()):
+        self._blocks: list = []  # lists of EventRecords, and (times, events, directions, changes) tuples of lists
+        self._size = 0
+        self += records
+
+    def __iadd__(self, records) -> "EventLog":
+        records = list(records)
+        if records:
+            if self._blocks and isinstance(self._blocks[-1], list):
+                self._blocks[-1] += records
+            else:
+                self._blocks.append(records)
+            self._size += len(records)
+        return self
+
+    def append(self, record: EventRecord) -> None:
+        self += (record,)
+
+    def add_columns(self, times: list, events: list, directions: list, changes: list) -> None:
+        """Entries given as columns (lists of equal length)."""
+        if times:
+            self._blocks.append((times, events, directions, changes))
+            self._size += len(times)
+
+    def __len__(self) -> int:
+        return self._size
+
+    def events(self) -> list[str]:
+        """The event name of every entry, in order."""
+        names: list[str] = []
+        for block in self._blocks:
+            names += [r.event for r in block] if isinstance(block, list) else block[1]
+        return names
+
+    def rows(self) -> list[dict]:
+        rows: list[dict] = []
+        for block in self._blocks:
+            if isinstance(block, list):
+                rows += [r.as_row() for r in block]
+            else:
+                rows += [{"time": time, "event": event, "direction": direction, "changes": change}
+                         for time, event, direction, change in zip(*block)]
+        return rows
+
+
 def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, progress=None, chunks=100):
     """Integrate over ``times`` from (data.t, data.x) with events; ``make_solver(t0, y0, events, first_step)``
     starts an integrator (first_step None: its own choice); ``progress`` is called after each of ``chunks`` parts
-    of the samples (a number, or a function of none that tells it once the first integrator is made).  Returns (Segments, status, message, event records, counters summed over the segments); data.t
-    and data.x are left at the last state reached."""
+    of the samples (a number, or a function of none that tells it once the first integrator is made).  Returns
+    (Segments, status, message, the EventLog, counters summed over the segments); data.t and data.x are left at the
+    last state reached."""
     g = data.function("events")
     directions = event_tables(model).directions
     friction = bool(friction_modes_of(model))  # (without switched friction elements nothing to check)
@@ -142,7 +197,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
     t, x = float(data.t), data.x.copy()
     frozen = init_switches(model, data, t, x)
     # stick or slip from the start state (runtime/friction.py)
-    records = start_friction_modes(model, data, t, x) if friction else []
+    records = EventLog(start_friction_modes(model, data, t, x) if friction else ())
     segments, fired_times = Segments(), []
     states = np.empty((times.size, model.nx))
     i, status, message = 0, FINISHED, ""
@@ -209,7 +264,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
             if noise:
                 name = model.events[noise[0]].name
                 status, t = "zeno", t_event
-                message = resolution_message(name, sum(r.event == name for r in records), fired_times, t_event,
+                message = resolution_message(name, records.events().count(name), fired_times, t_event,
                                              y_event, names)
                 x = y_event
                 break
@@ -236,7 +291,7 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
                 break
             if is_zeno(fired_times):
                 status = "zeno"
-                message = zeno_message([r.event for r in records], fired_times, t_event, x, names)
+                message = zeno_message(records.events(), fired_times, t_event, x, names)
                 break
             if t_event >= t_end and i >= times.size:
                 break
@@ -294,13 +349,13 @@ BOOK_AT_ONCE = 8
 
 
 def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start: int, segments: Segments,
-           records: list, fired_times: list) -> int:
+           records: EventLog, fired_times: list) -> int:
     """Book the events C handled (rows of its log: t, y before, x after, g before the step, g at the event,
     action values) as the Python loop books its own: the sample rows before each in the run-time values in force
     then (``p_now``, brought up to date in place), the rows at the event before and after, the log records.
     Returns the first sample row not yet booked.  The rows go in as one block (placed by index arithmetic, no
-    Python per row), and so do the values in force when every event only flips a switch's branch (the records
-    are a loop over the crossings); other actions are applied event by event."""
+    Python per row), and so do the values in force and the log's entries (as columns) when every event only flips
+    a switch's branch; other actions are applied event by event."""
     m = len(log)
     if m == 0:
         return start
@@ -378,7 +433,7 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     else:
         changes = [f"branch {was:g} -> {now:g}" if was != now else "" for was, now in zip(old.tolist(), new.tolist())]
     times = t_event[entry].tolist()
-    records += _records(times, events.object_names[k].tolist(), _DIRECTIONS[new.astype(np.intp)].tolist(), changes)
+    records.add_columns(times, events.object_names[k].tolist(), _DIRECTIONS[new.astype(np.intp)].tolist(), changes)
     fired_times += times
     twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
     return copies, twin
@@ -408,21 +463,6 @@ def _filled_forward(events: EventTables, k: np.ndarray, entry: np.ndarray, new: 
 #: directions by after (rising to 1, falling to 0): as apply_events writes them.
 _BRANCH_TEXTS = np.array(["", "branch 0 -> 1", "branch 1 -> 0", ""], dtype=object)
 _DIRECTIONS = np.array([DIRECTION_NAMES[-1], DIRECTION_NAMES[1]], dtype=object)
-
-
-def _records(times: list, events: list, directions: list, changes: list) -> list[EventRecord]:
-    """EventRecord(time, event, direction, changes) for each, its fields written into the new instance's dict:
-    the frozen dataclass's __init__ sets each through object.__setattr__ (about 6,000 instructions a record, half
-    of booking bump_10's 390 crossings; this, a third of it).  The records are the same (equal, the same repr, as
-    immutable after)."""
-    make = object.__new__
-    out = []
-    for time, event, direction, change in zip(times, events, directions, changes):
-        record = make(EventRecord)
-        fields = record.__dict__
-        fields["time"], fields["event"], fields["direction"], fields["changes"] = time, event, direction, change
-        out.append(record)
-    return out
 
 
 def _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m) -> int:
@@ -500,5 +540,6 @@ def settle_switches(model, data, g_start: np.ndarray) -> bool:
     return changed
 
 
-def event_rows(records: list[EventRecord]) -> list[dict]:
-    return [r.as_row() for r in records]
+def event_rows(records) -> list[dict]:
+    """res.events of records: an EventLog or EventRecords."""
+    return records.rows() if isinstance(records, EventLog) else [r.as_row() for r in records]

@@ -49,6 +49,15 @@ def _column_index(names: tuple[str, ...]) -> dict[str, int]:
     return {n: i for i, n in enumerate(names)}
 
 
+@functools.lru_cache(maxsize=64)
+def _str_columns(names: tuple) -> tuple[tuple[str, ...], dict[str, int]] | None:
+    """(names, _column_index(names)) of a tuple of str column names, worked out once per tuple: str() of each of a
+    run's 117 columns was two thirds of making its Results; None when a name is not a str (then str() it is)."""
+    if not all(type(n) is str for n in names):
+        return None
+    return names, _column_index(names)
+
+
 class Results:
     """A table of samples: ``names`` (ncols,) column names, ``data`` (n, ncols) values in SI units.
 
@@ -60,13 +69,17 @@ class Results:
                  copy: bool = True):
         """copy=False: ``data``, when already a 2-D float64 array, is kept as it is and made read-only in place
         (for the simulation driver, whose table is fresh and its own: no copy of every sample)."""
-        self.names = tuple(map(str, names))
+        try:
+            known = _str_columns(names) if type(names) is tuple else None
+        except TypeError:  # an unhashable name
+            known = None
+        self.names = known[0] if known is not None else tuple(map(str, names))
         data = np.array(data, dtype=float, ndmin=2, copy=True if copy else None)
         if data.size == 0:
             data = data.reshape(0, len(self.names))
         if data.ndim != 2 or data.shape[1] != len(self.names):
             raise UsageError(f"data of shape {data.shape} does not match {len(self.names)} column names")
-        index = _column_index(self.names)
+        index = known[1] if known is not None else _column_index(self.names)
         data.flags.writeable = False
         self.data = data
         self.metadata = dict(metadata or {})

@@ -17,7 +17,6 @@ import numpy as np
 
 from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
 
-from .assembly import project_samples
 from .errors import EvaluationError, UsageError, status_text
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
@@ -26,7 +25,7 @@ from .event_loop import run_with_events
 from .integrators import FAILED, FINISHED
 from .model import CompiledModel
 from .results import TIME, Results
-from .rows import evaluate_rows, project_and_evaluate_rows
+from .rows import evaluate_rows, project_and_evaluate_rows, project_rows
 from .stiffness import stiffness_warnings
 from .workspace import Workspace, check_workspace
 
@@ -124,7 +123,10 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         if stage != "outputs":
             error = None
     elif loops:  # closed loops: store the samples projected onto the constraints
-        projected = project_samples(data, times[:filled], states[:filled])
+        projected_states = np.empty((filled, model.nx))
+        projected, _ = project_rows(data, [data.p], times[:filled], states[:filled], np.zeros(filled, dtype=np.intp),
+                                    projected_states)
+        states[:projected] = projected_states[:projected]
     if loops:
         if projected < filled:
             filled, status = projected, FAILED
@@ -157,7 +159,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "notes": [note] if note else [],
         "warnings": warnings,
     }
-    return Results(names, np.hstack(columns), metadata)
+    return Results(tuple(names), np.hstack(columns), metadata)
 
 
 #: Step of the central differences that stand in for the generated Jacobian where it fails [relative, at least
@@ -239,7 +241,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
             projected = done if stage == "project" else rows
             fused = (done, error) if stage == "outputs" else None
         else:
-            projected, _ = evaluate_rows(data, "project", ps, ts, unprojected, which, xs)
+            projected, _ = project_rows(data, ps, ts, unprojected, which, xs)
         if projected < rows:  # the failing row's time, as the path without events says (and no row may be left)
             failed_at, ts = float(ts[projected]), ts[:projected]
             status, message = FAILED, f"the closed loops cannot be closed at t = {failed_at:.6g} s (see loop_report)"
@@ -267,7 +269,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
-    return Results(names, table, metadata, events=[r.as_row() for r in records], copy=False)
+    return Results(tuple(names), table, metadata, events=records.rows(), copy=False)
 
 
 def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> None:

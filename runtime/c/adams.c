@@ -27,7 +27,10 @@
  * usual h (ADAMS_SAFE / err)^(1/(k+1)) at the new order, within [1/2, ADAMS_MAX_GROWTH] and held when it would
  * grow by less than ADAMS_HOLD (CVODE's rule); Shampine & Gordon's own (as first built: double when
  * err 2^(k+1) <= 1/2, shrink by (1/2 / err)^(1/(k+1)) within [1/2, 9/10] when err > 1/2, else hold) kept the step
- * at errors far below the tolerance and took 7 % more right-hand sides on the Iltis bump at 10 m/s.
+ * at errors far below the tolerance and took 7 % more right-hand sides on the Iltis bump at 10 m/s.  The growth
+ * limit ADAMS_MAX_GROWTH = 3 (2 before, Shampine & Gordon's doubling) takes 1-6 % fewer right-hand sides at the
+ * accuracy DOPRI5 reaches at rtol 1e-7 on the four Iltis bump cases of python bench/adams.py --variants (the
+ * largest gain on the vehicle at 10 m/s, whose 392 restarts each climb back from a small first step).
  *
  * The dense output is the corrector's polynomial, y(t) = y_n + integral from t_n to t of P*: of order k + 1, equal
  * to y_n and to y_{n+1} (before the projection of ode.c) at the step's ends.
@@ -52,6 +55,16 @@
  * handback_stop.mbs): 1.7e-3 against dopri5's 7e-5 at rtol 1e-8; with the order at most 3 after the restart 2e-5,
  * for the same right-hand sides on the bump (-DADAMS_RESTART_ORDER=12 builds the uncapped restart).
  * All memory is allocated in mbs_adams_init: a step allocates nothing.
+ *
+ * Cost of a step beyond its two right-hand sides (the Iltis over the bump at 10 m/s, python bench/adams.py
+ * --instructions --former): the projection of the accepted state (ode.c, c/loops.c: 39,000 instructions, fresh,
+ * since the last evaluation before it is at the predicted state), the indicators at the step's end (6,000) and the
+ * method's own arithmetic, about four passes over the state per unit of order (predictor, the new chain, corrector,
+ * the chain with f_{n+1}) and a few more (error estimates, the dense output's copy).  Those passes are vectorized
+ * (ADAMS_ELEMENTWISE, ode.c's MBS_ODE_ELEMENTWISE: the same bits), the chains stop at the highest difference a later
+ * step reads and the estimate of order k + 1 is computed only when the order may rise: the method's own part
+ * 28,200 -> 15,100 instructions an accepted step, the integration 724M -> 672M (-DADAMS_STEP_FORMER=1 builds the
+ * former arithmetic).
  */
 #include <math.h>
 #include <stdlib.h>
@@ -77,10 +90,20 @@
 #define ADAMS_SAFE 0.8
 #endif
 #ifndef ADAMS_MAX_GROWTH
-#define ADAMS_MAX_GROWTH 2.0
+#define ADAMS_MAX_GROWTH 3.0
 #endif
 #ifndef ADAMS_HOLD
 #define ADAMS_HOLD 1.2
+#endif
+/* -DADAMS_STEP_FORMER=1 builds the former arithmetic of a step: its loops over the state scalar, the chain with
+ * f_{n+1} updated to the oldest point every step and a restart's chain built to it, every estimate computed (the same
+ * bits; the same-run baseline of bench/adams.py --instructions). */
+#ifdef ADAMS_STEP_FORMER
+#define ADAMS_ELEMENTWISE
+#define ADAMS_FULL_CHAIN 1
+#else
+#define ADAMS_ELEMENTWISE MBS_ODE_ELEMENTWISE
+#define ADAMS_FULL_CHAIN 0
 #endif
 /* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
  * differences would divide the old branch's values by a vanishing distance). */
@@ -120,48 +143,59 @@ static void am_integrals(const double *r, int m, double theta, double *out)
 }
 
 /* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
-static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
+ADAMS_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
 {
+    const double rtol = o->rtol, *atol = o->atol;
+    const int n = o->n;
     int i;
-    for (i = 0; i < o->n; i++) w[i] = 1.0 / (o->atol[i] + o->rtol * fmax(fabs(y0[i]), fabs(y1[i])));
+    for (i = 0; i < n; i++) {  /* fmax(a, b) written out (as ode.c's error norm) so that the loop vectorizes */
+        const double a = fabs(y0[i]), b = fabs(y1[i]);
+        w[i] = 1.0 / (atol[i] + rtol * (a >= b || b != b ? a : b));
+    }
 }
 
-/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected). */
-static double am_norm(int n, double c, const double *v, const double *w)
+/* |c| times the weighted RMS norm of v (a non-finite norm: +inf, so the step is rejected).  The squares are
+ * computed in chunks elementwise (vectorized) and summed in the order of the elements: the same sum to the bit. */
+ADAMS_ELEMENTWISE static double am_norm(int n, double c, const double *v, const double *w)
 {
-    double sum = 0.0;
-    int i;
-    for (i = 0; i < n; i++) {
-        double r = v[i] * w[i];
-        sum += r * r;
+    double sum = 0.0, squares[MBS_ODE_NORM_CHUNK];
+    int i, j;
+    for (i = 0; i < n; i += MBS_ODE_NORM_CHUNK) {
+        const int m = n - i < MBS_ODE_NORM_CHUNK ? n - i : MBS_ODE_NORM_CHUNK;
+        for (j = 0; j < m; j++) {
+            const double r = v[i + j] * w[i + j];
+            squares[j] = r * r;
+        }
+        for (j = 0; j < m; j++) sum += squares[j];
     }
     sum = n > 0 ? fabs(c) * sqrt(sum / n) : 0.0;
     return sum == sum && sum < HUGE_VAL ? sum : HUGE_VAL;
 }
 
 /* y += a x */
-static void am_axpy(int n, double a, const double *x, double *y)
+ADAMS_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x, double *restrict y)
 {
     int i;
     for (i = 0; i < n; i++) y[i] += a * x[i];
 }
 
-/* The next divided difference: out = (a - b) / dt */
-static void am_divide(int n, const double *a, const double *b, double dt, double *out)
+/* The next divided difference: out = (a - b) / dt (out may be b) */
+ADAMS_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
 {
     double inv = 1.0 / dt;
     int i;
     for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
 }
 
-/* The chain of divided differences of the points tt[0..nh) with values fv, into d. */
-static void am_chain(am_mem *m, int n)
+/* The chain of divided differences of the points tt[0..nh) with values fv, into d[0 .. top] (top < nh: the higher
+ * ones are not read before the chain is built again, see the chain with f_{n+1} in am_step). */
+static void am_chain(am_mem *m, int n, int top)
 {
     int i, j;
-    for (i = 0; i < m->nh; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
-    /* in place, column by column: after pass j, d[i] (i >= j) holds f[tt[i-j], ..., tt[i]] */
-    for (j = 1; j < m->nh; j++)
-        for (i = m->nh - 1; i >= j; i--) {
+    for (i = 0; i <= top; i++) memcpy(m->d[i], m->fv[i], (size_t)n * sizeof(double));
+    /* in place, column by column: after pass j, d[i] (j <= i <= top) holds f[tt[i-j], ..., tt[i]] */
+    for (j = 1; j <= top; j++)
+        for (i = top; i >= j; i--) {
             double dt = m->tt[i - j] - m->tt[i];
             am_divide(n, m->d[i - 1], m->d[i], dt, m->d[i]);
         }
@@ -229,10 +263,11 @@ static void am_restart(mbs_ode *o, am_mem *m)
     memcpy(m->fv[0], o->f, (size_t)n * sizeof(double));
     memcpy(m->yv[0], o->y, (size_t)n * sizeof(double));
     m->nh = kept + 1;
-    am_chain(m, n);
     if (m->k > ADAMS_RESTART_ORDER) m->k = ADAMS_RESTART_ORDER;
     if (m->k > m->nh) m->k = m->nh;
     if (m->k < 1) m->k = 1;
+    /* the first step reads D_0 .. D_k (D_k: its estimate of order k + 1) */
+    am_chain(m, n, ADAMS_FULL_CHAIN || m->k > m->nh - 1 ? m->nh - 1 : m->k);
     m->nconst = 0;
     m->nfail = 0;
     m->phase1 = m->nh == 1;
@@ -251,7 +286,7 @@ static int am_step(mbs_ode *o)
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
         double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
-        int last, k, kmax_est, knew, s;
+        int last, k, kmax_est, kmax_err, knew, s;
         if (mbs_ode_next_h(o, &h, &last)) break;
         k = m->k < m->nh ? m->k : m->nh;
         x0 = last ? o->t_bound : t + h;
@@ -276,7 +311,9 @@ static int am_step(mbs_ode *o)
             memcpy(m->yc, y, (size_t)n * sizeof(double));
             for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
             am_weights(o, y, m->yc, m->w);
-            for (i = k >= 3 ? k - 2 : 1; i <= kmax_est; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
+            /* the estimates the order control reads: k - 2 .. k, and k + 1 once the order may rise */
+            kmax_err = ADAMS_FULL_CHAIN || (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1) ? kmax_est : k;
+            for (i = k >= 3 ? k - 2 : 1; i <= kmax_err; i++) err[i] = am_norm(n, a[i], m->e[i], m->w);
         }
         if (s != MBS_OK) {  /* the model failed inside the step: retry smaller (it may have left its domain) */
             o->h = h * MBS_ODE_MODEL_FAILURE_SHRINK;
@@ -343,9 +380,14 @@ static int am_step(mbs_ode *o)
             o->fail_h = h;
             break;
         }
-        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]) */
+        /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the
+         * highest difference the next step reads: it goes on at order knew at most, reading D_0 .. D_knew (the
+         * predictor D_0 .. D_(knew-1), the estimate of order knew + 1 D_knew), and its own chain then needs the
+         * differences below its new order, at most knew + 1; the differences above, stale, are never read (a restart
+         * builds the chain afresh from the points, am_chain; tests/runtime/test_adams.py checks the bits) */
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
+            if (!ADAMS_FULL_CHAIN && top > knew) top = knew;
             memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
             for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {

@@ -58,7 +58,13 @@
  * (T^T M T) a = T^T (f - M c0).  T^T M T is factored as L D L^T; a pivot below MBS_LOOP_MASS_TOL times the
  * largest diagonal entry is a motion without inertia (a massless part spinning about its own axis) whose
  * acceleration is set to 0.  M may be singular (massless parts): only T^T M T must be definite on the motions
- * that carry mass.
+ * that carry mass.  With the kept partition (w->blocked) every step follows its plan's blocks: G gathered at its
+ * structural nonzeros, each block factored with gddot0's forward substitution riding along when it is at hand,
+ * T's columns and c0 from each block's U11 in one pass, and T^T M T in the plan's order of columns (the loops'
+ * independent velocities, then those no loop moves, whose entries are M's) with exact zeros between the blocks of
+ * loops that M does not couple (mbs_loop_blocks_coupled).  The same arithmetic in the same order as before these
+ * (the same bits), in fewer instructions: the Iltis's loop_rhs 50,000 a call against 52,700 (bench/rhs_instructions.py
+ * --baseline with the former runtime/c).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -82,7 +88,7 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 5 + 3 NC + 3 NV + 2 NC NV ints in
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 4 NC + 3 NV + 2 NC NV ints in
  * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
@@ -179,6 +185,8 @@ typedef struct {
     double *plan;               /* the blocks of the kept partition (mbs_loop_plan_build), kept between calls */
     int blocked;                /* w->G holds the factors of the kept partition, block by block (its plan) */
     int terms;                  /* M, f, G0 and h = gddot0 hold at w->xc (mbs_loop_terms_at, used once) */
+    int forward;                /* w->y holds L11^-1 (-gddot0) on the pivot rows, from the blocks' elimination
+                                 * (mbs_loop_factor_blocks, when w->terms), for mbs_loop_null_space_blocks */
     int fresh;                  /* the last factors came from complete pivoting (not the kept partition) */
     int singular;               /* ... and their rank is below that of the positions around (a singular one),
                                  * or they are in the band around one (mbs_loop_partition) */
@@ -209,7 +217,7 @@ static inline mbs_loop_work mbs_loop_layout_keeping(double *work)
     mbs_loop_work w;
     double *s = work + MBS_TREE_NWORK;
     w.tree = work;
-    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = 0;
+    w.fresh = w.singular = w.rband = w.newton = w.blocked = w.terms = w.forward = 0;
     w.pivot = 0.0;
     w.keep = s; s += MBS_LOOP_KEEP_SIZE;
     w.M = s; s += MBS_NV * MBS_NV;  /* [M; f; G0; h] in a row: what mbs_loop_terms writes */
@@ -385,7 +393,7 @@ static int mbs_loop_factor(mbs_loop_work *w, double *minpivot)
     int i, j, k, r = 0;
     *minpivot = 0.0;
     w->rband = 0;
-    w->blocked = 0;
+    w->blocked = w->forward = 0;
     mbs_loop_plan_dirty(w);
     if (amax0 < 0.0) return -1;
     for (i = 0; i < MBS_NC; i++) w->rp[i] = i;
@@ -471,9 +479,12 @@ typedef struct {
     int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
-    int *ng;     /* the entries of G the blocks hold (at most NC x NV): */
+    int *ng;     /* the entries of G the blocks hold (at most NC x NV), */
+    int *nz;     /* the first nz of them G's structural nonzeros, the others its structural zeros: */
     int *src;    /* ng: each one's offset in G (row-major, w->G0) */
     int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
+    int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
+                  * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
 } mbs_loop_blocks;
 
 static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -489,8 +500,10 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.col = s; s += MBS_NV;
     b.row = s; s += MBS_NC;
     b.ng = s; s += 1;
+    b.nz = s; s += 1;
     b.src = s; s += MBS_NC * MBS_NV;
-    b.dst = s;
+    b.dst = s; s += MBS_NC * MBS_NV;
+    b.reach = s;
     return b;
 }
 
@@ -506,6 +519,58 @@ static int mbs_loop_root(const int *parent, int j)
 {
     while (parent[j] != j) j = parent[j];
     return j;
+}
+
+/* Is G's entry (row i, column j) a structural nonzero (mbs_colour_column, compiler/jacobian_colours.py)? */
+static int mbs_loop_structural(int i, int j)
+{
+    int c;
+    for (c = 0; c < MBS_NCOLOUR; c++)
+        if (mbs_colour_column[i * MBS_NCOLOUR + c] == j) return 1;
+    return 0;
+}
+
+/* The plan's gather offsets from entry n on: those of the blocks' entries that are structural nonzeros of G
+ * (`nonzero`) or zeros, block by block, row by row, dependent then independent columns; returns the next entry. */
+static int mbs_loop_plan_gather(const mbs_loop_blocks *bl, int nonzero, int n)
+{
+    int b, k, c, e;
+    for (b = 0; b < *bl->nb; b++)
+        for (k = bl->k0[b]; k < bl->k0[b + 1]; k++) {
+            for (c = bl->k0[b]; c < bl->k0[b + 1]; c++)
+                if (mbs_loop_structural(bl->row[k], bl->col[c]) == nonzero) {
+                    bl->src[n] = bl->row[k] * MBS_NV + bl->col[c];
+                    bl->dst[n++] = k * MBS_NV + c;
+                }
+            for (e = bl->j0[b]; e < bl->j0[b + 1]; e++)
+                if (mbs_loop_structural(bl->row[k], bl->col[bl->jl[e]]) == nonzero) {
+                    bl->src[n] = bl->row[k] * MBS_NV + bl->col[bl->jl[e]];
+                    bl->dst[n++] = k * MBS_NV + bl->jl[e];
+                }
+        }
+    return n;
+}
+
+/* Does M couple the velocities of block b (its dependent and independent columns) with those of block c: is
+ * any of the latter among the structural nonzeros of a row of M at one of the former (the runs of
+ * mbs_mass_row, the rows mbs_loop_mass_axpy adds up)?  Without the table: yes. */
+static int mbs_loop_blocks_coupled(const mbs_loop_blocks *bl, int b, int c)
+{
+#ifdef MBS_MASS_PATTERN
+    int x, y, run;
+    for (x = bl->k0[b]; x < bl->k0[b + 1] + bl->j0[b + 1] - bl->j0[b]; x++) {
+        const int u = bl->col[x < bl->k0[b + 1] ? x : bl->jl[bl->j0[b] + x - bl->k0[b + 1]]];
+        for (y = bl->k0[c]; y < bl->k0[c + 1] + bl->j0[c + 1] - bl->j0[c]; y++) {
+            const int v = bl->col[y < bl->k0[c + 1] ? y : bl->jl[bl->j0[c] + y - bl->k0[c + 1]]];
+            for (run = mbs_mass_row[u]; run < mbs_mass_row[u + 1]; run++)
+                if (mbs_mass_begin[run] <= v && v < mbs_mass_end[run]) return 1;
+        }
+    }
+    return 0;
+#else
+    (void)bl; (void)b; (void)c;
+    return 1;
+#endif
 }
 
 /* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
@@ -561,18 +626,13 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     memcpy(kp + 4 + MBS_NV, rows, r * sizeof(double));
     for (j = 0; j < MBS_NV; j++) bl.col[j] = (int)cols[j];
     for (k = 0; k < r; k++) bl.row[k] = (int)rows[k];
-    for (b = 0, n = 0; b < *bl.nb; b++)  /* the gather: each block's rows, its dependent then independent columns */
-        for (k = bl.k0[b]; k < bl.k0[b + 1]; k++) {
-            for (c = bl.k0[b]; c < bl.k0[b + 1]; c++, n++) {
-                bl.src[n] = bl.row[k] * MBS_NV + bl.col[c];
-                bl.dst[n] = k * MBS_NV + c;
-            }
-            for (e = bl.j0[b]; e < bl.j0[b + 1]; e++, n++) {
-                bl.src[n] = bl.row[k] * MBS_NV + bl.col[bl.jl[e]];
-                bl.dst[n] = k * MBS_NV + bl.jl[e];
-            }
-        }
-    *bl.ng = n;
+    /* the gather: each block's rows, its dependent then independent columns; G's structural nonzeros first (read
+     * from G0), then its structural zeros within the blocks (set to 0: the elimination fills some of them in) */
+    *bl.nz = mbs_loop_plan_gather(&bl, 1, 0);
+    *bl.ng = mbs_loop_plan_gather(&bl, 0, *bl.nz);
+    for (b = 0; b < *bl.nb; b++)
+        for (bl.reach[b] = b, c = b + 1; c < *bl.nb; c++)
+            if (mbs_loop_blocks_coupled(&bl, b, c)) bl.reach[b] = c;
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -582,16 +642,22 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
  * block's pivot rows in the kept column order into w->G, the rest of its r rows zero, row exchanges among the
  * block's rows only (they leave the partition unchanged).  rp, cp set.  Returns the smallest pivot relative to
  * max |G| over all rows (read at the structural nonzeros only), 0 when a pivot vanishes, -1 when G is not
- * finite. */
+ * finite.  With gddot0 at hand (w->terms: mbs_loop_rhs_direct) the forward substitution of c0_D rides along as one
+ * more column, y = L11^-1 (-gddot0) in w->y (w->forward): the same terms in the same order as its own pass in
+ * mbs_loop_null_space_blocks, one product a row instead of a pass over L11. */
 static double mbs_loop_factor_blocks(mbs_loop_work *w)
 {
     const double *kp = w->keep, *G0 = w->G0;
     const int r = (int)kp[1];
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *A = w->G, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    double *A = w->G, *y = w->y, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    const int forward = w->terms;  /* gddot0 at hand: its forward substitution rides along (w->forward) */
     int i, k, c, b, e;
+    w->forward = 0;
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
+    if (forward)
+        for (k = 0; k < r; k++) y[k] = -w->h[bl.row[k]];  /* (bl.row: rp as ints, before the row exchanges) */
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
@@ -599,12 +665,13 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (e = 0; e < *bl.ng; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
+    for (e = 0; e < *bl.nz; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
         const double g = G0[bl.src[e]], a = fabs(g);
         A[bl.dst[e]] = g;
         amax0 = a > amax0 ? a : amax0;
         probe += 0.0 * g;
     }
+    for (; e < *bl.ng; e++) A[bl.dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
             for (c = 0; c < MBS_NCOLOUR; c++) {
@@ -622,8 +689,11 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         for (k = k0; k < k1; k++) {
             int pi = k;
             double amax = fabs(A[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
-            for (i = k + 1; i < k1; i++)
-                if (fabs(A[i * MBS_NV + k]) > amax) { amax = fabs(A[i * MBS_NV + k]); pi = i; }
+            const double *a = A + (k + 1) * MBS_NV + k;  /* down column k */
+            for (i = k + 1; i < k1; i++, a += MBS_NV) {
+                const double v = fabs(*a);
+                if (v > amax) { amax = v; pi = i; }
+            }
             if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
             minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
             if (pi != k) {
@@ -631,16 +701,23 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
                 for (c = k0; c < k1; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
                 for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
                 tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
+                if (forward) { tmp = y[k]; y[k] = y[pi]; y[pi] = tmp; }
             }
             for (i = k + 1; i < k1; i++) {
-                double l;
-                if (A[i * MBS_NV + k] == 0.0) continue;
-                l = A[i * MBS_NV + k] /= A[k * MBS_NV + k];
-                for (c = k + 1; c < k1; c++) A[i * MBS_NV + c] -= l * A[k * MBS_NV + c];
-                for (e = 0; e < nj; e++) A[i * MBS_NV + jl[e]] -= l * A[k * MBS_NV + jl[e]];
+                double l, *ai = A + i * MBS_NV;
+                const double *ak = A + k * MBS_NV;
+                if (ai[k] == 0.0) continue;
+                l = ai[k] /= ak[k];
+                for (c = k + 1; c < k1; c++) ai[c] -= l * ak[c];
+                if (nj == 1)  /* a loop's block with one independent column (the Iltis's): no loop for it */
+                    ai[jl[0]] -= l * ak[jl[0]];
+                else
+                    for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
+                if (forward) y[i] -= l * y[k];  /* the forward substitution's terms, in its order */
             }
         }
     }
+    w->forward = forward;
     return minpivot;
 }
 
@@ -1073,47 +1150,68 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
 
 /* T, start and c0 as mbs_loop_null_space, from factors of the kept partition made block by block (w->blocked,
  * mbs_loop_factor_blocks): each independent column's dependent velocities are those of its block, from that
- * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order). */
+ * block's U11 and U12 alone (the blocks' sizes, not r), and c0 likewise (c0_D in w->y too, in pivot order).  Block
+ * by block (the plan lists the independent columns a block moves block by block, the unit ones last): c0_D's
+ * forward substitution (unless the elimination did it, w->forward), then the back substitutions with U11 of c0_D
+ * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
+ * pass over U11 instead of two), then those of its other columns. */
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
 {
     const double *G = w->G;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *T = w->T, *y = w->y;
+    double *T = w->T, *y = w->y, yt[MBS_NC];
     int *Ti = w->Ti, b, j, k, c, e = 0;
     const int m = MBS_NV - r;
-    for (j = 0; j < m; j++) {
-        start[j] = e;
-        T[e] = 1.0;
-        Ti[e++] = cpi[r + j];
-        if ((b = bl.block[r + j]) >= 0) {  /* U11 y = -U12 e_j on the block's rows, upwards */
-            const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
+    memset(w->c0, 0, MBS_NV * sizeof(double));
+    for (b = 0; b < *bl.nb; b++) {
+        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], j0 = bl.j0[b], j1 = bl.j0[b + 1];
+        if (!w->forward)
+            for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
+                const double *g = G + k * MBS_NV;
+                double sum = -w->h[(int)w->rp[k]];
+                for (c = k0; c < k; c++) sum -= g[c] * y[c];
+                y[k] = sum;
+            }
+        for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
+            const int col = bl.jl[j];
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = cpi[col];
             for (k = k1 - 1; k >= k0; k--) {
-                double sum = -G[k * MBS_NV + r + j];
-                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
-                y[k] = sum / G[k * MBS_NV + k];
+                const double *g = G + k * MBS_NV;
+                double sum = -g[col];
+                if (j == j0) {
+                    double s0 = y[k];
+                    for (c = k + 1; c < k1; c++) {
+                        s0 -= g[c] * y[c];
+                        sum -= g[c] * yt[c];
+                    }
+                    y[k] = s0 / g[k];
+                } else {
+                    for (c = k + 1; c < k1; c++) sum -= g[c] * yt[c];
+                }
+                yt[k] = sum / g[k];
             }
             for (k = k0; k < k1; k++) {
-                T[e] = y[k];
+                T[e] = yt[k];
                 Ti[e++] = cpi[k];
             }
         }
-    }
-    start[m] = e;
-    memset(w->c0, 0, MBS_NV * sizeof(double));
-    for (b = 0; b < *bl.nb; b++) {  /* L11 U11 c0_D = -gddot0 on each block's rows */
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1];
-        for (k = k0; k < k1; k++) {
-            double sum = -w->h[(int)w->rp[k]];
-            for (c = k0; c < k; c++) sum -= G[k * MBS_NV + c] * y[c];
-            y[k] = sum;
-        }
-        for (k = k1 - 1; k >= k0; k--) {
-            double sum = y[k];
-            for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
-            y[k] = sum / G[k * MBS_NV + k];
-        }
+        if (j0 == j1)  /* no independent column moves this block: c0_D alone */
+            for (k = k1 - 1; k >= k0; k--) {
+                double sum = y[k];
+                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
+                y[k] = sum / G[k * MBS_NV + k];
+            }
         for (k = k0; k < k1; k++) w->c0[cpi[k]] = y[k];
     }
+    w->forward = 0;  /* y is c0_D now */
+    for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
+        start[j] = e;
+        T[e] = 1.0;
+        Ti[e++] = cpi[r + j];
+    }
+    start[m] = e;
 }
 
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
@@ -1249,31 +1347,16 @@ static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
     return s;
 }
 
-/* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
- * position (mbs_loop_limit_rows). */
-static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
+/* The lower triangle of A = T^T M T (m x m, row stride NV) and a = T^T (f - M c0) for any T (packed columns):
+ * per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities, or a
+ * row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and a_j = T_j^T f - mt^T c0
+ * (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at least). */
+static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
 {
-    int r = *rank, m;
-    double *T = w->T, *A = w->A, *M = w->M, dmax = 0.0;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
-    int i, j, k, s;
-    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
-                    * the same state finds h replaced at a singular position) */
-        w->terms = 0;
-    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
-        return s;
-    r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
-    if (s != 0) return s;
-    if (r < 0) return MBS_LOOP_NONFINITE;
-    m = MBS_NV - r;
-    /* the null-space basis T (NV x m, packed columns) and c0 */
-    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
-        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
-        mbs_loop_null_space(w, r, start, cpi);
-    /* per column j of T: mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities,
-     * or a row of M for a unit column), then the lower triangle A_ij = T_i^T mt (i >= j) from the nonzeros of
-     * T_i, and a_j = T_j^T (f - M c0) = T_j^T f - mt^T c0 (c0 zero on the independent velocities) */
+    const double *T = w->T, *M = w->M;
+    const int *Ti = w->Ti;
+    double *A = w->A, dmax = 0.0;
+    int i, j;
     for (j = 0; j < m; j++) {
         const double *mt;
         double sum = 0.0;
@@ -1292,6 +1375,73 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
+    return dmax;
+}
+
+/* A and a as mbs_loop_reduced_mass forms them (the same arithmetic in the same order) for T from
+ * mbs_loop_null_space_blocks: its first na columns are those a loop moves (its blocks' independent velocities), the
+ * others unit columns (independent velocities no loop moves, the plan puts them last), so the kind of each entry
+ * of A is known by its place, not tested: an entry of M T_j for a unit row, an entry of M itself where both
+ * columns are unit ones, and an exact zero where M couples no velocity of T_i with one of T_j (another loop's
+ * block beyond the reach of T_j's, mbs_loop_blocks_coupled).  Returns the largest diagonal entry. */
+static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
+{
+    const double *T = w->T, *M = w->M;
+    const int *Ti = w->Ti;
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    const int m = MBS_NV - r, na = bl.j0[*bl.nb];
+    double *A = w->A, dmax = 0.0;
+    int i, j, e;
+    for (j = 0; j < na; j++) {
+        const double *mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
+                                                      w->b);
+        const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
+        double sum = 0.0;
+        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
+        w->a[j] = sum - mbs_loop_dot(mt, w->c0);
+        for (i = j; i < coupled; i++) {
+            for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
+            A[i * MBS_NV + j] = sum;
+        }
+        for (; i < na; i++) A[i * MBS_NV + j] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
+        for (; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+    }
+    for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
+        const double *mt = M + cpi[r + j] * MBS_NV;
+        w->a[j] = (0.0 + w->f[cpi[r + j]]) - mbs_loop_dot(mt, w->c0);
+        for (i = j; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+    }
+    return dmax;
+}
+
+/* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
+ * position (mbs_loop_limit_rows). */
+static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
+{
+    int r = *rank, m;
+    double *T = w->T, *A = w->A, dmax;
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
+    int i, j, k, s;
+    if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
+                    * the same state finds h replaced at a singular position) */
+        w->terms = 0;
+    else if ((s = mbs_loop_terms_at(t, p, w)) != 0)
+        return s;
+    r = *rank = mbs_loop_limit_rows(t, p, w, r, &s);
+    if (s != 0) return s;
+    if (r < 0) return MBS_LOOP_NONFINITE;
+    m = MBS_NV - r;
+    /* the null-space basis T (NV x m, packed columns) and c0 */
+    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
+        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
+    else
+        mbs_loop_null_space(w, r, start, cpi);
+    if (w->blocked)  /* the kept partition's columns of T in the order of its plan */
+        dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
+    else
+        dmax = mbs_loop_reduced_mass(w, m, start);
     /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia.  Row i of A is
      * zero left of first[i] (its envelope: the Iltis's corners couple through the body only, and with the body's
      * columns last a corner's row of A is its diagonal alone), and so is row i of L: the sums skip those exact
@@ -1301,10 +1451,10 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         first[i] = k;
     }
     for (j = 0; j < m; j++) {
-        double d = A[j * MBS_NV + j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
+        double *aj = A + j * MBS_NV, d = aj[j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
         for (k = first[j]; k < j; k++) {
-            ld[k] = A[j * MBS_NV + k] * A[k * MBS_NV + k];
-            d -= A[j * MBS_NV + k] * ld[k];
+            ld[k] = aj[k] * A[k * MBS_NV + k];
+            d -= aj[k] * ld[k];
         }
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
@@ -1315,10 +1465,10 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         }
         A[j * MBS_NV + j] = d;
         for (i = j + 1; i < m; i++) {
-            double sum = A[i * MBS_NV + j];
+            double *ai = A + i * MBS_NV, sum = ai[j];
             if (first[i] > j) continue;  /* L_ij = 0 */
-            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= A[i * MBS_NV + k] * ld[k];
-            A[i * MBS_NV + j] = sum / d;
+            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= ai[k] * ld[k];
+            ai[j] = sum / d;
         }
     }
     for (j = 0; j < m; j++)
@@ -1500,6 +1650,22 @@ static int mbs_loop_stamp_p_holds(const mbs_loop_work *w, const double *p)
     return memcmp(mbs_loop_stamp_p(w), p, MBS_NP * sizeof(double)) == 0;
 }
 
+/* The factors of G at the stamp's positions serve positions within MBS_LOOP_STAMP_NEAR of them (relative):
+ * DOPRI5's last stage is at its accepted state itself (bit for bit); Adams' last evaluation is at the predicted
+ * state, which the corrector moves by the step's local error (about rtol).  With G off by that much, each polishing
+ * Newton step still cuts the position residual by about that factor, and the velocities' one correction leaves a
+ * residual of (G(q_c) - G(q_stamp)) dv: the product of two small quantities.  A residual the polish does not take
+ * below MBS_LOOP_TOL still goes the way of mbs_project. */
+#define MBS_LOOP_STAMP_NEAR 1e-6
+
+static int mbs_loop_stamp_q_near(const double *stamp_q, const double *x)
+{
+    int i;
+    for (i = 0; i < MBS_NQ; i++)
+        if (!(fabs(stamp_q[i] - x[i]) <= MBS_LOOP_STAMP_NEAR * (1.0 + fabs(x[i])))) return 0;
+    return 1;
+}
+
 /* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
 static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs_loop_work *w, int r)
 {
@@ -1514,12 +1680,13 @@ static void mbs_loop_stamp_store(double t, const double *x, const double *p, mbs
 static int mbs_loop_stamp_holds(double t, const double *x, const double *p, const mbs_loop_work *w)
 {
     return w->stamp[0] == MBS_LOOP_KEEP_MARK && w->stamp[1] == t && w->keep[0] == MBS_LOOP_KEEP_MARK
-           && w->stamp[3] == w->keep[1] && memcmp(w->stamp + 4, x, MBS_NQ * sizeof(double)) == 0
+           && w->stamp[3] == w->keep[1] && mbs_loop_stamp_q_near(w->stamp + 4, x)
            && mbs_loop_stamp_p_holds(w, p);
 }
 
-/* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions:
- * the integrated state of an accepted step is the state of its last stage (DOPRI5's first-same-as-last), already
+/* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions or
+ * near them (Adams' predicted state: mbs_loop_stamp_q_near): the integrated state of an accepted step is the
+ * state of its last stage (DOPRI5's first-same-as-last) or its corrected prediction (Adams), already
  * on the position constraints to the integration's drift (about 1e-13), so the projection is one residual, the
  * polishing Newton steps of mbs_loop_positions_iterate with those factors, and the velocities from one gdot,
  * instead of two fresh evaluations and factorisations of G.  The velocities use G at the positions before the
@@ -1702,15 +1869,20 @@ static int mbs_loop_projected_holds(double t, const double *x, const double *p, 
  * reduce the residual by MBS_LOOP_SLOW, as the simplified Newton of mbs_loop_positions_iterate. */
 #define MBS_LOOP_ROW_MAXIT 8
 
-/* Are the factors of the previous row's solve in the work, with the partition still the kept one? */
+/* Are the factors of the previous row in the work, with the partition still the kept one: its solve's
+ * (MBS_LOOP_ROW_MARK), or, when its outputs solved no loops (positions alone: no mbs_loop_rates after the
+ * projection), its projection's (the stamp of mbs_project, of the kept partition's blocks)?  Without the latter every
+ * row of such outputs was projected afresh (the Iltis over the bump: 40,000 instructions a row against 30,000). */
 static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
 {
 #ifdef MBS_CLOSED_FORM  /* its rows are projected in closed form first (mbs_project), whose scratch overlaps G */
     (void)w;
     return 0;
 #else
-    return !MBS_LOOP_ROWS_FORMER && w->stamp[0] == MBS_LOOP_ROW_MARK && w->keep[0] == MBS_LOOP_KEEP_MARK
-           && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
+    const int projected = MBS_LOOP_PROJECTED_STAMP && w->stamp[0] == MBS_LOOP_PROJECTED_MARK
+                          && ((int)w->stamp[4] & 7) == 4;  /* blocked, neither fresh nor singular (the flags' packing) */
+    return !MBS_LOOP_ROWS_FORMER && (w->stamp[0] == MBS_LOOP_ROW_MARK || projected)
+           && w->keep[0] == MBS_LOOP_KEEP_MARK && w->stamp[3] == w->keep[1] && mbs_loop_plan_holds(w);
 #endif
 }
 

@@ -33,6 +33,24 @@ extern const int mbs_ny;
 #define MBS_CAT2(a, b) a##b
 #define MBS_CAT(a, b) MBS_CAT2(a, b)
 
+/* ---- the rows of a run (Function.rows: runtime/rows.py) --------------------------------------------- */
+
+#ifdef MBS_NC
+/* The outputs of a model with loops solve in work + MBS_OUTPUTS_WORK (compiler/ccode.py), a loop solver's work apart
+ * from the integrator's at work: the rows are projected there (mbs_loop_project_row: from the factors the previous
+ * row left, else mbs_project), so that the outputs' mbs_loop_rates solves from the factors at the row without
+ * projecting it again (c/loops.c), and the integrator's kept partition is left alone. */
+#ifdef MBS_OUTPUTS_WORK
+#define MBS_ROWS_WORK MBS_OUTPUTS_WORK
+#else
+#define MBS_ROWS_WORK 0
+#endif
+static int rows_project(double t, const double *x, const double *p, double *out, double *work)
+{
+    return mbs_loop_project_row(t, x, p, out, work + MBS_ROWS_WORK);
+}
+#endif
+
 /* ---- the function table ------------------------------------------------------------------------ */
 
 /* Rows {name, function, rows, cols[, nin]} (c/mbs_python.h mbs_entry).  Not const: the number of outputs of a
@@ -82,6 +100,7 @@ static mbs_entry MBS_TABLE[] = {
     {"loop_report", mbs_loop_report, MBS_LOOP_NREPORT, 0},
     {"loop_rhs", mbs_loop_rhs_direct, MBS_NX, 0},  /* x' without projection: what the C integrators call */
     {"loop_accept", mbs_loop_accept, 2 * MBS_NX, 0},  /* [x'; the accepted state projected]: a step's end */
+    {"project_row", rows_project, MBS_NX, 0},  /* mbs_project of the rows of a run, one after another (rows.py) */
 #endif
 #ifdef MBS_CLOSED_FORM  /* loops closed in closed form alone (status 4 off their branch), for tests and benches */
     {"closed_form_rhs", mbs_closed_form_rhs, MBS_NX, 0},
@@ -90,14 +109,9 @@ static mbs_entry MBS_TABLE[] = {
 };
 #define MBS_TABLE_SIZE ((int)(sizeof MBS_TABLE / sizeof MBS_TABLE[0]))
 
-/* The outputs of a model with loops solve in work + MBS_OUTPUTS_WORK (compiler/ccode.py): a row projected there
- * first (mbs_loop_project_row: from the previous row's factors, else mbs_project) is not projected again by
- * their mbs_loop_rates (c/loops.c). */
+/* The projection before the outputs of a row (Function.rows with `projected`): where the outputs solve the loops in
+ * a work of their own, which the row's projection leaves its factors in. */
 #if defined(MBS_NC) && defined(MBS_OUTPUTS_WORK) && (defined(MBS_NY) || defined(MBS_OUTPUTS_UNIT))
-static int rows_project(double t, const double *x, const double *p, double *out, double *work)
-{
-    return mbs_loop_project_row(t, x, p, out, work + MBS_OUTPUTS_WORK);
-}
 #define MBS_ROWS_PROJECT rows_project
 #else
 #define MBS_ROWS_PROJECT NULL

@@ -415,8 +415,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
     /* the mechanism's own right-hand side: keep the integrated state on its loop-closure constraints */
     if (!rc && fn->entry->fn == mbs_model->rhs && mbs_model->project) {
         self->ode.yproj = calloc((size_t)mbs_model->nx + 1, sizeof(double));
-        /* DOPRI5's last stage is at the accepted state: its factors of G serve the projection (Adams' last
-         * evaluation is not: its projection starts afresh) */
+        /* the factors of G the last evaluation left serve the projection: DOPRI5's last stage is at the
+         * accepted state, Adams' at its predicted state, near it (c/loops.c mbs_loop_stamp_q_near) */
         self->ode.project = rhs == mbs_model->rhs_direct ? mbs_model->project_step : mbs_model->project;
         rc = self->ode.yproj ? 0 : -1;
     }

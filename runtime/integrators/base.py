@@ -69,7 +69,7 @@ class OdeSolver:
         if not rtol > 0:
             raise UsageError(f"rtol must be positive, got {rtol}")
         atol_arr = np.asarray(atol, dtype=float)
-        if atol_arr.ndim > 1 or (atol_arr.ndim == 1 and atol_arr.shape != y0.shape) or np.any(atol_arr < 0):
+        if atol_arr.ndim > 1 or (atol_arr.ndim == 1 and atol_arr.shape != y0.shape) or (atol_arr < 0).any():
             raise UsageError("atol must be a non-negative scalar or one value per state")
         if first_step is not None and not first_step > 0:
             raise UsageError(f"first_step must be positive, got {first_step}")

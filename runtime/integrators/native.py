@@ -8,6 +8,7 @@ C runs, so runs in separate threads (one workspace each) proceed in parallel.
 
 from __future__ import annotations
 
+import math
 import sys
 from typing import ClassVar
 
@@ -66,7 +67,7 @@ class NativeSolver(OdeSolver):
         self._c = module.Solver(self.native_method, fun, self.t0, self.y, self.t_bound, self.rtol,
                                 float(self.atol) if self.atol.ndim == 0 else self.atol,
                                 first_step=self.first_step or 0.0,
-                                max_step=0.0 if not np.isfinite(self.max_step) else self.max_step,
+                                max_step=0.0 if not math.isfinite(self.max_step) else self.max_step,
                                 min_step=self.min_step, max_steps=self.max_steps)
         if self.events is not None:  # the C loop locates the crossings itself (c/ode.c)
             g, directions = self.events

@@ -102,3 +102,23 @@ def test_a_given_initial_state_is_not_kept(text, solves):
     start, _ = system.start("rest")
     system.start("rest", x0=start.x)
     assert len(system._starts) == 1 and len(solves) == 1
+
+
+def test_the_start_vectors_are_worked_out_once_per_binding(text, monkeypatch):
+    """System._start_vectors: p and the initial state of a parameter binding are kept with it (System._binding), also
+    past forget_starts (which lets go of the solved starts only); other parameters work out their own."""
+    system = mbs.loads(text)
+    made = []
+    real = mbs.system.pipeline.initial_state
+    monkeypatch.setattr(mbs.system.pipeline, "initial_state", lambda *a: made.append(1) or real(*a))
+    first, _ = system.start("rest")  # (its compile evaluates the default initial state too)
+    made.clear()
+    system.forget_starts()
+    again, _ = system.start("rest")
+    assert made == []
+    assert np.array_equal(again.x, first.x) and np.array_equal(again.p, first.p)
+    assert np.array_equal(again.work, first.work)  # solved afresh, to the bit
+    other, _ = system.start("rest", params={"l0": "0.42 m"})
+    assert len(made) == 1 and not np.array_equal(other.p, first.p)
+    fresh, _ = mbs.loads(text).start("rest", params={"l0": "0.42 m"})
+    assert np.array_equal(other.x, fresh.x) and np.array_equal(other.p, fresh.p)

@@ -79,3 +79,32 @@ def test_a_direction_without_stiffness_is_held_exactly_where_its_column_is_not_z
     assert step[2] == 0.0
     assert step[:2] == pytest.approx([0.01, 0.04], rel=1e-14)
     assert abs(np.linalg.lstsq(J, -acc, rcond=None)[0][2]) > 1e-5
+
+
+def test_the_column_pivots_are_those_of_the_textbook_loop():
+    """_pivot_columns against QR with column pivoting written as the textbook has it (Golub and Van Loan 5.4.2,
+    numpy arrays throughout) on random null-space bases, ties among them: the same pivots."""
+    from mbs.runtime.equilibrium_newton import _pivot_columns
+
+    def textbook(A, k):
+        R, chosen = np.array(A, dtype=float), []
+        for _ in range(k):
+            norms = np.einsum("ij,ij->j", R, R)
+            norms[chosen] = -1.0
+            j = int(norms.argmax())
+            if not norms[j] > 0.0:
+                break
+            chosen.append(j)
+            q = R[:, j] / np.sqrt(norms[j])
+            R -= np.outer(q, q @ R)
+        return chosen
+    rng = np.random.default_rng(5)
+    for trial in range(300):
+        k, n = rng.integers(1, 5), rng.integers(5, 12)
+        A = rng.standard_normal((k, n))
+        if trial % 3 == 0:
+            A[:, rng.integers(n)] = A[:, 0]  # two columns of the same norm
+        if trial % 5 == 0:
+            A[:, 1] = 0.0
+        assert _pivot_columns(A, k) == textbook(A, k)
+    assert _pivot_columns(np.zeros((2, 4)), 2) == textbook(np.zeros((2, 4)), 2) == []

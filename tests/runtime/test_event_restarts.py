@@ -130,9 +130,9 @@ def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
     booked = []
     for book in (lambda p, r, f: event_loop._book_each(model, None, log, fired, p, r, f),
                  lambda p, r, f: event_loop._book_branches(model, fired, g_old, g_event, log[:, 0], p, r, f)):
-        p, records, fired_times = start.copy(), [], []
+        p, records, fired_times = start.copy(), event_loop.EventLog(), []
         copies, twin = book(p, records, fired_times)
-        booked.append((copies, twin, p, [r.as_row() for r in records], fired_times))
+        booked.append((copies, twin, p, records.rows(), fired_times))
     for each, at_once in zip(*booked):
         if isinstance(each, np.ndarray):
             assert np.array_equal(each, at_once)
@@ -154,15 +154,22 @@ def test_one_pair_s_crossings_are_those_of_the_rows_mask():
         assert found.dtype == expected.dtype and np.array_equal(found, expected)
 
 
-def test_booked_records_are_the_records_their_constructor_makes():
-    """event_loop._records writes the fields into each new record's dict (the frozen dataclass's __init__ costs
-    four object.__setattr__ calls a record): equal to EventRecord(...), the same repr and row, and immutable."""
-    import dataclasses
-
+def test_the_event_log_s_rows_are_those_of_its_records_in_the_order_booked():
+    """event_loop.EventLog keeps the entries replay books at once as columns (no EventRecord each): its rows and
+    event names are those of the records the Python loop makes for the same entries, in the order booked, blocks of
+    records and of columns interleaved."""
     from mbs.runtime.events import EventRecord
-    made = event_loop._records([0.5, 1.0], ["a", "b"], ["rising", "falling"], ["branch 0 -> 1", ""])
-    expected = [EventRecord(0.5, "a", "rising", "branch 0 -> 1"), EventRecord(1.0, "b", "falling", "")]
-    assert made == expected and [repr(r) for r in made] == [repr(r) for r in expected]
-    assert [r.as_row() for r in made] == [r.as_row() for r in expected]
-    with pytest.raises(dataclasses.FrozenInstanceError):
-        made[0].time = 2.0
+    first = [EventRecord(0.25, "start", "start", "mode 0 -> 1")]
+    columns = ([0.5, 1.0], ["a", "b"], ["rising", "falling"], ["branch 0 -> 1", ""])
+    last = [EventRecord(1.5, "c", "either", ""), EventRecord(2.0, "a", "falling", "branch 1 -> 0")]
+    log = event_loop.EventLog(first)
+    log.add_columns(*columns)
+    log.add_columns([], [], [], [])
+    log += last[:1]
+    log.append(last[1])
+    records = first + [EventRecord(*entry) for entry in zip(*columns)] + last
+    assert len(log) == len(records) == 5
+    assert log.rows() == [r.as_row() for r in records]
+    assert [list(row) for row in log.rows()] == [list(r.as_row()) for r in records]  # the keys in the same order
+    assert log.events() == [r.event for r in records]
+    assert event_loop.event_rows(log) == event_loop.event_rows(records)

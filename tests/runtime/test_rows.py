@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mbs
-from mbs.runtime.rows import evaluate_rows, project_and_evaluate_rows
+from mbs.runtime.rows import evaluate_rows, project_and_evaluate_rows, project_rows
 from mbs.runtime.simulate import simulate
 
 SLIDER_CRANK = Path(__file__).resolve().parents[2] / "library" / "examples" / "slider_crank.mbs"
@@ -136,6 +136,63 @@ def test_one_pass_projects_each_row_and_gives_its_outputs_there(request, case):
     outputs = one_by_one(data, "outputs", ps, ts, reference, which)
     np.testing.assert_allclose(ys, outputs, rtol=1e-9, atol=1e-9 * np.abs(outputs).max())
     assert np.ptp(ys[:, 0]) > 1.0  # the slider's acceleration varies over the run: the comparison means something
+
+
+#: The slider crank with outputs of positions alone: its mbs_outputs solves no loops (no mbs_loop_rates), so each row
+#: of the one pass starts its Newton steps from the factors of G the projection of the row before it left.
+CRANK_POSITIONS = SLIDER_CRANK.read_text().rstrip()[:-1] + '''
+    output slider_x = guide.s
+    output rod_angle = crank_pin.phi
+}
+'''
+
+
+@pytest.fixture(scope="module")
+def crank_positions_numeric():
+    system = mbs.loads(CRANK_POSITIONS)
+    compiled, gen = system.compile(closed_form=False), system.generate(closed_form=False)
+    values = {p.name: p.value for p in system.model.parameters}
+    res = simulate(compiled, system._workspace(compiled, gen, values), 0.5, sample=0.01)
+    return system._workspace(compiled, gen, values), res.t, res.data[:, 1:1 + compiled.nx]
+
+
+def test_one_pass_of_outputs_without_loop_solve_projects_each_row_as_project_does(crank_positions_numeric):
+    """Outputs that read no accelerations: each row's projection starts from the factors the projection of the row
+    before it left (c/loops.c mbs_loop_row_factors_hold), where project evaluates and factors G afresh; the same
+    projection to round-off (the positions to the Newton tolerance), rows after a change of the loop's length
+    included, and the outputs there."""
+    data, ts, xs = crank_positions_numeric
+    longer = data.p.copy()
+    longer[data.model.parameter_index("L")] *= 1.1
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
+    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
+    assert data.function("outputs").rows(np.ascontiguousarray(ts), xs, ys, np.array(ps), which.astype(np.intp),
+                                         projected) == len(ts)  # the one pass in C
+    reference = one_by_one(data, "project", ps, ts, xs, which)
+    np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(ys, one_by_one(data, "outputs", ps, ts, reference, which), rtol=1e-12, atol=1e-14)
+    assert np.ptp(ys[:, 0]) > 0.1  # the slider moves over the run: the comparison means something
+
+
+def test_the_rows_projection_gives_project_row_by_row(crank_positions_numeric):
+    """The rows of a run without outputs (rows.project_rows: `project_row`, c/loops.c mbs_loop_project_row): each
+    row's Newton steps start from the factors the row before it left; the same projection as project afresh to
+    round-off, rows after a change of the loop's length included, and a row that cannot be closed stops them."""
+    data, ts, xs = crank_positions_numeric
+    assert "project_row" in data.model.functions
+    longer = data.p.copy()
+    longer[data.model.parameter_index("L")] *= 1.1
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)
+    projected = np.empty_like(xs)
+    assert project_rows(data, ps, ts, xs, which, projected) == (len(ts), None)
+    reference = one_by_one(data, "project", ps, ts, xs, which)
+    np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
+    assert not np.array_equal(projected, xs)  # the rows were off the constraints
+    xs[5, 0] = np.nan
+    done, error = project_rows(data, ps, ts, xs, which, projected)
+    assert done == 5 and error is not None
 
 
 def test_one_pass_names_the_stage_that_failed(crank_outputs):

@@ -112,3 +112,18 @@ def test_results_without_a_copy_keep_the_drivers_table_read_only_and_check_names
     for names in (["time", "time"], ["time", "a,b"]):
         with pytest.raises(UsageError):
             Results(names, np.zeros((3, 2)), copy=False)
+
+
+def test_column_names_are_the_str_of_each_name_given_checked_once_per_tuple():
+    """Results' names: a tuple of str names as given (worked out once per tuple: results._str_columns), any other
+    name its str(); names equal to an earlier tuple's but not str (0.0 == 0) are named as their own str()."""
+    from mbs.runtime.results import Results
+    assert Results(("time", "x"), [[0.0, 1.0]]).names == ("time", "x")
+    assert Results(["time", "x"], [[0.0, 1.0]]).names == ("time", "x")
+    assert Results((0, "x"), [[0.0, 1.0]]).names == ("0", "x")
+    assert Results((0.0, "x"), [[0.0, 1.0]]).names == ("0.0", "x")
+    named = Results((np.str_("time"), "x"), [[0.0, 1.0]])
+    assert named.names == ("time", "x") and all(type(n) is str for n in named.names)
+    assert named["time"][0] == 0.0
+    with pytest.raises(UsageError):
+        Results(("time", "time"), [[0.0, 1.0]])
