@@ -19,8 +19,8 @@ from functools import cached_property
 import sympy as sp
 
 from .joints import combine, joint_kind
-from .spatial import (IDENTITY, ZERO, ZERO3, ZERO6, RigidInertia, add, cross, dot, force_cross, matmul, matTvec,
-                      matvec, motion_cross, motion_from_frame, motion_to_child, mul, transpose)
+from .spatial import (IDENTITY, ZERO, ZERO3, ZERO6, RigidInertia, add, cross, dot, force_cross, is_identity, is_zero,
+                      matmul, matTvec, matvec, motion_cross, motion_from_frame, motion_to_child, mul, transpose)
 from .tape import Tape
 from .tree import Tree, coordinate_names, t, velocity_of_coordinate
 
@@ -67,6 +67,7 @@ class Kinematics:
         self._wrenches: dict[int, list] = {}
         self._generalized: dict[int, list] = {}
         self._bias_acc: dict[int, tuple] = {}
+        self._relative: dict[int, object] = {}
 
     # ---- the outward recursion ----------------------------------------------------------------------------------
 
@@ -279,7 +280,15 @@ class Kinematics:
         tension(length, rate) -> tension [N], positive pulling the points together; length [m] is the distance
         and rate [m/s] its time derivative. Returns (length, rate, tension) as tape expressions. The direction is
         undefined when the points coincide (the generated code then reports a non-finite result).
+
+        Between two bodies below a common body (a car's strut between the car body and a control arm) the line
+        is computed in that body's frame (`load_frame`), from the poses and velocities relative to it: the same
+        length and rate, without the world poses of the bodies and the rotations of the force to and from world
+        components (the load on the common body is in its own components already).
         """
+        frame = self.load_frame(body_a, body_b)
+        if frame >= 0:
+            return self._relative_line_force(frame, body_a, point_a, body_b, point_b, tension)
         tape = self.tape
         pa, pb = self.frame_position(body_a, point_a), self.frame_position(body_b, point_b)
         d = tape.vector([add(y, -x) for x, y in zip(pa, pb)], "ld")
@@ -293,6 +302,70 @@ class Kinematics:
         self.add_force(body_b, point_b, [-x for x in force_on_a])
         return length, rate, T
 
+    def _relative_line_force(self, frame: int, body_a, point_a, body_b, point_b, tension) -> tuple:
+        """add_line_force in the frame of the body `frame` above both bodies."""
+        tape = self.tape
+        (pa, va), (pb, vb) = self.point_in(frame, body_a, point_a), self.point_in(frame, body_b, point_b)
+        d = tape.vector([add(y, -x) for x, y in zip(pa, pb)], "ld")
+        length = tape.temp(sp.sqrt(dot(d, d)), "len")
+        e = tape.vector([mul(x, tape.temp(1 / length, "ilen")) for x in d], "le")
+        rate = tape.temp(dot(e, [add(y, -x) for x, y in zip(va, vb)]), "rate")
+        T = tape.temp(sp.sympify(tension(length, rate)), "tension")
+        self.add_force_along(frame, body_a, point_a, e, T)
+        self.add_force_along(frame, body_b, point_b, e, -T)
+        return length, rate, T
+
+    # ---- loads computed in the frame of a body above both ends ----------------------------------------------
+
+    def load_frame(self, body_a: int | str, body_b: int | str) -> int:
+        """The nearest body above (or equal to) both bodies, in whose frame a load between them is computed; -1
+        (world components) when there is none."""
+        from .relative_motion import common_ancestor  # (it imports this module)
+        return common_ancestor(self, self.tree.body_index(body_a), self.tree.body_index(body_b))
+
+    def relative_motion(self, frame: int):
+        """The motion of the bodies below body `frame` relative to it (compiler/relative_motion.py), on this
+        kinematics' tape (a copy of the kinematics on a fork of the tape gets its own)."""
+        from .relative_motion import RelativeMotion
+        found = self._relative.get(frame)
+        if found is None or found.kin is not self:
+            found = RelativeMotion(self, frame)
+            self._relative[frame] = found
+        return found
+
+    def point_in(self, frame: int, body: int | str, r_local) -> tuple:
+        """(position, velocity) of the point with body coordinates r_local relative to body `frame` (at or above
+        the body), in its components [m, m/s]."""
+        rel, i, r = self.relative_motion(frame), self.tree.body_index(body), _sym(r_local)
+        R, r0 = rel.pose(i)
+        position = self.tape.vector([add(x, dot(row, r)) for x, row in zip(r0, R)], "posr")
+        vel = rel.velocity(i)
+        if is_zero(vel):
+            return position, ZERO3
+        local = [add(x, y) for x, y in zip(vel[3:], cross(vel[:3], r))]
+        return position, matvec(self.tape, R, local, "velr")
+
+    def direction_in(self, frame: int, body: int | str, e_local) -> tuple:
+        """(e, omega): the direction with body components e_local and the body's angular velocity relative to body
+        `frame` (at or above it), both in its components."""
+        rel, i = self.relative_motion(frame), self.tree.body_index(body)
+        R = rel.pose(i)[0]
+        e = self.tape.vector([dot(row, _sym(e_local)) for row in R], "dirr")
+        vel = rel.velocity(i)
+        return e, (ZERO3 if is_zero(vel[:3]) else matvec(self.tape, R, vel[:3], f"wr{i + 1}"))
+
+    def add_force_along(self, frame: int, body: int | str, point, e, tension) -> None:
+        """The force tension * e (e in the components of body `frame`, at or above the body) [N] acting at the
+        point with body coordinates `point`: its wrench is tension times the body's unit wrench (e and point x e
+        in body components), which the loads along the same line at the same point (a spring and a damper)
+        share."""
+        i = self.tree.body_index(body)
+        if i < 0:
+            return
+        R = self.relative_motion(frame).pose(i)[0]
+        e_body = e if is_identity(R) else matTvec(self.tape, R, e, f"eb{i + 1}")
+        torque = self.tape.vector(cross(_sym(point), e_body), f"eu{i + 1}")
+        self._wrenches.setdefault(i, []).append(tuple(mul(tension, c) for c in tuple(torque) + tuple(e_body)))
 
 def _sym(v) -> tuple:
     return tuple(sp.sympify(x) for x in v)

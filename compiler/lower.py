@@ -311,6 +311,11 @@ class _Lowering:
         # along a fixed axis of frame a: deflection = projection of b - a on it
         tape = self.kin.tape
         axis_local = [self.geometry(c) for c in along]
+        frame = self.kin.load_frame(ba, bb)
+        if frame >= 0:
+            self._force_values[force.name] = self._axis_force_in(frame, inter, ba, pa_local, bb, pb_local,
+                                                                 axis_local, law)
+            return
         e = [tape.temp(dot(Ra[k], axis_local), "ax") for k in range(3)]
         d = [y - x for x, y in zip(pa, pb)]
         va = self.kin.frame_velocity(ba, pa_local)
@@ -324,6 +329,22 @@ class _Lowering:
         self.kin.add_force(bb, pb_local, [-tension * c for c in e])
         if ba >= 0:
             self.kin.add_force(ba, pa_local, [tension * c for c in e])
+
+    def _axis_force_in(self, frame: int, inter, ba, pa_local, bb, pb_local, axis_local, law):
+        """The tension of a force along a fixed axis of frame a between two bodies below body `frame`, computed in
+        that body's frame (as Kinematics.add_line_force: no world poses, the load on `frame` in its components)."""
+        tape, kin = self.kin.tape, self.kin
+        frame_a = self.model.part_map[inter.a.part].frame_map[inter.a.frame]
+        R_local = [[self.geometry(c) for c in row] for row in frame_a.rotation]
+        e, omega_a = kin.direction_in(frame, ba, [dot(row, axis_local) for row in R_local])
+        (pa, va), (pb, vb) = kin.point_in(frame, ba, pa_local), kin.point_in(frame, bb, pb_local)
+        d = [y - x for x, y in zip(pa, pb)]
+        length = tape.temp(dot(e, d), "proj")
+        rate = tape.temp(dot(e, [y - x for x, y in zip(va, vb)]) + dot(cross(omega_a, e), d), "projrate")
+        tension = tape.temp(law(length, rate), "tension")
+        kin.add_force_along(frame, bb, pb_local, e, -tension)
+        kin.add_force_along(frame, ba, pa_local, e, tension)
+        return tension
 
     def _line_law(self, force: M.Force):
         kind = force.kind
