@@ -1,7 +1,7 @@
 """What Python does around the C integration of a warm Iltis bump run, counted in instructions (load-independent),
 against a baseline checkout in the same run.
 
-    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2]
+    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2] [--faults]
 
 A warm `System.simulate(scene)` of library/iltis/vehicle.mbs spends most of its time inside the model's C: the
 integration (`Solver.sample`), the results' rows (`Function.rows`: the equilibrium's difference columns, the
@@ -23,6 +23,12 @@ git revision, default the commit before the driver's latest cuts), exported with
 directory and imported from there; the ratio is current over baseline.  Takes a minute or two.  Callgrind counts
 a bulk copy or fill (the rows' tables, the work memory: memcpy, memset) as about one instruction a byte (a copy of
 1 MB: 1.05 M), more than such a copy costs beside as many instructions of the interpreter.
+
+--faults adds what callgrind does not see: the minor page faults and the system CPU per simulate (getrusage over 20
+warm calls, one process per checkout, scene and start: a first start, and the kept one).  A run's big arrays come
+from the heap, which glibc gives back to the kernel at the run's end when its free top exceeds the trim threshold;
+the next run then touches fresh pages again, a fault each.  The count depends on the run's peak memory and the
+order of its allocations (deterministic for a given build and sequence of calls, not a measure of load).
 """
 
 from __future__ import annotations
@@ -38,8 +44,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from; 1abfa02 before the first ones).
-BASELINE = "0af93aa"
+#: The driver before the latest cuts (the commit that work started from: the solvers' set-up, init_switches, the
+#: guard's cycle, a run's memory; 0af93aa before the driver's cuts, 1abfa02 before the first ones).
+BASELINE = "c5d63d1"
+#: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
+REPEATS = {"calls": 5, "faults": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
 MODEL_C = ("solver_sample", "function_rows", "function_vectorcall")
 #: pyproject.toml's package-dir: the import names of the checkout's folders.
@@ -56,9 +65,17 @@ model, scene, part, repeat, how = sys.argv[2], sys.argv[3], sys.argv[4], int(sys
 assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
 system = mbs.load(model)
 first = getattr(system, "forget_starts", lambda: None)  # each a first start (a checkout with kept starts)
-run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene))}[part]
+run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene)),
+       "kept": lambda: system.simulate(scene)}[part]
 run(); run()
-if how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
+if how == "faults":  # minor page faults and system CPU per call, after a warm-up (no valgrind)
+    import resource
+    functools.reduce(lambda _, __: run(), range(3), None)
+    before = resource.getrusage(resource.RUSAGE_SELF)
+    functools.reduce(lambda _, __: run(), range(repeat), None)
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    print("faults", (after.ru_minflt - before.ru_minflt) / repeat, (after.ru_stime - before.ru_stime) / repeat)
+elif how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
     subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
     functools.reduce(lambda _, __: run(), range(repeat), None)
 else:
@@ -84,6 +101,12 @@ def export(revision: str, into: Path) -> Path:
 def child(tree: str, scene: str, part: str, repeat: int, how: str, workdir: Path) -> float:
     """Instructions per call inside the model's C and in all ((model C, all)), or Python calls per call."""
     args = [sys.executable, "-c", CHILD, tree, str(MODEL), scene, part, str(repeat), how]
+    if how == "faults":
+        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
+        found = re.search(r"faults (\S+) (\S+)", done.stdout)
+        if done.returncode != 0 or not found:
+            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
+        return float(found.group(1)), float(found.group(2))
     if how == "calls":
         done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
         found = re.search(r"calls (\S+)", done.stdout)
@@ -113,6 +136,8 @@ def main(argv=None) -> int:
     ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline checkout")
     ap.add_argument("--repeat", type=int, default=2, help="calls counted per child")
     ap.add_argument("--jobs", type=int, default=2, help="children at once")
+    ap.add_argument("--faults", action="store_true", help="also the minor page faults and system CPU per simulate "
+                    "(a first start and the kept one, 20 calls after a warm-up, one process each)")
     args = ap.parse_args(argv)
     for tool in ("valgrind", "callgrind_control", "callgrind_annotate"):
         if shutil.which(tool) is None:
@@ -124,9 +149,12 @@ def main(argv=None) -> int:
         jobs = [(label, scene, part, how) for scene in args.scenes for part in ("simulate", "start")
                 for label in trees for how in ("callgrind",)]
         jobs += [(label, scene, "simulate", "calls") for scene in args.scenes for label in trees]
+        if args.faults:
+            jobs += [(label, scene, part, "faults") for scene in args.scenes for part in ("simulate", "kept")
+                     for label in trees]
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
             futures = {job: pool.submit(child, trees[job[0]], job[1], job[2],
-                                        args.repeat if job[3] == "callgrind" else 5, job[3], tmp) for job in jobs}
+                                        REPEATS.get(job[3], args.repeat), job[3], tmp) for job in jobs}
             counts = {job: future.result() for job, future in futures.items()}
     print(f"Python around the C of a warm Iltis run, instructions per call (callgrind), current checkout against "
           f"{args.baseline} in the same run; Python's own: all but the model's C ({', '.join(MODEL_C)})")
@@ -142,6 +170,12 @@ def main(argv=None) -> int:
         calls_now, calls_then = (counts[(label, scene, "simulate", "calls")] for label in trees)
         print(f"  Python function calls per simulate (cProfile): {calls_now:,.0f} against {calls_then:,.0f}, ratio "
               f"{calls_now / calls_then:.2f}")
+        if args.faults:
+            for part, what in (("simulate", "a first start"), ("kept", "the kept start")):
+                (faults_now, sys_now), (faults_then, sys_then) = (counts[(label, scene, part, "faults")]
+                                                                  for label in trees)
+                print(f"  minor page faults per simulate from {what}: {faults_now:.1f} against {faults_then:.1f} "
+                      f"(system CPU {1e3 * sys_now:.2f} ms against {1e3 * sys_then:.2f} ms)")
     return 0
 
 
