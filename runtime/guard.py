@@ -142,11 +142,12 @@ class RunGuard:
             import numpy as np
             t_eval = np.ascontiguousarray(t_eval, dtype=float)
             index, budget = start, FIRST_SLICE
+            taken = c.stats["nsteps"]  # (a dict built per read: once per budget, the last one's count carried on)
             while True:
-                steps, began = c.nsteps, time.monotonic()
+                steps, began = taken, time.monotonic()
                 c.budget(max(0, min(budget, limit - steps)))
                 status, index = c.sample(t_eval, out, int(index))
-                taken = c.nsteps
+                taken = c.stats["nsteps"]
                 budget = _next_budget(taken - steps, time.monotonic() - began)
                 if status != too_many or taken >= limit:
                     break  # done, failed, or the user's own step limit: the solver reports it
@@ -154,8 +155,8 @@ class RunGuard:
                 self._check_stall(owner(), c)
                 if self.reason:
                     break
-            if c.status != too_many or c.nsteps < limit:  # at the user's limit the run has failed
-                c.budget(max(0, limit - c.nsteps))  # the user's limit again (resumes a paused run)
+            if c.status != too_many or taken < limit:  # at the user's limit the run has failed
+                c.budget(max(0, limit - taken))  # the user's limit again (resumes a paused run)
             owner()._sync()
             return index
 

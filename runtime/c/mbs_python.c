@@ -688,7 +688,6 @@ static PyMemberDef solver_members[] = {
     {"stiff_t", T_DOUBLE, offsetof(SolverObject, ode.stiff_t), READONLY, "when stiffness was found [s]"},
     {"stiff_h", T_DOUBLE, offsetof(SolverObject, ode.stiff_h), READONLY, "the step size then [s]"},
     {"stiff_hlamb", T_DOUBLE, offsetof(SolverObject, ode.stiff_hlamb), READONLY, "h |lambda| estimated then"},
-    {"nsteps", T_LONG, offsetof(SolverObject, ode.nsteps), READONLY, "steps taken so far (as stats, without its dict)"},
     {NULL, 0, 0, 0, NULL},
 };
 
