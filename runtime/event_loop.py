@@ -307,9 +307,9 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
 
 #: Rows of the C event log to start with (it grows as needed until Python takes it, c/ode.c).  Each solver's log
 #: is allocated zeroed (a row: the time, x and xdot, the indicators twice, the action values; the Iltis: 210
-#: doubles): 64 rows zeroed 108 kB per solver, a third of the C of a bump_5 run's three solvers outside the
-#: integration; 16 rows cost bump_5 237 k instructions less a run, and bump_10 (392 events, the log doubling
-#: to hold them) 20 k less (8 rows: 276 k less, 7 k more).
+#: doubles): 64 rows zeroed 108 kB per solver (set_restarts: 340 k instructions of a bump_5 run's three solvers);
+#: 16 rows cost bump_5 237 k instructions less a run, and bump_10 (392 events, the log doubling to hold them)
+#: 20 k less (8 rows: 276 k less, 7 k more).
 C_LOG_CAPACITY = 16
 
 
