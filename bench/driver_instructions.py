@@ -1,7 +1,8 @@
 """What Python does around the C integration of a warm Iltis bump run, counted in instructions (load-independent),
 against a baseline checkout in the same run.
 
-    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2]
+    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2] [--faults]
+                                        [--cpu ROUNDS]
 
 A warm `System.simulate(scene)` of library/iltis/vehicle.mbs spends most of its time inside the model's C: the
 integration (`Solver.sample`), the results' rows (`Function.rows`: the equilibrium's difference columns, the
@@ -23,6 +24,15 @@ git revision, default the commit before the driver's latest cuts), exported with
 directory and imported from there; the ratio is current over baseline.  Takes a minute or two.  Callgrind counts
 a bulk copy or fill (the rows' tables, the work memory: memcpy, memset) as about one instruction a byte (a copy of
 1 MB: 1.05 M), more than such a copy costs beside as many instructions of the interpreter.
+
+--faults adds what callgrind does not see: the minor page faults and the system CPU per simulate (getrusage over 20
+warm calls, one process per checkout, scene and start: a first start, and the kept one).  A run's big arrays come
+from the heap, which glibc gives back to the kernel at the run's end when its free top exceeds the trim threshold;
+the next run then touches fresh pages again, a fault each.  The count depends on the run's peak memory and the
+order of its allocations (deterministic for a given build and sequence of calls, not a measure of load).
+--cpu ROUNDS adds the whole simulate's CPU time (time.process_time, median of 20 warm calls per child), the
+checkouts' children alternating one at a time, with the median of the rounds' ratios: wall-clock noise, unlike the
+counts, but the figure the real-time factor is made of.
 """
 
 from __future__ import annotations
@@ -31,6 +41,7 @@ import argparse
 import concurrent.futures
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -38,8 +49,11 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from; 1abfa02 before the first ones).
-BASELINE = "0af93aa"
+#: The driver before the latest cuts (the commit that work started from: the solvers' set-up, init_switches, the
+#: guard's cycle, a run's memory; 0af93aa before the driver's cuts, 1abfa02 before the first ones).
+BASELINE = "c5d63d1"
+#: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
+REPEATS = {"calls": 5, "faults": 20, "cpu": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
 MODEL_C = ("solver_sample", "function_rows", "function_vectorcall")
 #: pyproject.toml's package-dir: the import names of the checkout's folders.
@@ -56,9 +70,26 @@ model, scene, part, repeat, how = sys.argv[2], sys.argv[3], sys.argv[4], int(sys
 assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
 system = mbs.load(model)
 first = getattr(system, "forget_starts", lambda: None)  # each a first start (a checkout with kept starts)
-run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene))}[part]
+run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene)),
+       "kept": lambda: system.simulate(scene)}[part]
 run(); run()
-if how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
+if how == "cpu":  # the median process CPU time of a call, after a warm-up (no valgrind)
+    import statistics, time
+    functools.reduce(lambda _, __: run(), range(3), None)
+    spent = []
+    for _ in range(repeat):
+        began = time.process_time()
+        run()
+        spent.append(time.process_time() - began)
+    print("cpu", statistics.median(spent))
+elif how == "faults":  # minor page faults and system CPU per call, after a warm-up (no valgrind)
+    import resource
+    functools.reduce(lambda _, __: run(), range(3), None)
+    before = resource.getrusage(resource.RUSAGE_SELF)
+    functools.reduce(lambda _, __: run(), range(repeat), None)
+    after = resource.getrusage(resource.RUSAGE_SELF)
+    print("faults", (after.ru_minflt - before.ru_minflt) / repeat, (after.ru_stime - before.ru_stime) / repeat)
+elif how == "callgrind":  # instrumented from here on only (valgrind --instr-atstart=no): the load runs fast
     subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
     functools.reduce(lambda _, __: run(), range(repeat), None)
 else:
@@ -84,6 +115,18 @@ def export(revision: str, into: Path) -> Path:
 def child(tree: str, scene: str, part: str, repeat: int, how: str, workdir: Path) -> float:
     """Instructions per call inside the model's C and in all ((model C, all)), or Python calls per call."""
     args = [sys.executable, "-c", CHILD, tree, str(MODEL), scene, part, str(repeat), how]
+    if how == "cpu":
+        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
+        found = re.search(r"cpu (\S+)", done.stdout)
+        if done.returncode != 0 or not found:
+            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
+        return float(found.group(1))
+    if how == "faults":
+        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
+        found = re.search(r"faults (\S+) (\S+)", done.stdout)
+        if done.returncode != 0 or not found:
+            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
+        return float(found.group(1)), float(found.group(2))
     if how == "calls":
         done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
         found = re.search(r"calls (\S+)", done.stdout)
@@ -113,6 +156,12 @@ def main(argv=None) -> int:
     ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline checkout")
     ap.add_argument("--repeat", type=int, default=2, help="calls counted per child")
     ap.add_argument("--jobs", type=int, default=2, help="children at once")
+    ap.add_argument("--faults", action="store_true", help="also the minor page faults and system CPU per simulate "
+                    "(a first start and the kept one, 20 calls after a warm-up, one process each)")
+    ap.add_argument("--cpu", type=int, default=0, metavar="ROUNDS",
+                    help="also the whole simulate's CPU time (a first start): ROUNDS rounds of one child per checkout, "
+                         "one after the other (current, baseline, current, ...), each the median of 20 calls; the "
+                         "median over the rounds and the median of the rounds' ratios")
     args = ap.parse_args(argv)
     for tool in ("valgrind", "callgrind_control", "callgrind_annotate"):
         if shutil.which(tool) is None:
@@ -124,10 +173,18 @@ def main(argv=None) -> int:
         jobs = [(label, scene, part, how) for scene in args.scenes for part in ("simulate", "start")
                 for label in trees for how in ("callgrind",)]
         jobs += [(label, scene, "simulate", "calls") for scene in args.scenes for label in trees]
+        if args.faults:
+            jobs += [(label, scene, part, "faults") for scene in args.scenes for part in ("simulate", "kept")
+                     for label in trees]
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
             futures = {job: pool.submit(child, trees[job[0]], job[1], job[2],
-                                        args.repeat if job[3] == "callgrind" else 5, job[3], tmp) for job in jobs}
+                                        REPEATS.get(job[3], args.repeat), job[3], tmp) for job in jobs}
             counts = {job: future.result() for job, future in futures.items()}
+        cpu = {(label, scene): [] for label in trees for scene in args.scenes}
+        for _ in range(args.cpu):  # one child at a time, the checkouts alternating: the same load for both
+            for scene in args.scenes:
+                for label in trees:
+                    cpu[(label, scene)].append(child(trees[label], scene, "simulate", REPEATS["cpu"], "cpu", tmp))
     print(f"Python around the C of a warm Iltis run, instructions per call (callgrind), current checkout against "
           f"{args.baseline} in the same run; Python's own: all but the model's C ({', '.join(MODEL_C)})")
     for scene in args.scenes:
@@ -142,6 +199,18 @@ def main(argv=None) -> int:
         calls_now, calls_then = (counts[(label, scene, "simulate", "calls")] for label in trees)
         print(f"  Python function calls per simulate (cProfile): {calls_now:,.0f} against {calls_then:,.0f}, ratio "
               f"{calls_now / calls_then:.2f}")
+        if args.cpu:
+            now, then = cpu[("current", scene)], cpu[("baseline", scene)]
+            ratios = [a / b for a, b in zip(now, then)]
+            print(f"  whole simulate's CPU time (a first start), median of {args.cpu} rounds: "
+                  f"{1e3 * statistics.median(now):.2f} ms against {1e3 * statistics.median(then):.2f} ms, ratio of "
+                  f"the rounds' {statistics.median(ratios):.3f} (rounds: {', '.join(f'{r:.3f}' for r in ratios)})")
+        if args.faults:
+            for part, what in (("simulate", "a first start"), ("kept", "the kept start")):
+                (faults_now, sys_now), (faults_then, sys_then) = (counts[(label, scene, part, "faults")]
+                                                                  for label in trees)
+                print(f"  minor page faults per simulate from {what}: {faults_now:.1f} against {faults_then:.1f} "
+                      f"(system CPU {1e3 * sys_now:.2f} ms against {1e3 * sys_then:.2f} ms)")
     return 0
 
 

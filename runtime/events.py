@@ -17,6 +17,8 @@ from typing import Callable
 
 import numpy as np
 
+from .derived import derived
+
 #: Chattering: this many events within ZENO_WINDOW seconds stop the run (a ball at its accumulation point).
 ZENO_EVENTS = 10
 ZENO_WINDOW = 1e-9
@@ -141,16 +143,39 @@ class EventRecord:
 def init_switches(model, data, t: float, x: np.ndarray) -> int:
     """Set each switch's branch flag from its comparison at the start, then freeze them; returns the p index of
     the frozen flag (-1 when the model has no switches)."""
-    switches = [(k, s) for k, s in enumerate(model.events) if s.switch >= 0]
-    if not switches:
+    table = _switch_table(model)
+    if table is None:
         return -1
-    frozen = model.p_names.index("switch.frozen")
+    indicators, flags, inclusive, frozen, shared = table
     data.p[frozen] = 0.0
-    g = data.function("events")(t, x)
-    for k, s in switches:
-        data.p[s.switch] = 1.0 if (g[k] > 0 or (s.inclusive and g[k] == 0)) else 0.0
+    g = data.function("events")(t, x)[indicators]
+    taken = np.where((g > 0) | (inclusive & (g == 0)), 1.0, 0.0)
+    if shared:  # two switches on one flag: the later one's branch wins, as it did one switch at a time
+        for flag, value in zip(flags.tolist(), taken.tolist()):
+            data.p[flag] = value
+    else:
+        data.p[flags] = taken
     data.p[frozen] = 1.0
     return frozen
+
+
+def _switch_table(model):
+    """(the switches' indicators, their branch flags, their inclusive comparisons (bool), the p index of the frozen
+    flag, whether two switches share a flag), once per model; None without switches.  init_switches reads and
+    writes them as arrays at once: one numpy call each, not two scalar reads and a write per switch (the Iltis:
+    30 switches)."""
+    def build():
+        switches = [(k, s) for k, s in enumerate(model.events) if s.switch >= 0]
+        if not switches:
+            return None
+        indicators = np.array([k for k, _ in switches], dtype=np.intp)
+        flags = np.array([s.switch for _, s in switches], dtype=np.intp)
+        inclusive = np.array([bool(s.inclusive) for _, s in switches], dtype=bool)
+        for a in (indicators, flags, inclusive):
+            a.flags.writeable = False
+        shared = len(set(flags.tolist())) < flags.size
+        return indicators, flags, inclusive, model.p_names.index("switch.frozen"), shared
+    return derived(model, "switch_table", build)
 
 
 def apply_events(model, data, fired, g_old, g_event, t: float, y: np.ndarray, names, values=None,

@@ -20,6 +20,7 @@ from __future__ import annotations
 import signal
 import threading
 import time
+import weakref
 from typing import Callable
 
 #: Most steps a C integrator takes before control comes back to check the guards ...
@@ -132,25 +133,31 @@ class RunGuard:
         self.watched = True
         limit = solver.max_steps
         too_many = _too_many_status()
+        # the sampling function is kept on the solver: it reaches the solver through a weak reference, so that the
+        # two make no reference cycle and the solver (its C memory) goes when its last user drops it, not at the
+        # cycle collector's next pass
+        owner = weakref.ref(solver)
 
         def sample(t_eval, out, start=0):
             import numpy as np
             t_eval = np.ascontiguousarray(t_eval, dtype=float)
             index, budget = start, FIRST_SLICE
+            taken = c.stats["nsteps"]  # (a dict built per read: once per budget, the last one's count carried on)
             while True:
-                steps, began = c.stats["nsteps"], time.monotonic()
+                steps, began = taken, time.monotonic()
                 c.budget(max(0, min(budget, limit - steps)))
                 status, index = c.sample(t_eval, out, int(index))
-                budget = _next_budget(c.stats["nsteps"] - steps, time.monotonic() - began)
-                if status != too_many or c.stats["nsteps"] >= limit:
+                taken = c.stats["nsteps"]
+                budget = _next_budget(taken - steps, time.monotonic() - began)
+                if status != too_many or taken >= limit:
                     break  # done, failed, or the user's own step limit: the solver reports it
                 self._check_wall_time()
-                self._check_stall(solver, c)
+                self._check_stall(owner(), c)
                 if self.reason:
                     break
-            if c.status != too_many or c.stats["nsteps"] < limit:  # at the user's limit the run has failed
-                c.budget(max(0, limit - c.stats["nsteps"]))  # the user's limit again (resumes a paused run)
-            solver._sync()
+            if c.status != too_many or taken < limit:  # at the user's limit the run has failed
+                c.budget(max(0, limit - taken))  # the user's limit again (resumes a paused run)
+            owner()._sync()
             return index
 
         solver.sample = sample

@@ -180,3 +180,52 @@ def test_events_of_component_instances_are_named_per_instance_and_fire_together(
     assert first[0]["time"] == pytest.approx(T1, abs=1e-12)
     assert res.metadata["status"] == "zeno" and "'b.impact'" in res.message
     assert res.t[-1] == pytest.approx(3 * T1, abs=1e-8)  # b's accumulation point, t1 (1 + e) / (1 - e), e = 0.5
+
+
+def _textbook_init_switches(model, data, t, x):
+    """init_switches as it was written, one switch at a time (the reference of the table-driven one)."""
+    switches = [(k, s) for k, s in enumerate(model.events) if s.switch >= 0]
+    if not switches:
+        return -1
+    frozen = model.p_names.index("switch.frozen")
+    data.p[frozen] = 0.0
+    g = data.function("events")(t, x)
+    for k, s in switches:
+        data.p[s.switch] = 1.0 if (g[k] > 0 or (s.inclusive and g[k] == 0)) else 0.0
+    data.p[frozen] = 1.0
+    return frozen
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_init_switches_reads_and_writes_the_flags_as_the_textbook_loop(shared):
+    """Every branch of the comparison (above, at zero inclusive or not, below, NaN), other events between the
+    switches, and two switches on one flag (the later one wins): the same flags and frozen index as one switch at a
+    time, the indicators evaluated with the flags unfrozen."""
+    from types import SimpleNamespace
+
+    from mbs.runtime.events import init_switches
+
+    def spec(switch, inclusive=False):
+        return SimpleNamespace(switch=switch, inclusive=inclusive)
+
+    g_values = np.array([1.0, 0.0, 0.0, -2.0, np.nan, 3.0, 0.0, -1.0])
+    events = [spec(1), spec(2, True), spec(3), spec(-1), spec(4, True), spec(-1), spec(5, True),
+              spec(5 if shared else 6)]
+    p_names = ("a", "f1", "f2", "f3", "f4", "f5", "f6", "switch.frozen")
+
+    def run(init):
+        seen = []
+        model = SimpleNamespace(events=events, p_names=p_names)
+        data = SimpleNamespace(p=np.full(len(p_names), 0.5))
+
+        def indicators(t, x):
+            seen.append(data.p[-1])  # the frozen flag while the indicators are evaluated
+            return g_values.copy()
+        data.function = lambda name: indicators
+        return init(model, data, 0.0, np.zeros(2)), data.p, seen
+
+    frozen, p, seen = run(init_switches)
+    frozen_ref, p_ref, seen_ref = run(_textbook_init_switches)
+    assert frozen == frozen_ref == 7 and seen == seen_ref == [0.0]
+    assert p.tolist() == p_ref.tolist()
+    assert p.tolist()[:7] == [0.5, 1.0, 1.0, 0.0, 0.0, 0.0 if shared else 1.0, 0.5 if shared else 0.0]

@@ -134,3 +134,23 @@ def test_ctrl_c_on_the_command_line_writes_what_was_computed(tmp_path, monkeypat
 def test_max_wall_time_on_the_command_line(tmp_path, monkeypatch):
     status, text = _command_line_interrupted(tmp_path, monkeypatch, ["--max-wall-time", "1e-9"])
     assert status == 1 and '# status: "stopped"' in text and "wall-time limit of 1e-09 s reached" in text
+
+
+def test_a_watched_solver_goes_with_its_run_not_at_the_cycle_collectors_pass():
+    """guard.watch keeps a sampling function on the solver that reaches the solver weakly: after a run (with and
+    without events) no solver is left for the cycle collector, and its C memory is freed at once."""
+    import gc
+
+    from mbs.runtime.integrators.native import NativeSolver
+
+    system = mbs.loads(PENDULUM)
+    system.simulate(t_end=0.2, sample=0.01)  # compiled, warm
+    gc.collect()
+    gc.disable()
+    try:
+        res = system.simulate(t_end=0.2, sample=0.01)
+        left = [o for o in gc.get_objects() if isinstance(o, NativeSolver)]
+    finally:
+        gc.enable()
+    assert res.metadata["status"] == "finished" and len(res.t) == 21
+    assert left == []
