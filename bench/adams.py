@@ -253,21 +253,20 @@ def whole(repeat: int, adams_rtols: list[float] | None) -> None:
                       f"median {e['median']:.2e}")
 
 
+#: The tests' helpers (tests/runtime/former_builds.py: install_flagged_build), for the child processes
+TESTS_RUNTIME = str(Path(__file__).resolve().parent.parent / "tests" / "runtime")
+
 #: The child of --instructions: one simulate of a case's scene with an integrator and tolerances, its model built in
 #: one piece with the flags given; callgrind collects inside Solver.sample only.
-INSTRUCTIONS_CHILD = """
-import dataclasses, sys
+INSTRUCTIONS_CHILD = f"TESTS_RUNTIME = {TESTS_RUNTIME!r}\n" + """
+import sys
 from pathlib import Path
 import mbs
-from mbs.runtime import build
-from mbs.runtime.backends import CBackend
+sys.path.insert(0, TESTS_RUNTIME)
+from former_builds import install_flagged_build
 path, scene, integrator, rtol, flags = Path(sys.argv[1]), sys.argv[2], sys.argv[3], sys.argv[4], tuple(sys.argv[5:])
 system = mbs.load(path)
-compiled = system.compile(scene)
-model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
-    system.generate(scene).c_source, extra_flags=flags))))
-for key in [key for key, value in system._compiled.items() if value is compiled]:
-    system._compiled[key] = model
+install_flagged_build(system, scene, flags)
 tolerances = {} if rtol == "scene" else {"rtol": float(rtol), "atol": float(rtol) * %r}
 stats = system.simulate(scene, integrator=integrator, **tolerances).metadata["stats"]
 print("STATS", stats["nsteps"] - stats["nreject"], stats["nfev"], stats["nreject"])

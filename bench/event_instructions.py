@@ -90,22 +90,21 @@ def instructions(form: str, scene: str, count: int, workdir: Path) -> int:
 FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",)}
 FORMER_FLAGS = FORMERS["events"]
 
+#: The tests' helpers (tests/runtime/former_builds.py: install_flagged_build), for the child processes
+TESTS_RUNTIME = str(Path(__file__).resolve().parent.parent / "tests" / "runtime")
+
 #: The child of --machinery: the event form's scene once (DOPRI5_FORMER), its model built with the flags given (none:
 #: as usual).
-MACHINERY_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\n" + """
-import dataclasses, sys
+MACHINERY_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\nTESTS_RUNTIME = {TESTS_RUNTIME!r}\n" + """
+import sys
 from pathlib import Path
 import mbs
-from mbs.runtime import build
-from mbs.runtime.backends import CBackend
+sys.path.insert(0, TESTS_RUNTIME)
+from former_builds import install_flagged_build
 path, scene, flags = Path(sys.argv[1]), sys.argv[2], tuple(sys.argv[3:])
 system = mbs.load(path)
-compiled = system.compile(scene)
 if flags:
-    model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
-        system.generate(scene).c_source, extra_flags=flags))))
-    for key in [key for key, value in system._compiled.items() if value is compiled]:
-        system._compiled[key] = model
+    install_flagged_build(system, scene, flags)
 stats = system.simulate(scene, **DOPRI5_FORMER).metadata["stats"]
 print("ACCEPTED", stats["nsteps"] - stats["nreject"])
 """

@@ -73,22 +73,21 @@ KEYS = ("nsteps", "nreject", "nfev", "nevents")
 #: the DOPRI5 stages a rejected step costs (first same as last: the seventh is the next step's first)
 STAGES = 6
 
+#: The tests' helpers (tests/runtime/former_builds.py: install_flagged_build), for the child processes
+TESTS_RUNTIME = str(Path(__file__).resolve().parent.parent / "tests" / "runtime")
+
 #: The child of --where: one run of the scene built with the trace flags (and the former retry's if given), DOPRI5 at
 #: the bump scenes' former settings (DOPRI5_FORMER).
-TRACE_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\n" + """
-import dataclasses, sys
+TRACE_CHILD = f"DOPRI5_FORMER = {DOPRI5_FORMER!r}\nTESTS_RUNTIME = {TESTS_RUNTIME!r}\n" + """
+import sys
 from pathlib import Path
 import mbs
-from mbs.runtime import build
-from mbs.runtime.backends import CBackend
+sys.path.insert(0, TESTS_RUNTIME)
+from former_builds import install_flagged_build
 path, scene, flags = Path(sys.argv[1]), sys.argv[2], tuple(sys.argv[3:])
 system = mbs.load(path)
-compiled = system.compile(scene)
-model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(
-    system.generate(scene).c_source, extra_flags=flags))))
-for key in [key for key, value in system._compiled.items() if value is compiled]:
-    system._compiled[key] = model
-print("\\n".join(spec.name for spec in compiled.events), flush=True)
+install_flagged_build(system, scene, flags)
+print("\\n".join(spec.name for spec in system.compile(scene).events), flush=True)
 sys.stderr.write("BEGIN\\n")
 sys.stderr.flush()
 stats = system.simulate(scene, **DOPRI5_FORMER).metadata["stats"]

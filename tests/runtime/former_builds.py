@@ -17,6 +17,14 @@ def flagged_build(system, scene: str, flags: tuple[str, ...]):
     return dataclasses.replace(compiled, backend=CBackend(build.load(result)))
 
 
+def install_flagged_build(system, scene: str, flags: tuple[str, ...]):
+    """The scene's compiled model replaced by flagged_build(system, scene, flags) for the rest of the process: the
+    model a bench's child process runs (built in one piece, also with no flags)."""
+    compiled, model = system.compile(scene), flagged_build(system, scene, flags)
+    for key in [key for key, value in system._compiled.items() if value is compiled]:
+        system._compiled[key] = model
+
+
 def simulate_with(system, scene: str, model, **kwargs):
     """system.simulate(scene, **kwargs) with the scene's compiled model replaced by `model` for the call."""
     compiled = system.compile(scene)
