@@ -114,6 +114,19 @@ def crank_outputs_numeric():
     return system._workspace(compiled, gen, values), res.t, res.data[:, 1:1 + compiled.nx]
 
 
+def one_pass_with_two_lengths(data, ts, xs):
+    """The outputs' one pass in C over the rows xs moved off the constraints (so the projection works), the loop's
+    length L switching between two values every 7 rows: (ps, which, the moved xs, projected, outputs)."""
+    longer = data.p.copy()
+    longer[data.model.parameter_index("L")] *= 1.1
+    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
+    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)
+    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
+    assert data.function("outputs").rows(np.ascontiguousarray(ts), xs, ys, np.array(ps), which.astype(np.intp),
+                                         projected) == len(ts)
+    return ps, which, xs, projected, ys
+
+
 @pytest.mark.parametrize("case", ["crank_outputs", "crank_outputs_numeric"])
 def test_one_pass_projects_each_row_and_gives_its_outputs_there(request, case):
     """Function.rows with `projected`: each row's projection, and the outputs at it from the loop solve that starts
@@ -123,13 +136,7 @@ def test_one_pass_projects_each_row_and_gives_its_outputs_there(request, case):
     project evaluates and factors G afresh: the same positions (the independent ones stay in both) to the Newton
     tolerance, the same velocities and outputs to round-off, rows after a change of the loop's length included."""
     data, ts, xs = request.getfixturevalue(case)
-    longer = data.p.copy()
-    longer[data.model.parameter_index("L")] *= 1.1
-    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
-    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
-    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
-    assert data.function("outputs").rows(np.ascontiguousarray(ts), xs, ys, np.array(ps), which.astype(np.intp),
-                                         projected) == len(ts)  # the one pass in C
+    ps, which, xs, projected, ys = one_pass_with_two_lengths(data, ts, xs)
     assert project_and_evaluate_rows(data, "outputs", ps, ts, xs, which, projected, ys) == (len(ts), None, None)
     reference = one_by_one(data, "project", ps, ts, xs, which)
     np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
@@ -162,13 +169,7 @@ def test_one_pass_of_outputs_without_loop_solve_projects_each_row_as_project_doe
     projection to round-off (the positions to the Newton tolerance), rows after a change of the loop's length
     included, and the outputs there."""
     data, ts, xs = crank_positions_numeric
-    longer = data.p.copy()
-    longer[data.model.parameter_index("L")] *= 1.1
-    ps, which = [data.p.copy(), longer], (np.arange(len(ts)) // 7) % 2
-    xs = xs + 1e-6 * np.sin(np.arange(xs.size)).reshape(xs.shape)  # off the constraints: the projection works
-    projected, ys = np.empty_like(xs), np.empty((len(ts), data.model.ny))
-    assert data.function("outputs").rows(np.ascontiguousarray(ts), xs, ys, np.array(ps), which.astype(np.intp),
-                                         projected) == len(ts)  # the one pass in C
+    ps, which, xs, projected, ys = one_pass_with_two_lengths(data, ts, xs)
     reference = one_by_one(data, "project", ps, ts, xs, which)
     np.testing.assert_allclose(projected, reference, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(ys, one_by_one(data, "outputs", ps, ts, reference, which), rtol=1e-12, atol=1e-14)
