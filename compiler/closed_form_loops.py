@@ -150,6 +150,8 @@ def _closed_form(constraints, equations, parameter_values: dict, q0, budget_s: f
     rows = [i for i, e in enumerate(g) if not _vanishes(e, q, values, rng)]
     if not rows:
         raise Refused("no rows")
+    if not q:  # (loops between parts the tree holds fixed: nothing to solve for)
+        raise Refused("no coordinates")
     G = sp.Matrix([g[i] for i in rows]).jacobian(q)
     G_num = sp.lambdify(q, G.subs(values), "numpy")
     ranks = {np.linalg.matrix_rank(np.asarray(G_num(*_random_q(q0, rng)), dtype=float)) for _ in range(3)}
@@ -420,7 +422,12 @@ def _pair(pending, left, known, values, q, q0):
 
 
 def _evaluate(expr, known, values) -> float:
-    return float(expr.xreplace(values).xreplace({s: sp.Float(x) for s, x in known.items()}).evalf())
+    """expr at the parameters' values and the known coordinates; Refused where it is not real there (an acos of
+    more than 1 in size: the initial state lies off the branch this closed form describes)."""
+    value = complex(expr.xreplace(values).xreplace({s: sp.Float(x) for s, x in known.items()}).evalf())
+    if value.imag != 0.0:
+        raise Refused("the initial state lies outside the closed form's range")
+    return value.real
 
 
 def _choose_branch(step: _Step, u, known, values, initial: float) -> _Step:

@@ -267,3 +267,14 @@ def test_an_attempt_draws_from_sympy_seeded_and_leaves_its_generator_as_it_found
         attempt(text)
         after.append(sympy_random.rng.random() == expected)
     assert inside[0] == inside[1] and after == [True, True]
+
+
+@pytest.mark.parametrize("name, reason", [("fuzz_loop_without_coordinates", "no coordinates"),
+                                          ("fuzz_closed_form_off_its_range", "outside the closed form's range")])
+def test_what_the_closed_form_cannot_follow_it_refuses_for_the_numeric_solver(name, reason):
+    """Two random models of the slow fuzz on which sympy raised inside the closed form's attempt (an internal
+    error with a traceback): it refuses them with its reason, and the numeric loop solver takes the model."""
+    text = (Path(__file__).parent / "models" / f"{name}.mbs").read_text()
+    with pytest.raises(Refused, match=reason):
+        attempt(text)
+    mbs.loads(text).compile()  # the numeric path: no closed form, no error

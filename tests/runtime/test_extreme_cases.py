@@ -117,6 +117,11 @@ def test_dop853_on_the_quarter_car_at_loose_tolerances(tmp_path):
     for rtol in (1e-3, 1e-4, 1e-5, 1e-6):
         res = system.simulate("bump_5", integrator="DOP853", rtol=rtol, atol=1e-2 * rtol)
         assert res.metadata["status"] == "finished", res.message
-        errors.append(max(np.max(np.abs(res[name] - ref[name])) for name in positions))
+        # at the sample times both runs share (each run adds rows at both sides of its own events, and DOP853
+        # at a loose tolerance locates a different number of them), the first row at each
+        common = np.intersect1d(res.t, ref.t)
+        at, at_ref = np.searchsorted(res.t, common), np.searchsorted(ref.t, common)
+        assert len(common) >= 500  # the 2.5 s sampled every 5 ms
+        errors.append(max(np.max(np.abs(res[name][at] - ref[name][at_ref])) for name in positions))
     print("DOP853 on the quarter car, largest position error against dopri5 at 1e-10:", errors)
     assert errors[-1] < 1e-5 and errors[-1] < 0.1 * errors[0]
