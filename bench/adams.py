@@ -22,7 +22,7 @@ an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with th
 -DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most); and the
 former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
 
-`--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (the start from scratch, equilibrium,
+`--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (or `--scenes`; the start from scratch, equilibrium,
 integration, every output) with dopri5 at the scenes' former settings (rtol 1e-7, atol 1e-9, DOPRI5_FORMER) and with
 adams at the scene's own (adams since the scenes moved to it), CPU time of this process, interleaved, medians of
 --repeat, their ratio and real-time factors, where the work-precision figures above compare at equal accuracy.
@@ -214,11 +214,11 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
                   f"wall ratio {wall / base.wall:.2f}{bound}")
 
 
-def whole(repeat: int, adams_rtols: list[float] | None) -> None:
-    """The whole simulate of bump_5 and bump_10 with dopri5 at the scenes' former settings and adams at the scene's
-    own or at `adams_rtols` (see the docstring)."""
+def whole(repeat: int, adams_rtols: list[float] | None, scenes=("bump_5", "bump_10")) -> None:
+    """The whole simulate of the vehicle's scenes (bump_5 and bump_10 unless --scenes) with dopri5 at the bump
+    scenes' former settings and adams at the scene's own or at `adams_rtols` (see the docstring)."""
     system = mbs.load(ROOT / "library/iltis/vehicle.mbs")
-    for number, scene in enumerate(("bump_5", "bump_10")):
+    for number, scene in enumerate(scenes):
         tolerances = {"dopri5": {k: DOPRI5_FORMER[k] for k in ("rtol", "atol")}, "adams": {}}
         if adams_rtols:
             rtol = adams_rtols[min(number, len(adams_rtols) - 1)]
@@ -349,13 +349,14 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--variants", action="store_true", help="also the restart variants of c/adams.c")
     parser.add_argument("--whole", action="store_true", help="the whole simulate of the vehicle's bump scenes instead")
+    parser.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"], help="--whole: the vehicle's scenes")
     parser.add_argument("--instructions", action="store_true",
                         help="the integration's instructions by part under callgrind instead")
     parser.add_argument("--former", action="store_true", help="--instructions: also adams built -DADAMS_STEP_FORMER=1")
     args = parser.parse_args()
     given = any(a.startswith("--adams-rtol") for a in sys.argv[1:])
     if args.whole:
-        whole(args.repeat, args.adams_rtols if given else None)
+        whole(args.repeat, args.adams_rtols if given else None, args.scenes)
         return
     if args.instructions:
         instructions(args.cases if any(a.startswith("--cases") for a in sys.argv[1:]) else ["bump_10"],
