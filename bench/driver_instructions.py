@@ -115,24 +115,14 @@ def export(revision: str, into: Path) -> Path:
 def child(tree: str, scene: str, part: str, repeat: int, how: str, workdir: Path) -> float:
     """Instructions per call inside the model's C and in all ((model C, all)), or Python calls per call."""
     args = [sys.executable, "-c", CHILD, tree, str(MODEL), scene, part, str(repeat), how]
-    if how == "cpu":
+    printed = {"cpu": r"cpu (\S+)", "faults": r"faults (\S+) (\S+)", "calls": r"calls (\S+)"}
+    if how in printed:  # the figures the child prints on a line of their own
         done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
-        found = re.search(r"cpu (\S+)", done.stdout)
+        found = re.search(printed[how], done.stdout)
         if done.returncode != 0 or not found:
             raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
-        return float(found.group(1))
-    if how == "faults":
-        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
-        found = re.search(r"faults (\S+) (\S+)", done.stdout)
-        if done.returncode != 0 or not found:
-            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
-        return float(found.group(1)), float(found.group(2))
-    if how == "calls":
-        done = subprocess.run(args, capture_output=True, text=True, cwd=workdir)
-        found = re.search(r"calls (\S+)", done.stdout)
-        if done.returncode != 0 or not found:
-            raise SystemExit(f"child failed:\n{done.stderr[-2000:]}")
-        return float(found.group(1))
+        values = tuple(float(v) for v in found.groups())
+        return values if how == "faults" else values[0]
     out = Path(tempfile.mkstemp(prefix="callgrind.", dir=workdir)[1])
     done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
                            "--toggle-collect=functools_reduce",
