@@ -479,7 +479,7 @@ def unit_cpu(code: str, former: bool) -> dict[str, tuple[int, float]]:
         for name in files:
             if not name.endswith(".c") or name == build.RUNTIME_UNIT:
                 continue
-            command = (*cc, *build._compile_flags(build.FLAGS), *build.unit_flags(name, model_flags, outputs_flags),
+            command = (*cc, *build._compile_flags(build.base_flags(cc)), *build.unit_flags(name, model_flags, outputs_flags),
                        *includes, "-c", name, "-o", name[:-2] + ".o")
             cpu = _children_cpu()
             subprocess.run(command, cwd=tmp, check=True, capture_output=True)

@@ -109,7 +109,7 @@ def compile_cpu(files: dict[str, str], unit: str, folder: Path) -> float:
     for name, text in files.items():
         (folder / name).write_text(text, encoding="utf-8")
     includes = (f"-I{build.C_DIR}", f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}")
-    command = (*cc, *build._compile_flags(build.FLAGS), *build.model_unit_flags(cc), *includes, "-c", unit,
+    command = (*cc, *build._compile_flags(build.base_flags(cc)), *build.model_unit_flags(cc), *includes, "-c", unit,
                "-o", unit[:-2] + ".o")
     cpu = _children_cpu()
     subprocess.run(command, cwd=folder, check=True, capture_output=True)

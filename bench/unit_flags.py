@@ -73,7 +73,7 @@ def unit_commands(files: dict[str, str], flags: tuple[str, ...] | None) -> dict[
     out = {}
     for name in files:
         if name.endswith(".c"):
-            out[name] = (*cc, *build._compile_flags(build.FLAGS),
+            out[name] = (*cc, *build._compile_flags(build.base_flags(cc)),
                          *build.unit_flags(name, model_flags, build.OUTPUTS_UNIT_FLAGS), *build._includes(), "-c",
                          name, "-o", os.devnull)
     return out

@@ -103,6 +103,18 @@ OUTPUTS_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 COLD_UNIT_FLAGS: tuple[str, ...] = ("-Og",)
 #: Extension modules on macOS resolve Python's symbols when loaded, not when linked.
 PLATFORM_FLAGS = ("-undefined", "dynamic_lookup") if sys.platform == "darwin" else ()
+#: Instruction-set flags for the CPU that builds and runs the model, on top of FLAGS: on x86-64 with AVX2, VEX-encoded
+#: three-operand arithmetic (-mavx2) and, with GCC, the CPU's own instruction scheduling (-mtune=native). The same
+#: bits as without: no fused multiply-add (not enabled, and -std=c99 contracts nothing), no reassociation, vector
+#: code only where it was already allowed (every generated function of the Iltis the same to the bit at 200 states,
+#: a bump run's steps and events unchanged); -march=native enables FMA among others and moved a tyre force by an
+#: ulp. `python bench/cpu_flags.py` measures a whole simulate of the Iltis bump scenes with and without them in the
+#: same run. A library built so runs only where AVX2 does: the flags are part of every cache key, and a study's
+#: package names them in its platform (mbs/studies/package.py) so that a worker without them compiles its own.
+#: $MBS_CPU_FLAGS replaces them (empty: none, a portable build; FMUs never get them: mbs/fmu.py).
+CPU_FLAGS_ENV = "MBS_CPU_FLAGS"
+AVX2_FLAGS = ("-mavx2",)
+GCC_TUNE_FLAGS = ("-mtune=native",)
 CACHE_ENV = "MBS_CACHE_DIR"
 #: How many compiler processes a split build runs at once (default: the cores this process may use).
 JOBS_ENV = "MBS_BUILD_JOBS"
@@ -151,6 +163,42 @@ def model_unit_flags(cc: tuple[str, ...]) -> tuple[str, ...]:
     """The flags the model's units of a split build get beyond FLAGS (GCC_MODEL_UNIT_FLAGS for GCC, else none)."""
     version = compiler_version(cc)
     return GCC_MODEL_UNIT_FLAGS if "Free Software Foundation" in version and "clang" not in version else ()
+
+
+def cpu_flags(cc: tuple[str, ...]) -> tuple[str, ...]:
+    """The instruction-set flags of this CPU and compiler (CPU_FLAGS): $MBS_CPU_FLAGS when set, else AVX2's when
+    the CPU has it and the compiler is GCC or Clang (with GCC's tuning), else none."""
+    chosen = os.environ.get(CPU_FLAGS_ENV)
+    if chosen is not None:
+        return tuple(shlex.split(chosen))
+    return _detected_cpu_flags(cc)
+
+
+@functools.lru_cache(maxsize=8)
+def _detected_cpu_flags(cc: tuple[str, ...]) -> tuple[str, ...]:
+    if platform.machine().lower() not in ("x86_64", "amd64") or "avx2" not in _cpu_features():
+        return ()
+    version = compiler_version(cc)
+    if "clang" in version:
+        return AVX2_FLAGS
+    return AVX2_FLAGS + GCC_TUNE_FLAGS if "Free Software Foundation" in version else ()
+
+
+def _cpu_features() -> frozenset[str]:
+    """The CPU's feature names as Linux lists them (/proc/cpuinfo); none elsewhere (no flags are added there)."""
+    try:
+        with open("/proc/cpuinfo", encoding="ascii", errors="replace") as info:
+            for line in info:
+                if line.startswith("flags"):
+                    return frozenset(line.partition(":")[2].split())
+    except OSError:
+        pass
+    return frozenset()
+
+
+def base_flags(cc: tuple[str, ...]) -> tuple[str, ...]:
+    """Every unit's flags before a caller's extras: FLAGS, the platform's, this CPU's (cpu_flags)."""
+    return FLAGS + PLATFORM_FLAGS + cpu_flags(cc)
 
 
 def have_c_compiler() -> bool:
@@ -476,7 +524,7 @@ def prebuild(equations_code: str, *, filename: str = "model.c", cache_dir: str |
         model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     except BuildError:
         return 0
-    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    flags = base_flags(cc) + tuple(extra_flags)
     files = _build_files(equations_code + ("\n" + _units.OUTPUTS_MARKER + "\n" if outputs else ""), filename)
     files.pop(_units.OUTPUTS_UNIT, None)
     cache = cache_folder(cache_dir)
@@ -494,7 +542,7 @@ def prebuild_runtime(*, cache_dir: str | os.PathLike | None = None, extra_flags:
         compiler_version(cc)
     except BuildError:
         return 0
-    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    flags = base_flags(cc) + tuple(extra_flags)
     cache = cache_folder(cache_dir)
     files = {RUNTIME_UNIT: _runtime_unit()}
     return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, RUNTIME_UNIT)
@@ -527,7 +575,7 @@ def prebuild_head(head: str, entries: int, *, filename: str = "model.c", cache_d
     if header is None:
         return 0
     files = {_units.GLUE_HEADER: header, _units.GLUE_UNIT: _glue_unit(_units.GLUE_HEADER, outputs)}
-    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    flags = base_flags(cc) + tuple(extra_flags)
     cache = cache_folder(cache_dir)
     return _submit(_unit_jobs(files, flags, (), cc, cache), files, cache, filename)
 
@@ -590,7 +638,7 @@ def runtime_object(*, cache_dir: str | os.PathLike | None = None, extra_flags: t
     compiled first when the cache has none or a damaged one: what the first build with these flags makes. Raises
     BuildError."""
     cc = tuple(compiler_command())
-    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    flags = base_flags(cc) + tuple(extra_flags)
     cache = cache_folder(cache_dir)
     files = {RUNTIME_UNIT: _runtime_unit()}
     (job,) = _unit_jobs(files, flags, (), cc, cache)
@@ -673,7 +721,7 @@ def _cached_build(code: str, filename: str, cache_dir, extra_flags, model_flags,
                   library: str) -> BuildResult:
     """build (library "model") or build_cold (library "cold")."""
     cc = tuple(compiler_command())
-    flags = FLAGS + PLATFORM_FLAGS + tuple(extra_flags)
+    flags = base_flags(cc) + tuple(extra_flags)
     model_flags = model_unit_flags(cc) if model_flags is None else tuple(model_flags)
     outputs_flags = OUTPUTS_UNIT_FLAGS if outputs_flags is None else tuple(outputs_flags)
     key = _hash(code, filename, flags, model_flags, cc, outputs_flags, library)

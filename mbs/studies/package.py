@@ -33,6 +33,15 @@ def _platform_tag() -> str:
            f"{sys.platform}|numpy {np.__version__}"
 
 
+def _cpu_needs() -> tuple[str, ...]:
+    """The CPU features a binary built here now needs (the instruction-set flags of runtime/build.py cpu_flags)."""
+    try:
+        flags = _build.cpu_flags(tuple(_build.compiler_command()))
+    except _build.BuildError:
+        return ()
+    return ("avx2",) if "-mavx2" in flags else ()
+
+
 @dataclass(frozen=True)
 class ModelPackage:
     """A picklable compiled model (C extension bytes, or the NumPy source) and how to start its runs."""
@@ -51,6 +60,9 @@ class ModelPackage:
     #: the whole generated C when `source` was written without the cold functions (mbs.pipeline.Generated
     #: cold_apart): a worker builds them from it when one is first called ("": none apart)
     whole: str = ""
+    #: CPU features the binary needs (runtime/build.py cpu_flags: "avx2" when built with -mavx2): a worker whose CPU
+    #: lacks one builds its own from the source, as on another platform
+    cpu: tuple[str, ...] = ()
 
     @classmethod
     def of(cls, system, scene: str | None, hooks=None) -> "ModelPackage":
@@ -72,7 +84,7 @@ class ModelPackage:
         if compiled.backend.kind == "c":
             module = compiled.backend.module
             return cls(key=module.__name__, kind="c", module_name=module.__name__,
-                       binary=Path(module.__file__).read_bytes(), platform=_platform_tag(),
+                       binary=Path(module.__file__).read_bytes(), platform=_platform_tag(), cpu=_cpu_needs(),
                        source=gen.c_source + (binding.c_source() if binding is not None else ""), info=info,
                        whole=gen.whole_source if gen.cold_apart else "", **loops)
         import hashlib
@@ -87,7 +99,7 @@ class ModelPackage:
             exec(compile(self.source, f"<generated numpy code of {self.info['name']}>", "exec"), module.__dict__)
             return load_numpy(module, **self.info)
         cold = (lambda: self.whole) if self.whole else None
-        if self.platform != _platform_tag():
+        if self.platform != _platform_tag() or not set(self.cpu) <= _build._cpu_features():
             return load_c(code=self.source, cold=cold, **self.info)
         path = _build.default_cache_dir() / (self.module_name + sysconfig.get_config_var("EXT_SUFFIX"))
         if not path.exists():

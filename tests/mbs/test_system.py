@@ -164,7 +164,7 @@ def test_a_compile_into_an_empty_cache_starts_the_runtime_object_as_the_derivati
     from mbs.runtime import build
     cc = tuple(build.compiler_command())
     files = {build.RUNTIME_UNIT: build._runtime_unit()}
-    ((_, _, runtime),) = build._unit_jobs(files, build.FLAGS + build.PLATFORM_FLAGS, (), cc, tmp_path)
+    ((_, _, runtime),) = build._unit_jobs(files, build.base_flags(cc), (), cc, tmp_path)
     seen, compiled = [], []
     prebuild, run = build.prebuild, build._run
     monkeypatch.setattr(build, "prebuild", lambda code, **options: seen.append(

@@ -176,3 +176,49 @@ def test_the_runtime_object_follows_its_c_files_and_the_flags_not_the_model(tmp_
     assert key() == base
     (copy / "ode.c").write_text((copy / "ode.c").read_text() + "\n/* edited */\n")
     assert key() != base
+
+
+def test_cpu_flags_follow_the_environment_and_enter_the_cache_key(monkeypatch):
+    """$MBS_CPU_FLAGS replaces the detected instruction-set flags (empty: none); they are part of every unit's flags,
+    so a library built with them has a key of its own (a machine without them never loads it)."""
+    cc = tuple(build.compiler_command())
+    monkeypatch.setenv(build.CPU_FLAGS_ENV, "")
+    assert build.cpu_flags(cc) == () and build.base_flags(cc) == build.FLAGS + build.PLATFORM_FLAGS
+    portable = build._hash("int x;", "m.c", build.base_flags(cc), (), cc)
+    monkeypatch.setenv(build.CPU_FLAGS_ENV, "-mavx2 -mtune=native")
+    assert build.cpu_flags(cc) == ("-mavx2", "-mtune=native")
+    assert build.base_flags(cc)[-2:] == ("-mavx2", "-mtune=native")
+    assert build._hash("int x;", "m.c", build.base_flags(cc), (), cc) != portable
+    monkeypatch.delenv(build.CPU_FLAGS_ENV)
+    detected = build.cpu_flags(cc)
+    assert detected in ((), build.AVX2_FLAGS, build.AVX2_FLAGS + build.GCC_TUNE_FLAGS)
+    if detected:
+        assert "avx2" in build._cpu_features()
+
+
+def test_the_cpu_flags_change_no_bit_of_a_loop_model(tmp_path, monkeypatch):
+    """The slider-crank's rhs, outputs and projection the same to the bit with and without the detected flags (the
+    flags add no fused multiply-add and no reassociation)."""
+    import mbs
+    cc = tuple(build.compiler_command())
+    monkeypatch.delenv(build.CPU_FLAGS_ENV, raising=False)
+    flags = build.cpu_flags(cc)
+    if not flags:
+        pytest.skip("this CPU and compiler get no instruction-set flags")
+    system = mbs.load(Path(__file__).parents[2] / "library" / "examples" / "slider_crank.mbs", cache_dir=tmp_path)
+    code = system.generate(None).c_source
+    monkeypatch.setenv(build.CPU_FLAGS_ENV, "")
+    plain = build.load(build.build(code, cache_dir=tmp_path))
+    monkeypatch.setenv(build.CPU_FLAGS_ENV, " ".join(flags))
+    flagged = build.load(build.build(code, cache_dir=tmp_path))
+    assert plain.__name__ != flagged.__name__
+    rng = np.random.default_rng(7)
+    p = np.asarray(system.compile(None).p_default, dtype=float)
+    for name in ("rhs", "loop_rhs", "project", "outputs"):
+        if name not in dict(plain.FUNCTIONS):
+            continue
+        f0, f1 = (m.Function(name, p.copy(), np.zeros(m.NWORK)) for m in (plain, flagged))
+        for _ in range(20):
+            x = rng.uniform(-1.0, 1.0, plain.NX)
+            a, b = np.asarray(f0(0.3, x)), np.asarray(f1(0.3, x))
+            assert np.array_equal(a, b, equal_nan=True), name

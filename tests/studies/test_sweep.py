@@ -110,3 +110,26 @@ def test_numpy_back_end_package_runs_on_the_workers(dask_client):
         assert not table.failed, table.failed[0].message
         rows[backend] = table["period(hinge.phi)"]
     np.testing.assert_allclose(rows["numpy"], rows["c"], rtol=1e-6)
+
+
+def test_a_worker_without_the_cpu_features_of_the_binary_builds_its_own(pendulum, tmp_path, monkeypatch):
+    """A package built with AVX2 (runtime/build.py cpu_flags) goes to a worker whose CPU lacks it: the worker
+    compiles the source instead of loading a binary it cannot run; with the feature it loads the binary."""
+    import dataclasses
+
+    from mbs.runtime import build
+    from mbs.studies import package as package_module
+    package = dataclasses.replace(ModelPackage.of(pendulum, "swing"), cpu=("avx2",))
+    monkeypatch.setenv("MBS_CACHE_DIR", str(tmp_path))
+    built = []
+    real_load_c = package_module.load_c
+    monkeypatch.setattr(package_module, "load_c", lambda **kw: built.append(1) or real_load_c(**kw))
+    monkeypatch.setattr(build, "_cpu_features", lambda: frozenset({"avx2", "sse2"}))
+    package.load()
+    assert built == []
+    monkeypatch.setattr(build, "_cpu_features", lambda: frozenset({"sse2"}))
+    model = package.load()
+    assert built == [1]
+    x = np.array([0.3, -0.2])
+    from mbs.runtime.workspace import Workspace
+    np.testing.assert_array_equal(Workspace(model).rhs(0.0, x), Workspace(pendulum.compile("swing")).rhs(0.0, x))
