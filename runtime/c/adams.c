@@ -12,7 +12,24 @@
  *             accepted state as ode.c projected it onto the loop constraints (with the direct loop rhs at the
  *             integrated states, as first built, the history's values drifted from the projected solution:
  *             40 four-bars through their flat positions, tests/runtime/test_fourbar_chain.py, ended 1.1 rad off at
- *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G).
+ *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G);
+ *             or not (PEC: f_p is the newest value, one right-hand side per step) while the step is small against
+ *             the problem's time scale, h L <= ADAMS_PEC_HL = 0.05, and the order at most 6 (ADAMS_PECE 2, below).
+ *
+ * PEC throughout (-DADAMS_PECE=0) reaches DOPRI5's accuracy at rtol 1e-7 on the Iltis bump at 10 m/s with 0.65 of
+ * PECE's right-hand sides (its steps, limited by the 392 events, are hardly more), but at 5 m/s with 1.2-1.3 times
+ * them and 2.3 times the steps: its order stays at 4-5 where PECE's climbs to 7-8 (the region of stability of PEC
+ * shrinks faster with the order; on the damped oscillator of tests/runtime/test_adams.py its error grows too).  h L
+ * tells the two apart (h times ||f(y_{n+1}) - f_p|| / ||y_{n+1} - y_p||, unweighted, at PECE's steps: median 0.18 at
+ * 5 m/s, 0.026 at 10 m/s), so the final evaluation is skipped only below ADAMS_PEC_HL, at orders up to 6, L measured
+ * again after 20 steps without it and at the first step after every restart (the new branch may be stiffer: the
+ * 1e6 N/m stop of tests/runtime/models/handback_stop.mbs).  python bench/adams.py --variants (pece:
+ * -DADAMS_PECE_FORMER=1, PECE throughout, the former build; pec: PEC throughout), right-hand sides at DOPRI5's
+ * max / median error against PECE's: bump at 10 m/s <= 0.78 / 0.76, at 5 m/s 1.00 / 0.99, the quarter car at 10 m/s
+ * 0.80 / 0.78, at 5 m/s 0.86 / 0.96, each step without the final evaluation also saving the chain with f_{n+1} (the
+ * corrector's chain with f_p is the new history).  The threshold is a compromise measured, not derived: at 0.03 and
+ * at 0.1 the stop above ends 1.5e-4 and 1.9e-4 off (0.7e-4 at 0.05, 2.5e-5 with PECE, 7.0e-5 DOPRI5), with the
+ * norm in the step's weights (L underestimated where the weights differ) the damped oscillator 11.6 rtol off.
  *
  * The history is the chain of divided differences D_i = f[t_n, ..., t_{n-i}]: adding a point costs O(k n) and the
  * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
@@ -105,6 +122,26 @@
 #define ADAMS_ELEMENTWISE MBS_ODE_ELEMENTWISE
 #define ADAMS_FULL_CHAIN 0
 #endif
+/* The final evaluation (see the head of this file): ADAMS_PECE 2 (the default) evaluates f_{n+1} at the accepted state
+ * unless h L <= ADAMS_PEC_HL (h the next step, L measured by am_measure_lip at the last step that evaluated it) and
+ * the next order is at most ADAMS_PEC_ORDER (PEC then); it does after ADAMS_PEC_REFRESH steps in a row without it and
+ * at the first step after a restart (L measured again).  ADAMS_PECE 1 is PECE throughout (-DADAMS_PECE_FORMER=1, the
+ * former build: the same bits), 0 PEC throughout. */
+#ifdef ADAMS_PECE_FORMER
+#define ADAMS_PECE 1
+#endif
+#ifndef ADAMS_PECE
+#define ADAMS_PECE 2
+#endif
+#ifndef ADAMS_PEC_HL
+#define ADAMS_PEC_HL 0.05
+#endif
+#ifndef ADAMS_PEC_ORDER
+#define ADAMS_PEC_ORDER 6
+#endif
+#ifndef ADAMS_PEC_REFRESH
+#define ADAMS_PEC_REFRESH 20
+#endif
 /* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
  * differences would divide the old branch's values by a vanishing distance). */
 #define ADAMS_RESTART_GAP 1e-3
@@ -115,6 +152,8 @@ typedef struct {
     int nconst;        /* accepted steps at the current order */
     int phase1;        /* start: raise the order and double the step after every step while the estimates allow */
     int nfail;         /* rejections in a row */
+    double lip;        /* ADAMS_PECE 2: L measured at the last PECE step (+inf: none yet) */
+    int pec_age;       /* ADAMS_PECE 2: steps since */
     double t_hist;     /* the time of the newest point (o->t after the method's own step; NaN: rebuild) */
     double tt[ADAMS_NPOINT];    /* times of the points, newest first */
     double *d[ADAMS_NPOINT];    /* divided differences D_i = f[tt[0], ..., tt[i]] */
@@ -221,6 +260,7 @@ static void am_fresh(mbs_ode *o, am_mem *m)
     am_push(m, o->n, o->t, o->y, o->f);
     memcpy(m->d[0], o->f, (size_t)o->n * sizeof(double));
     m->k = 1; m->nconst = 0; m->phase1 = 1; m->nfail = 0;
+    m->lip = HUGE_VAL; m->pec_age = 0;
     m->t_hist = o->t;
 }
 
@@ -272,9 +312,37 @@ static void am_restart(mbs_ode *o, am_mem *m)
     m->nfail = 0;
     m->phase1 = m->nh == 1;
     m->t_hist = te;
+    m->lip = HUGE_VAL;  /* the new branch's L unknown: measured at the first step */
 #ifdef MBS_ODE_TRACE
     fprintf(stderr, "AREST %.17g h %.17g k %d nh %d\n", te, o->h, m->k, m->nh);
 #endif
+}
+
+/* ADAMS_PECE 2: evaluate f again at the accepted state? (see ADAMS_PEC_HL) */
+static int am_wants_final(am_mem *m, double h_next, int k_next)
+{
+    if (h_next * m->lip > ADAMS_PEC_HL || k_next > ADAMS_PEC_ORDER || m->pec_age >= ADAMS_PEC_REFRESH) return 1;
+    m->pec_age++;
+    return 0;
+}
+
+/* L = ||f(y) - f_p|| / ||y - y_p||, unweighted (scratch: f(y); fp at yp): the Lipschitz constant along the
+ * correction (the step's weights, unequal between the states, underestimated it on the damped oscillator) */
+static void am_measure_lip(am_mem *m, int n, const double *y)
+{
+    double num = 0.0, den = 0.0;
+    int i;
+    for (i = 0; i < n; i++) {
+        const double df = m->scratch[i] - m->fp[i], dy = y[i] - m->yp[i];
+        num += df * df;
+        den += dy * dy;
+    }
+    m->lip = sqrt(num / den);
+    if (!(m->lip <= HUGE_VAL)) m->lip = HUGE_VAL;  /* 0 / 0 */
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "ALIP %.6g\n", m->lip);
+#endif
+    m->pec_age = 0;
 }
 
 static int am_step(mbs_ode *o)
@@ -286,7 +354,7 @@ static int am_step(mbs_ode *o)
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
         double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
-        int last, k, kmax_est, kmax_err, knew, s;
+        int last, k, kmax_est, kmax_err, knew, s, final;
         if (mbs_ode_next_h(o, &h, &last)) break;
         k = m->k < m->nh ? m->k : m->nh;
         x0 = last ? o->t_bound : t + h;
@@ -372,14 +440,16 @@ static int am_step(mbs_ode *o)
         else m->nconst++;
         m->k = knew;
         m->nfail = 0;
-        /* f_{n+1} at the accepted state as projected */
+        /* f_{n+1} at the accepted state as projected (PECE), or f_p (PEC) */
         memcpy(y, m->yc, (size_t)n * sizeof(double));
         mbs_ode_accept(o, h, last);
-        if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
+        final = ADAMS_PECE == 1 || (ADAMS_PECE == 2 && am_wants_final(m, o->h, knew));
+        if (final && mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
             o->status = MBS_ODE_MODEL_FAILED;
             o->fail_h = h;
             break;
         }
+        if (ADAMS_PECE == 2 && final) am_measure_lip(m, n, y);
         /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the
          * highest difference the next step reads: it goes on at order knew at most, reading D_0 .. D_knew (the
          * predictor D_0 .. D_(knew-1), the estimate of order knew + 1 D_knew), and its own chain then needs the
@@ -388,16 +458,19 @@ static int am_step(mbs_ode *o)
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
             if (!ADAMS_FULL_CHAIN && top > knew) top = knew;
-            memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
-            for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            if (final) memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
+            /* PEC: the step's chain with f_p is the new one, E_0 .. E_kmax_est built already (top <= kmax_est but
+             * for the full chain) */
+            for (i = final ? 1 : kmax_est + 1; i <= top; i++)
+                am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
                 double *tmp = m->d[i];
                 m->d[i] = m->e[i];
                 m->e[i] = tmp;
             }
         }
-        am_push(m, n, x0, y, m->scratch);
-        memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
+        am_push(m, n, x0, y, final ? m->scratch : m->fp);
+        memcpy(o->f, final ? m->scratch : m->fp, (size_t)n * sizeof(double));
         m->tt[0] = o->t;
         m->t_hist = o->t;
         break;
