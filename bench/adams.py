@@ -2,7 +2,7 @@
 
     python bench/adams.py [--cases bump_5 bump_10 quarter_5 quarter_10] [--rtols 1e-6 1e-7 1e-8 1e-9]
         [--adams-rtols ...] [--repeat 3] [--variants]
-    python bench/adams.py --whole [--repeat 7]
+    python bench/adams.py --whole [--repeat 7] [--adams-rtols R R] [--pece-rtols R R]
 
 Per case (a scene of library/iltis/vehicle.mbs or quarter_car.mbs, started as `System.start` starts it): a reference
 with DOPRI5 at rtol 1e-11 (atol 1e-13, as bench/integrators.py), then dopri5 and adams over the tolerance ladder
@@ -20,7 +20,9 @@ dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restar
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
 an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
 -DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most); and the
-former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
+former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now); the final evaluation's variants, -DADAMS_PECE_FORMER=1
+(pece: f evaluated again at every accepted state, the former build) and -DADAMS_PECE=0 (pec: never), against the
+default (skipped while h L is small, c/adams.c).
 
 `--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (or `--scenes`; the start from scratch, equilibrium,
 integration, every output) with dopri5 at the scenes' former settings (rtol 1e-7, atol 1e-9, DOPRI5_FORMER) and with
@@ -28,17 +30,19 @@ adams at the scene's own (adams since the scenes moved to it), CPU time of this 
 --repeat, their ratio and real-time factors, where the work-precision figures above compare at equal accuracy.
 `--adams-rtols R [R ...]`: adams at these rtols instead (atol R / 100; one per scene, bump_5's first, or one for
 both), each run's errors against the reference printed beside (the measures above): the whole simulate at equal
-accuracy.
+accuracy.  `--pece-rtols R [R ...]`: also adams built -DADAMS_PECE_FORMER=1 (PECE throughout, the former build) at
+these rtols, interleaved, with the ratio adams / adams PECE; both adams runs then on models built in one piece.
 
-    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former]
+    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former] [--pece-rtols R]
 
 `--instructions`: the integration of one run (`Solver.sample`) counted in instructions under valgrind's callgrind
 (load-independent), split by part: the rhs calls, the projection of the accepted steps, the indicators (`mbs_events`,
 at the steps' ends, in the root finding, at the restarts), the root finding's own work, the restarts' own, and the
 method's own (its steps' arithmetic, the dense output at the samples, the rest), each also per accepted step; dopri5
 at the scenes' former settings (rtol 1e-7, atol 1e-9) and adams at the scene's own, adams at --adams-rtols
-(atol / 100) when given, and with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
-whole chain of differences updated every step: the same bits).
+(atol / 100) when given, with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
+whole chain of differences updated every step: the same bits), with --pece-rtols R [R ...] adams built
+-DADAMS_PECE_FORMER=1 (f evaluated again at every accepted state) at each R.
 valgrind's libm rounds a little differently, so its step counts may differ by a few from a run's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
@@ -321,7 +325,7 @@ def instruction_parts(path: Path, total: int) -> dict[str, float]:
     return parts
 
 
-def instructions(cases, adams_rtols, former: bool) -> None:
+def instructions(cases, adams_rtols, former: bool, pece_rtols=None) -> None:
     """--instructions: the integration's instructions by part (see the docstring)."""
     for name in cases:
         path, scene = CASES[name]
@@ -329,6 +333,7 @@ def instructions(cases, adams_rtols, former: bool) -> None:
         if former:
             runs.append(("adams former", "adams", "scene", ("-DADAMS_STEP_FORMER=1",)))
         runs += [(f"adams {r:g}", "adams", repr(r), ()) for r in adams_rtols or ()]
+        runs += [(f"PECE {r:g}", "adams", repr(r), ("-DADAMS_PECE_FORMER=1",)) for r in pece_rtols or ()]
         counts = {}
         with tempfile.TemporaryDirectory() as tmp:
             for label, integrator, rtol, flags in runs:
@@ -374,7 +379,8 @@ def main() -> None:
     parser.add_argument("--whole", action="store_true", help="the whole simulate of the vehicle's bump scenes instead")
     parser.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"], help="--whole: the vehicle's scenes")
     parser.add_argument("--pece-rtols", nargs="+", type=float, default=None,
-                        help="--whole: also adams built -DADAMS_PECE_FORMER=1 at these rtols (one per scene)")
+                        help="--whole: also adams built -DADAMS_PECE_FORMER=1 at these rtols (one per scene); "
+                        "--instructions: at each of them")
     parser.add_argument("--instructions", action="store_true",
                         help="the integration's instructions by part under callgrind instead")
     parser.add_argument("--former", action="store_true", help="--instructions: also adams built -DADAMS_STEP_FORMER=1")
@@ -385,7 +391,7 @@ def main() -> None:
         return
     if args.instructions:
         instructions(args.cases if any(a.startswith("--cases") for a in sys.argv[1:]) else ["bump_10"],
-                     args.adams_rtols if given else None, args.former)
+                     args.adams_rtols if given else None, args.former, args.pece_rtols)
         return
     for name in args.cases:
         bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)
