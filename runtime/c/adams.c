@@ -218,12 +218,68 @@ ADAMS_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x,
     for (i = 0; i < n; i++) y[i] += a * x[i];
 }
 
+/* out = y0 + a[m] v[m] + a[m-1] v[m-1] + ... + a[0] v[0], added in that order (the same bits as y0 and m + 1 am_axpy
+ * passes from i = m down to 0) in one pass: eight elements at a time through every term, in registers, where the
+ * passes loaded and stored the sum once per term (out may be y0). */
+ADAMS_ELEMENTWISE static void am_combine(int n, const double *y0, int m, const double *a, const double *const *v,
+                                         double *out)
+{
+    int i, j;
+    for (j = 0; j + 8 <= n; j += 8) {
+        double s0 = y0[j], s1 = y0[j + 1], s2 = y0[j + 2], s3 = y0[j + 3];
+        double s4 = y0[j + 4], s5 = y0[j + 5], s6 = y0[j + 6], s7 = y0[j + 7];
+        for (i = m; i >= 0; i--) {
+            const double c = a[i], *x = v[i] + j;
+            s0 += c * x[0]; s1 += c * x[1]; s2 += c * x[2]; s3 += c * x[3];
+            s4 += c * x[4]; s5 += c * x[5]; s6 += c * x[6]; s7 += c * x[7];
+        }
+        out[j] = s0; out[j + 1] = s1; out[j + 2] = s2; out[j + 3] = s3;
+        out[j + 4] = s4; out[j + 5] = s5; out[j + 6] = s6; out[j + 7] = s7;
+    }
+    for (; j < n; j++) {
+        double sj = y0[j];
+        for (i = m; i >= 0; i--) sj += a[i] * v[i][j];
+        out[j] = sj;
+    }
+}
+
 /* The next divided difference: out = (a - b) / dt (out may be b) */
 ADAMS_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
 {
     double inv = 1.0 / dt;
     int i;
     for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
+}
+
+/* The chain with a new value in front: e[0] = front, e[i] = (e[i-1] - d[i-1]) / (x0 - tt[i-1]), i = 1 .. m (the same
+ * bits as a copy and m am_divide passes) in one pass: eight elements at a time through the chain, in registers. */
+ADAMS_ELEMENTWISE static void am_extend(int n, const double *front, int m, double *const *d, const double *tt, double x0,
+                                        double *const *e)
+{
+    double inv[ADAMS_NPOINT + 1];
+    int i, j;
+    for (i = 1; i <= m; i++) inv[i] = 1.0 / (x0 - tt[i - 1]);
+    for (j = 0; j + 8 <= n; j += 8) {
+        double p0 = front[j], p1 = front[j + 1], p2 = front[j + 2], p3 = front[j + 3];
+        double p4 = front[j + 4], p5 = front[j + 5], p6 = front[j + 6], p7 = front[j + 7];
+        double *o = e[0] + j;
+        o[0] = p0; o[1] = p1; o[2] = p2; o[3] = p3; o[4] = p4; o[5] = p5; o[6] = p6; o[7] = p7;
+        for (i = 1; i <= m; i++) {
+            const double c = inv[i], *b = d[i - 1] + j;
+            p0 = (p0 - b[0]) * c; p1 = (p1 - b[1]) * c; p2 = (p2 - b[2]) * c; p3 = (p3 - b[3]) * c;
+            p4 = (p4 - b[4]) * c; p5 = (p5 - b[5]) * c; p6 = (p6 - b[6]) * c; p7 = (p7 - b[7]) * c;
+            o = e[i] + j;
+            o[0] = p0; o[1] = p1; o[2] = p2; o[3] = p3; o[4] = p4; o[5] = p5; o[6] = p6; o[7] = p7;
+        }
+    }
+    for (; j < n; j++) {
+        double pj = front[j];
+        e[0][j] = pj;
+        for (i = 1; i <= m; i++) {
+            pj = (pj - d[i - 1][j]) * inv[i];
+            e[i][j] = pj;
+        }
+    }
 }
 
 /* The chain of divided differences of the points tt[0..nh) with values fv, into d[0 .. top] (top < nh: the higher
@@ -362,22 +418,34 @@ static int am_step(mbs_ode *o)
         for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
         am_integrals(r, k - 1, 1.0, a);
         for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
-        memcpy(m->yp, y, (size_t)n * sizeof(double));
-        for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
+        if (ADAMS_FULL_CHAIN) {
+            memcpy(m->yp, y, (size_t)n * sizeof(double));
+            for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
+        } else {
+            am_combine(n, y, k - 1, a, (const double *const *)m->d, m->yp);
+        }
         s = mbs_ode_eval(o, x0, m->yp, m->fp);
         /* the new chain with f_p: E_0 = f_p, E_i = (E_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the estimate of order
          * k + 1 when the history has its k + 1 points */
         kmax_est = k + 1 <= m->nh ? k + 1 : k;
         if (s == MBS_OK) {
-            memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
-            for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            if (ADAMS_FULL_CHAIN) {
+                memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
+                for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            } else {
+                am_extend(n, m->fp, kmax_est, m->d, m->tt, x0, m->e);
+            }
             /* correct: the nodes x0, t_n, t_{n-1}, ... */
             r[0] = 1.0;
             for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
             am_integrals(r, kmax_est, 1.0, a);
             for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
-            memcpy(m->yc, y, (size_t)n * sizeof(double));
-            for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            if (ADAMS_FULL_CHAIN) {
+                memcpy(m->yc, y, (size_t)n * sizeof(double));
+                for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            } else {
+                am_combine(n, y, k, a, (const double *const *)m->e, m->yc);
+            }
             am_weights(o, y, m->yc, m->w);
             /* the estimates the order control reads: k - 2 .. k, and k + 1 once the order may rise */
             kmax_err = ADAMS_FULL_CHAIN || (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1) ? kmax_est : k;
@@ -458,11 +526,15 @@ static int am_step(mbs_ode *o)
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
             if (!ADAMS_FULL_CHAIN && top > knew) top = knew;
-            if (final) memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
             /* PEC: the step's chain with f_p is the new one, E_0 .. E_kmax_est built already (top <= kmax_est but
              * for the full chain) */
-            for (i = final ? 1 : kmax_est + 1; i <= top; i++)
-                am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            if (final && !ADAMS_FULL_CHAIN) {
+                am_extend(n, m->scratch, top, m->d, m->tt, x0, m->e);
+            } else {
+                if (final) memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
+                for (i = final ? 1 : kmax_est + 1; i <= top; i++)
+                    am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            }
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
                 double *tmp = m->d[i];
                 m->d[i] = m->e[i];
@@ -487,8 +559,14 @@ static void am_dense(const mbs_ode *o, double t, double *out)
     int i;
     am_integrals(c + 3, k, (t - c[1]) / h, a);
     for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
-    memcpy(out, y0, (size_t)n * sizeof(double));
-    for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
+    if (ADAMS_FULL_CHAIN) {
+        memcpy(out, y0, (size_t)n * sizeof(double));
+        for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
+    } else {
+        const double *v[ADAMS_KMAX + 2];
+        for (i = 0; i <= k; i++) v[i] = y0 + (size_t)(i + 1) * n;
+        am_combine(n, y0, k, a, v, out);
+    }
 }
 
 /* The take_over hook (ode.c mbs_ode_take_over): the history of the solver that handed its event back, rebuilt at the
