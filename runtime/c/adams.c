@@ -83,7 +83,7 @@
  * 28,200 -> 15,100 instructions an accepted step, the integration 724M -> 672M (-DADAMS_STEP_FORMER=1 builds the
  * former arithmetic).  The sums of the predictor, the corrector and the dense output, and the chains with a new value
  * in front, then went in one pass each with eight elements in registers through every term (am_combine, am_extend,
- * the same bits): at the scene's rtol 2e-7, with PEC steps, the method's own part 10,900 -> 8,900 instructions an
+ * the same bits): at the scene's rtol 2e-7, with PEC steps, the method's own part 10,800 -> 8,900 instructions an
  * accepted step, the integration 406M -> 398M; 22,800 with the former arithmetic (453M).  The integration against
  * the former PECE build at its rtol 5e-7 (python bench/adams.py --instructions --pece-rtols 5e-7): 398M against 464M
  * (0.86; 472M with that build's own arithmetic, as measured before these changes).
