@@ -2,7 +2,7 @@
 
     python bench/adams.py [--cases bump_5 bump_10 quarter_5 quarter_10] [--rtols 1e-6 1e-7 1e-8 1e-9]
         [--adams-rtols ...] [--repeat 3] [--variants]
-    python bench/adams.py --whole [--repeat 7]
+    python bench/adams.py --whole [--repeat 7] [--adams-rtols R R] [--pece-rtols R R]
 
 Per case (a scene of library/iltis/vehicle.mbs or quarter_car.mbs, started as `System.start` starts it): a reference
 with DOPRI5 at rtol 1e-11 (atol 1e-13, as bench/integrators.py), then dopri5 and adams over the tolerance ladder
@@ -20,7 +20,9 @@ dopri5's at 1e-7 (below 1: adams is cheaper).  `--variants` also runs the restar
 same ladder, each with its cost at dopri5's accuracy: the model built with -DADAMS_RESTART=0 (forget the history at
 an event, start at order 1, as CVODE), -DADAMS_RESTART=2 (re-evaluate it with the new branch) and
 -DADAMS_RESTART_ORDER=12 (keep it at the order it had), against the default (keep it, order 3 at most); and the
-former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now).
+former growth limit of the step, -DADAMS_MAX_GROWTH=2 (3 now); the final evaluation's variants, -DADAMS_PECE_FORMER=1
+(pece: f evaluated again at every accepted state, the former build) and -DADAMS_PECE=0 (pec: never), against the
+default (skipped while h L is small, c/adams.c).
 
 `--whole`: instead, the whole `System.simulate` of the vehicle's bump scenes (or `--scenes`; the start from scratch, equilibrium,
 integration, every output) with dopri5 at the scenes' former settings (rtol 1e-7, atol 1e-9, DOPRI5_FORMER) and with
@@ -28,17 +30,19 @@ adams at the scene's own (adams since the scenes moved to it), CPU time of this 
 --repeat, their ratio and real-time factors, where the work-precision figures above compare at equal accuracy.
 `--adams-rtols R [R ...]`: adams at these rtols instead (atol R / 100; one per scene, bump_5's first, or one for
 both), each run's errors against the reference printed beside (the measures above): the whole simulate at equal
-accuracy.
+accuracy.  `--pece-rtols R [R ...]`: also adams built -DADAMS_PECE_FORMER=1 (PECE throughout, the former build) at
+these rtols, interleaved, with the ratio adams / adams PECE; both adams runs then on models built in one piece.
 
-    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former]
+    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former] [--pece-rtols R]
 
 `--instructions`: the integration of one run (`Solver.sample`) counted in instructions under valgrind's callgrind
 (load-independent), split by part: the rhs calls, the projection of the accepted steps, the indicators (`mbs_events`,
 at the steps' ends, in the root finding, at the restarts), the root finding's own work, the restarts' own, and the
 method's own (its steps' arithmetic, the dense output at the samples, the rest), each also per accepted step; dopri5
 at the scenes' former settings (rtol 1e-7, atol 1e-9) and adams at the scene's own, adams at --adams-rtols
-(atol / 100) when given, and with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
-whole chain of differences updated every step: the same bits).
+(atol / 100) when given, with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
+whole chain of differences updated every step: the same bits), with --pece-rtols R [R ...] adams built
+-DADAMS_PECE_FORMER=1 (f evaluated again at every accepted state) at each R.
 valgrind's libm rounds a little differently, so its step counts may differ by a few from a run's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
@@ -85,7 +89,9 @@ WEIGHT_FLOOR = 1e-2
 VARIANTS = {"afresh": ("-DADAMS_RESTART=0", "the history forgotten, order 1 from the event (CVODE's way)"),
             "re-eval": ("-DADAMS_RESTART=2", "the history re-evaluated with the new branch"),
             "uncapped": ("-DADAMS_RESTART_ORDER=12", "the history kept at the order it had"),
-            "growth2": ("-DADAMS_MAX_GROWTH=2", "the step grown by 2 at most, as before (3 now)")}
+            "growth2": ("-DADAMS_MAX_GROWTH=2", "the step grown by 2 at most, as before (3 now)"),
+            "pece": ("-DADAMS_PECE_FORMER=1", "f evaluated again at every accepted state, as before (PECE)"),
+            "pec": ("-DADAMS_PECE=0", "f never evaluated again (PEC)")}
 
 
 @dataclasses.dataclass
@@ -183,7 +189,7 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
           f"{settings['integrator']} rtol {scene_rtol:g}); reference dopri5 rtol {REFERENCE_RTOL:g}: "
           f"{reference.metadata['stats']['nfev']} rhs, {ref_wall:.2f} s")
     ladders = {"dopri5": sorted(set(rtols) | {dopri5_rtol}), "adams": sorted(set(adams_rtols) | {scene_rtol})}
-    builds = [("adams", model)] + [(label, variant_model(system, scene, model, (flag,)))
+    builds = [("adams", model)] + [(label, variant_model(system, scene, model, tuple(flag.split())))
                                    for label, (flag, _) in (VARIANTS.items() if variants else ())]
     labels = [label for label, _ in builds]
     configurations = [("dopri5", model, "dopri5", r) for r in ladders["dopri5"]]
@@ -214,41 +220,62 @@ def bench(name, rtols, adams_rtols, repeat, variants) -> None:
                   f"wall ratio {wall / base.wall:.2f}{bound}")
 
 
-def whole(repeat: int, adams_rtols: list[float] | None, scenes=("bump_5", "bump_10")) -> None:
+def whole(repeat: int, adams_rtols: list[float] | None, scenes=("bump_5", "bump_10"),
+          pece_rtols: list[float] | None = None) -> None:
     """The whole simulate of the vehicle's scenes (bump_5 and bump_10 unless --scenes) with dopri5 at the bump
-    scenes' former settings and adams at the scene's own or at `adams_rtols` (see the docstring)."""
+    scenes' former settings and adams at the scene's own or at `adams_rtols` (see the docstring); with `pece_rtols`
+    also adams built -DADAMS_PECE_FORMER=1 at those rtols, and both adams runs on models built in one piece."""
+    sys.path.insert(0, TESTS_RUNTIME)
+    from former_builds import flagged_build, simulate_with
     system = mbs.load(ROOT / "library/iltis/vehicle.mbs")
     for number, scene in enumerate(scenes):
         tolerances = {"dopri5": {k: DOPRI5_FORMER[k] for k in ("rtol", "atol")}, "adams": {}}
         if adams_rtols:
             rtol = adams_rtols[min(number, len(adams_rtols) - 1)]
             tolerances["adams"] = {"rtol": rtol, "atol": ATOL_RATIO * rtol}
-        cpu = {"dopri5": [], "adams": []}
+        models = {"dopri5": None, "adams": None}
+        if pece_rtols:
+            rtol = pece_rtols[min(number, len(pece_rtols) - 1)]
+            tolerances["pece"] = {"rtol": rtol, "atol": ATOL_RATIO * rtol}
+            models["adams"] = flagged_build(system, scene, ())
+            models["pece"] = flagged_build(system, scene, ("-DADAMS_PECE_FORMER=1",))
+
+        def simulate_one(key):
+            integrator = "dopri5" if key == "dopri5" else "adams"
+            if models[key] is None:
+                return system.simulate(scene, integrator=integrator, **tolerances[key])
+            return simulate_with(system, scene, models[key], integrator=integrator, **tolerances[key])
+        cpu = {key: [] for key in models}
         runs = {}
-        for integrator in cpu:  # compiled and warm before the clock
-            system.simulate(scene, integrator=integrator, **tolerances[integrator])
+        for key in cpu:  # compiled and warm before the clock
+            simulate_one(key)
         for _ in range(repeat):
-            for integrator in cpu:
+            for key in cpu:
                 system.forget_starts()  # every run a first start: the equilibrium counted
                 started = time.process_time()
-                runs[integrator] = system.simulate(scene, integrator=integrator, **tolerances[integrator])
-                cpu[integrator].append(time.process_time() - started)
+                runs[key] = simulate_one(key)
+                cpu[key].append(time.process_time() - started)
         simulated = float(runs["dopri5"].t[-1] - runs["dopri5"].t[0])
-        d, a = (statistics.median(cpu[i]) for i in ("dopri5", "adams"))
-        rtols = {i: runs[i].metadata.get("rtol", tolerances[i].get("rtol")) for i in cpu}
+        med = {key: statistics.median(cpu[key]) for key in cpu}
+        d, a = med["dopri5"], med["adams"]
+        rtols = {k: runs[k].metadata.get("rtol", tolerances[k].get("rtol")) for k in cpu}
         print(f"{scene}: whole simulate, CPU, medians of {repeat}: dopri5 rtol {rtols['dopri5']:g} {d * 1e3:.1f} ms "
               f"({simulated / d:.1f}x real time), adams rtol {rtols['adams']:g} {a * 1e3:.1f} ms "
               f"({simulated / a:.1f}x); adams / dopri5 {a / d:.2f}")
-        if adams_rtols:
+        if pece_rtols:
+            f = med["pece"]
+            print(f"  adams PECE (-DADAMS_PECE_FORMER=1) rtol {rtols['pece']:g} {f * 1e3:.1f} ms ({simulated / f:.1f}x); "
+                  f"adams / adams PECE {a / f:.2f}")
+        if adams_rtols or pece_rtols:
             start, settings = system.start(scene)
             model = start.model
             times = output_times(float(start.t), settings["t_end"], sample=settings.get("sample"))
             _, reference = run(model, start, settings, "dopri5", REFERENCE_RTOL, REFERENCE_ATOL)
             ref = states_at(model, reference, times)
-            for integrator in cpu:
-                e = errors(states_at(model, runs[integrator], times), ref)
-                st = runs[integrator].metadata["stats"]
-                print(f"  {integrator:<7} rtol {rtols[integrator] or settings['rtol']:g}: {st['nfev']} rhs, "
+            for key in cpu:
+                e = errors(states_at(model, runs[key], times), ref)
+                st = runs[key].metadata["stats"]
+                print(f"  {key:<7} rtol {rtols[key] or settings['rtol']:g}: {st['nfev']} rhs, "
                       f"{st['nsteps']} steps; error against dopri5 at rtol {REFERENCE_RTOL:g}: max {e['max']:.2e}, "
                       f"median {e['median']:.2e}")
 
@@ -298,7 +325,7 @@ def instruction_parts(path: Path, total: int) -> dict[str, float]:
     return parts
 
 
-def instructions(cases, adams_rtols, former: bool) -> None:
+def instructions(cases, adams_rtols, former: bool, pece_rtols=None) -> None:
     """--instructions: the integration's instructions by part (see the docstring)."""
     for name in cases:
         path, scene = CASES[name]
@@ -306,6 +333,7 @@ def instructions(cases, adams_rtols, former: bool) -> None:
         if former:
             runs.append(("adams former", "adams", "scene", ("-DADAMS_STEP_FORMER=1",)))
         runs += [(f"adams {r:g}", "adams", repr(r), ()) for r in adams_rtols or ()]
+        runs += [(f"PECE {r:g}", "adams", repr(r), ("-DADAMS_PECE_FORMER=1",)) for r in pece_rtols or ()]
         counts = {}
         with tempfile.TemporaryDirectory() as tmp:
             for label, integrator, rtol, flags in runs:
@@ -350,17 +378,20 @@ def main() -> None:
     parser.add_argument("--variants", action="store_true", help="also the restart variants of c/adams.c")
     parser.add_argument("--whole", action="store_true", help="the whole simulate of the vehicle's bump scenes instead")
     parser.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"], help="--whole: the vehicle's scenes")
+    parser.add_argument("--pece-rtols", nargs="+", type=float, default=None,
+                        help="--whole: also adams built -DADAMS_PECE_FORMER=1 at these rtols (one per scene); "
+                        "--instructions: at each of them")
     parser.add_argument("--instructions", action="store_true",
                         help="the integration's instructions by part under callgrind instead")
     parser.add_argument("--former", action="store_true", help="--instructions: also adams built -DADAMS_STEP_FORMER=1")
     args = parser.parse_args()
     given = any(a.startswith("--adams-rtol") for a in sys.argv[1:])
     if args.whole:
-        whole(args.repeat, args.adams_rtols if given else None, args.scenes)
+        whole(args.repeat, args.adams_rtols if given else None, args.scenes, args.pece_rtols)
         return
     if args.instructions:
         instructions(args.cases if any(a.startswith("--cases") for a in sys.argv[1:]) else ["bump_10"],
-                     args.adams_rtols if given else None, args.former)
+                     args.adams_rtols if given else None, args.former, args.pece_rtols)
         return
     for name in args.cases:
         bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)

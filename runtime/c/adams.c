@@ -12,7 +12,24 @@
  *             accepted state as ode.c projected it onto the loop constraints (with the direct loop rhs at the
  *             integrated states, as first built, the history's values drifted from the projected solution:
  *             40 four-bars through their flat positions, tests/runtime/test_fourbar_chain.py, ended 1.1 rad off at
- *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G).
+ *             rtol 1e-6 against 9e-3 so; the projection then cannot reuse the last evaluation's factors of G);
+ *             or not (PEC: f_p is the newest value, one right-hand side per step) while the step is small against
+ *             the problem's time scale, h L <= ADAMS_PEC_HL = 0.05, and the order at most 6 (ADAMS_PECE 2, below).
+ *
+ * PEC throughout (-DADAMS_PECE=0) reaches DOPRI5's accuracy at rtol 1e-7 on the Iltis bump at 10 m/s with 0.65 of
+ * PECE's right-hand sides (its steps, limited by the 392 events, are hardly more), but at 5 m/s with 1.2-1.3 times
+ * them and 2.3 times the steps: its order stays at 4-5 where PECE's climbs to 7-8 (the region of stability of PEC
+ * shrinks faster with the order; on the damped oscillator of tests/runtime/test_adams.py its error grows too).  h L
+ * tells the two apart (h times ||f(y_{n+1}) - f_p|| / ||y_{n+1} - y_p||, unweighted, at PECE's steps: median 0.18 at
+ * 5 m/s, 0.026 at 10 m/s), so the final evaluation is skipped only below ADAMS_PEC_HL, at orders up to 6, L measured
+ * again after 20 steps without it and at the first step after every restart (the new branch may be stiffer: the
+ * 1e6 N/m stop of tests/runtime/models/handback_stop.mbs).  python bench/adams.py --variants (pece:
+ * -DADAMS_PECE_FORMER=1, PECE throughout, the former build; pec: PEC throughout), right-hand sides at DOPRI5's
+ * max / median error against PECE's: bump at 10 m/s <= 0.78 / 0.76, at 5 m/s 1.00 / 0.99, the quarter car at 10 m/s
+ * 0.80 / 0.78, at 5 m/s 0.86 / 0.96, each step without the final evaluation also saving the chain with f_{n+1} (the
+ * corrector's chain with f_p is the new history).  The threshold is a compromise measured, not derived: at 0.03 and
+ * at 0.1 the stop above ends 1.5e-4 and 1.9e-4 off (0.7e-4 at 0.05, 2.5e-5 with PECE, 7.0e-5 DOPRI5), with the
+ * norm in the step's weights (L underestimated where the weights differ) the damped oscillator 11.6 rtol off.
  *
  * The history is the chain of divided differences D_i = f[t_n, ..., t_{n-i}]: adding a point costs O(k n) and the
  * differences are the same for any next step size, so a rejected step changes nothing.  The error estimate of
@@ -64,7 +81,12 @@
  * (ADAMS_ELEMENTWISE, ode.c's MBS_ODE_ELEMENTWISE: the same bits), the chains stop at the highest difference a later
  * step reads and the estimate of order k + 1 is computed only when the order may rise: the method's own part
  * 28,200 -> 15,100 instructions an accepted step, the integration 724M -> 672M (-DADAMS_STEP_FORMER=1 builds the
- * former arithmetic).
+ * former arithmetic).  The sums of the predictor, the corrector and the dense output, and the chains with a new value
+ * in front, then went in one pass each with eight elements in registers through every term (am_combine, am_extend,
+ * the same bits): at the scene's rtol 2e-7, with PEC steps, the method's own part 10,800 -> 8,900 instructions an
+ * accepted step, the integration 406M -> 398M; 22,800 with the former arithmetic (453M).  The integration against
+ * the former PECE build at its rtol 5e-7 (python bench/adams.py --instructions --pece-rtols 5e-7): 398M against 464M
+ * (0.86; 472M with that build's own arithmetic, as measured before these changes).
  */
 #include <math.h>
 #include <stdlib.h>
@@ -105,6 +127,26 @@
 #define ADAMS_ELEMENTWISE MBS_ODE_ELEMENTWISE
 #define ADAMS_FULL_CHAIN 0
 #endif
+/* The final evaluation (see the head of this file): ADAMS_PECE 2 (the default) evaluates f_{n+1} at the accepted state
+ * unless h L <= ADAMS_PEC_HL (h the next step, L measured by am_measure_lip at the last step that evaluated it) and
+ * the next order is at most ADAMS_PEC_ORDER (PEC then); it does after ADAMS_PEC_REFRESH steps in a row without it and
+ * at the first step after a restart (L measured again).  ADAMS_PECE 1 is PECE throughout (-DADAMS_PECE_FORMER=1, the
+ * former build: the same bits), 0 PEC throughout. */
+#ifdef ADAMS_PECE_FORMER
+#define ADAMS_PECE 1
+#endif
+#ifndef ADAMS_PECE
+#define ADAMS_PECE 2
+#endif
+#ifndef ADAMS_PEC_HL
+#define ADAMS_PEC_HL 0.05
+#endif
+#ifndef ADAMS_PEC_ORDER
+#define ADAMS_PEC_ORDER 6
+#endif
+#ifndef ADAMS_PEC_REFRESH
+#define ADAMS_PEC_REFRESH 20
+#endif
 /* A point of the history closer to the restart than this fraction of the next step is dropped (the divided
  * differences would divide the old branch's values by a vanishing distance). */
 #define ADAMS_RESTART_GAP 1e-3
@@ -115,6 +157,8 @@ typedef struct {
     int nconst;        /* accepted steps at the current order */
     int phase1;        /* start: raise the order and double the step after every step while the estimates allow */
     int nfail;         /* rejections in a row */
+    double lip;        /* ADAMS_PECE 2: L measured at the last PECE step (+inf: none yet) */
+    int pec_age;       /* ADAMS_PECE 2: steps since */
     double t_hist;     /* the time of the newest point (o->t after the method's own step; NaN: rebuild) */
     double tt[ADAMS_NPOINT];    /* times of the points, newest first */
     double *d[ADAMS_NPOINT];    /* divided differences D_i = f[tt[0], ..., tt[i]] */
@@ -179,12 +223,68 @@ ADAMS_ELEMENTWISE static void am_axpy(int n, double a, const double *restrict x,
     for (i = 0; i < n; i++) y[i] += a * x[i];
 }
 
+/* out = y0 + a[m] v[m] + a[m-1] v[m-1] + ... + a[0] v[0], added in that order (the same bits as y0 and m + 1 am_axpy
+ * passes from i = m down to 0) in one pass: eight elements at a time through every term, in registers, where the
+ * passes loaded and stored the sum once per term (out may be y0). */
+ADAMS_ELEMENTWISE static void am_combine(int n, const double *y0, int m, const double *a, const double *const *v,
+                                         double *out)
+{
+    int i, j;
+    for (j = 0; j + 8 <= n; j += 8) {
+        double s0 = y0[j], s1 = y0[j + 1], s2 = y0[j + 2], s3 = y0[j + 3];
+        double s4 = y0[j + 4], s5 = y0[j + 5], s6 = y0[j + 6], s7 = y0[j + 7];
+        for (i = m; i >= 0; i--) {
+            const double c = a[i], *x = v[i] + j;
+            s0 += c * x[0]; s1 += c * x[1]; s2 += c * x[2]; s3 += c * x[3];
+            s4 += c * x[4]; s5 += c * x[5]; s6 += c * x[6]; s7 += c * x[7];
+        }
+        out[j] = s0; out[j + 1] = s1; out[j + 2] = s2; out[j + 3] = s3;
+        out[j + 4] = s4; out[j + 5] = s5; out[j + 6] = s6; out[j + 7] = s7;
+    }
+    for (; j < n; j++) {
+        double sj = y0[j];
+        for (i = m; i >= 0; i--) sj += a[i] * v[i][j];
+        out[j] = sj;
+    }
+}
+
 /* The next divided difference: out = (a - b) / dt (out may be b) */
 ADAMS_ELEMENTWISE static void am_divide(int n, const double *a, const double *b, double dt, double *out)
 {
     double inv = 1.0 / dt;
     int i;
     for (i = 0; i < n; i++) out[i] = (a[i] - b[i]) * inv;
+}
+
+/* The chain with a new value in front: e[0] = front, e[i] = (e[i-1] - d[i-1]) / (x0 - tt[i-1]), i = 1 .. m (the same
+ * bits as a copy and m am_divide passes) in one pass: eight elements at a time through the chain, in registers. */
+ADAMS_ELEMENTWISE static void am_extend(int n, const double *front, int m, double *const *d, const double *tt, double x0,
+                                        double *const *e)
+{
+    double inv[ADAMS_NPOINT + 1];
+    int i, j;
+    for (i = 1; i <= m; i++) inv[i] = 1.0 / (x0 - tt[i - 1]);
+    for (j = 0; j + 8 <= n; j += 8) {
+        double p0 = front[j], p1 = front[j + 1], p2 = front[j + 2], p3 = front[j + 3];
+        double p4 = front[j + 4], p5 = front[j + 5], p6 = front[j + 6], p7 = front[j + 7];
+        double *o = e[0] + j;
+        o[0] = p0; o[1] = p1; o[2] = p2; o[3] = p3; o[4] = p4; o[5] = p5; o[6] = p6; o[7] = p7;
+        for (i = 1; i <= m; i++) {
+            const double c = inv[i], *b = d[i - 1] + j;
+            p0 = (p0 - b[0]) * c; p1 = (p1 - b[1]) * c; p2 = (p2 - b[2]) * c; p3 = (p3 - b[3]) * c;
+            p4 = (p4 - b[4]) * c; p5 = (p5 - b[5]) * c; p6 = (p6 - b[6]) * c; p7 = (p7 - b[7]) * c;
+            o = e[i] + j;
+            o[0] = p0; o[1] = p1; o[2] = p2; o[3] = p3; o[4] = p4; o[5] = p5; o[6] = p6; o[7] = p7;
+        }
+    }
+    for (; j < n; j++) {
+        double pj = front[j];
+        e[0][j] = pj;
+        for (i = 1; i <= m; i++) {
+            pj = (pj - d[i - 1][j]) * inv[i];
+            e[i][j] = pj;
+        }
+    }
 }
 
 /* The chain of divided differences of the points tt[0..nh) with values fv, into d[0 .. top] (top < nh: the higher
@@ -221,6 +321,7 @@ static void am_fresh(mbs_ode *o, am_mem *m)
     am_push(m, o->n, o->t, o->y, o->f);
     memcpy(m->d[0], o->f, (size_t)o->n * sizeof(double));
     m->k = 1; m->nconst = 0; m->phase1 = 1; m->nfail = 0;
+    m->lip = HUGE_VAL; m->pec_age = 0;
     m->t_hist = o->t;
 }
 
@@ -272,9 +373,37 @@ static void am_restart(mbs_ode *o, am_mem *m)
     m->nfail = 0;
     m->phase1 = m->nh == 1;
     m->t_hist = te;
+    m->lip = HUGE_VAL;  /* the new branch's L unknown: measured at the first step */
 #ifdef MBS_ODE_TRACE
     fprintf(stderr, "AREST %.17g h %.17g k %d nh %d\n", te, o->h, m->k, m->nh);
 #endif
+}
+
+/* ADAMS_PECE 2: evaluate f again at the accepted state? (see ADAMS_PEC_HL) */
+static int am_wants_final(am_mem *m, double h_next, int k_next)
+{
+    if (h_next * m->lip > ADAMS_PEC_HL || k_next > ADAMS_PEC_ORDER || m->pec_age >= ADAMS_PEC_REFRESH) return 1;
+    m->pec_age++;
+    return 0;
+}
+
+/* L = ||f(y) - f_p|| / ||y - y_p||, unweighted (scratch: f(y); fp at yp): the Lipschitz constant along the
+ * correction (the step's weights, unequal between the states, underestimated it on the damped oscillator) */
+static void am_measure_lip(am_mem *m, int n, const double *y)
+{
+    double num = 0.0, den = 0.0;
+    int i;
+    for (i = 0; i < n; i++) {
+        const double df = m->scratch[i] - m->fp[i], dy = y[i] - m->yp[i];
+        num += df * df;
+        den += dy * dy;
+    }
+    m->lip = sqrt(num / den);
+    if (!(m->lip <= HUGE_VAL)) m->lip = HUGE_VAL;  /* 0 / 0 */
+#ifdef MBS_ODE_TRACE
+    fprintf(stderr, "ALIP %.6g\n", m->lip);
+#endif
+    m->pec_age = 0;
 }
 
 static int am_step(mbs_ode *o)
@@ -286,7 +415,7 @@ static int am_step(mbs_ode *o)
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
         double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
-        int last, k, kmax_est, kmax_err, knew, s;
+        int last, k, kmax_est, kmax_err, knew, s, final;
         if (mbs_ode_next_h(o, &h, &last)) break;
         k = m->k < m->nh ? m->k : m->nh;
         x0 = last ? o->t_bound : t + h;
@@ -294,22 +423,34 @@ static int am_step(mbs_ode *o)
         for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
         am_integrals(r, k - 1, 1.0, a);
         for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
-        memcpy(m->yp, y, (size_t)n * sizeof(double));
-        for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
+        if (ADAMS_FULL_CHAIN) {
+            memcpy(m->yp, y, (size_t)n * sizeof(double));
+            for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
+        } else {
+            am_combine(n, y, k - 1, a, (const double *const *)m->d, m->yp);
+        }
         s = mbs_ode_eval(o, x0, m->yp, m->fp);
         /* the new chain with f_p: E_0 = f_p, E_i = (E_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the estimate of order
          * k + 1 when the history has its k + 1 points */
         kmax_est = k + 1 <= m->nh ? k + 1 : k;
         if (s == MBS_OK) {
-            memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
-            for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            if (ADAMS_FULL_CHAIN) {
+                memcpy(m->e[0], m->fp, (size_t)n * sizeof(double));
+                for (i = 1; i <= kmax_est; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            } else {
+                am_extend(n, m->fp, kmax_est, m->d, m->tt, x0, m->e);
+            }
             /* correct: the nodes x0, t_n, t_{n-1}, ... */
             r[0] = 1.0;
             for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
             am_integrals(r, kmax_est, 1.0, a);
             for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
-            memcpy(m->yc, y, (size_t)n * sizeof(double));
-            for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            if (ADAMS_FULL_CHAIN) {
+                memcpy(m->yc, y, (size_t)n * sizeof(double));
+                for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
+            } else {
+                am_combine(n, y, k, a, (const double *const *)m->e, m->yc);
+            }
             am_weights(o, y, m->yc, m->w);
             /* the estimates the order control reads: k - 2 .. k, and k + 1 once the order may rise */
             kmax_err = ADAMS_FULL_CHAIN || (k < ADAMS_KMAX && kmax_est > k && m->nconst + 1 >= k + 1) ? kmax_est : k;
@@ -372,14 +513,16 @@ static int am_step(mbs_ode *o)
         else m->nconst++;
         m->k = knew;
         m->nfail = 0;
-        /* f_{n+1} at the accepted state as projected */
+        /* f_{n+1} at the accepted state as projected (PECE), or f_p (PEC) */
         memcpy(y, m->yc, (size_t)n * sizeof(double));
         mbs_ode_accept(o, h, last);
-        if (mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
+        final = ADAMS_PECE == 1 || (ADAMS_PECE == 2 && am_wants_final(m, o->h, knew));
+        if (final && mbs_ode_eval(o, o->t, y, m->scratch) != MBS_OK) {
             o->status = MBS_ODE_MODEL_FAILED;
             o->fail_h = h;
             break;
         }
+        if (ADAMS_PECE == 2 && final) am_measure_lip(m, n, y);
         /* the chain with f_{n+1} in front: D'_0 = f_{n+1}, D'_i = (D'_{i-1} - D_{i-1}) / (x0 - tt[i-1]), up to the
          * highest difference the next step reads: it goes on at order knew at most, reading D_0 .. D_knew (the
          * predictor D_0 .. D_(knew-1), the estimate of order knew + 1 D_knew), and its own chain then needs the
@@ -388,16 +531,23 @@ static int am_step(mbs_ode *o)
         {
             int top = m->nh < ADAMS_NPOINT ? m->nh : ADAMS_NPOINT - 1;
             if (!ADAMS_FULL_CHAIN && top > knew) top = knew;
-            memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
-            for (i = 1; i <= top; i++) am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            /* PEC: the step's chain with f_p is the new one, E_0 .. E_kmax_est built already (top <= kmax_est but
+             * for the full chain) */
+            if (final && !ADAMS_FULL_CHAIN) {
+                am_extend(n, m->scratch, top, m->d, m->tt, x0, m->e);
+            } else {
+                if (final) memcpy(m->e[0], m->scratch, (size_t)n * sizeof(double));
+                for (i = final ? 1 : kmax_est + 1; i <= top; i++)
+                    am_divide(n, m->e[i - 1], m->d[i - 1], x0 - m->tt[i - 1], m->e[i]);
+            }
             for (i = 0; i <= top && i < ADAMS_NPOINT; i++) {
                 double *tmp = m->d[i];
                 m->d[i] = m->e[i];
                 m->e[i] = tmp;
             }
         }
-        am_push(m, n, x0, y, m->scratch);
-        memcpy(o->f, m->scratch, (size_t)n * sizeof(double));
+        am_push(m, n, x0, y, final ? m->scratch : m->fp);
+        memcpy(o->f, final ? m->scratch : m->fp, (size_t)n * sizeof(double));
         m->tt[0] = o->t;
         m->t_hist = o->t;
         break;
@@ -414,8 +564,14 @@ static void am_dense(const mbs_ode *o, double t, double *out)
     int i;
     am_integrals(c + 3, k, (t - c[1]) / h, a);
     for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
-    memcpy(out, y0, (size_t)n * sizeof(double));
-    for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
+    if (ADAMS_FULL_CHAIN) {
+        memcpy(out, y0, (size_t)n * sizeof(double));
+        for (i = k; i >= 0; i--) am_axpy(n, a[i], y0 + (size_t)(i + 1) * n, out);
+    } else {
+        const double *v[ADAMS_KMAX + 2];
+        for (i = 0; i <= k; i++) v[i] = y0 + (size_t)(i + 1) * n;
+        am_combine(n, y0, k, a, v, out);
+    }
 }
 
 /* The take_over hook (ode.c mbs_ode_take_over): the history of the solver that handed its event back, rebuilt at the
