@@ -354,9 +354,10 @@ def angle_free_tape(tape, outputs):
     seventh of the Iltis's indicators' instructions).  Here each temporary that reads the cosine c and sine s of
     one argument is written as a polynomial in c and s with coefficients free of them (up to
     ANGLE_EXPANSION_MAX_OPS nodes); where one that multiplies two such factors has a remainder modulo
-    c^2 + s^2 - 1 free of c and s (its value does not depend on the angle), the fork's entry holds that remainder.
-    Exact algebra: the values change by round-off only.  The right-hand side keeps its tape (it needs the wheel's
-    rotation for its forces)."""
+    c^2 + s^2 - 1 free of c and s (its value does not depend on the angle), the fork's entry holds that remainder,
+    when the outputs then read neither c nor s (else they are evaluated anyway, and the remainder may cost more than
+    the product it replaces).  Exact algebra: the values change by round-off only.  The right-hand side keeps its
+    tape (it needs the wheel's rotation for its forces)."""
     if not ANGLE_FREE_INDICATORS:
         return tape
     outputs = [sp.sympify(e) for e in outputs]
@@ -383,10 +384,13 @@ def angle_free_tape(tape, outputs):
                 written[entry.symbol] = (terms, size)
             else:
                 replaced.append((entry, free))  # read as itself from now on: its readers see no c, s through it
-        if replaced:
-            fork = fork or tape.fork()
-            for entry, free in replaced:
-                _rewrite(fork, entry, free)
+        if not replaced:
+            continue
+        trial = current.fork()
+        for entry, free in replaced:
+            _rewrite(trial, entry, free)
+        if not {c, s} & {e.symbol for e in trial.entries_for(outputs)}:  # (else the rewrite saves no sin, cos)
+            fork = trial
     return fork or tape
 
 
