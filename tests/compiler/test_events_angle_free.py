@@ -90,3 +90,40 @@ def test_the_quarter_car_indicators_do_not_evaluate_the_hub_spin():
     assert not any(f"{name})" in indicators for name in spin)  # no cos(phi), sin(phi) of it
     assert "fl_omega" not in indicators
     assert any(f"cos({name})" in source for name in spin)  # the right-hand side still rotates the wheel
+
+
+def test_the_quarter_car_locates_the_same_events_as_with_the_former_indicators():
+    """bump_10 of the quarter car with mbs_events printed both ways (the former: ANGLE_FREE_INDICATORS False, through
+    mbs.pipeline.generate, which the derivation cache does not stand between): the same events in the same order,
+    at the same times and with the same results to round-off."""
+    import dataclasses
+
+    import numpy as np
+
+    import mbs
+    from mbs import pipeline
+    from mbs.runtime import build
+    from mbs.runtime.backends import CBackend
+    from mbs.runtime.translation_units import COLD_APART
+
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
+    current = system.simulate("bump_10")
+    events.ANGLE_FREE_INDICATORS = False
+    try:
+        former = pipeline.generate(system.model, system.scene("bump_10"), cold_apart=COLD_APART)
+    finally:
+        events.ANGLE_FREE_INDICATORS = True
+    assert function_text(former.c_source, "mbs_events") != function_text(system.generate("bump_10").c_source,
+                                                                         "mbs_events")
+    compiled = system.compile("bump_10")
+    model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(former.c_source))))
+    for key in [key for key, value in system._compiled.items() if value is compiled]:
+        system._compiled[key] = model
+    before = system.simulate("bump_10")
+    assert len(current.events) > 0
+    assert [(e["event"], e["direction"]) for e in current.events] == [
+        (e["event"], e["direction"]) for e in before.events]
+    assert np.allclose([e["time"] for e in current.events], [e["time"] for e in before.events], rtol=0, atol=1e-12)
+    for name in current.names:
+        scale = max(1.0, float(np.max(np.abs(before[name]))))
+        assert np.max(np.abs(current[name] - before[name])) <= 1e-9 * scale, name
