@@ -19,6 +19,16 @@ and directions), their times' largest difference, the steps and rhs calls, and t
 column (relative to the column's largest magnitude, absolute below 1).  The indicators' values change by round-off
 only (exact algebra), so the events and the trajectories must be the same to round-off.
 
+    python bench/indicators.py --groups [--scene bump_10]
+
+What is left (the design of the next step: a root search that evaluates the indicators of its crossing's element
+alone, not all of them): instructions per call of an mbs_events holding only the indicators of one element of each
+kind (the first of the model's: a steering ramp's time switches, a leaf spring's stop, a strut damper's two rate
+limits, a tyre's four), and of all of them, over the states of a run of --scene (its rows, the switches evaluated as
+written).  Each is the current text with the other indicators left out (generated through mbs.pipeline.generate
+with compiler/events.py event_code narrowed, built whole: a few minutes the first time), counted by callgrind in a
+child process per build.
+
 Nothing is asserted: figures are printed for a reader to compare.
 """
 
@@ -149,13 +159,110 @@ def compare(scenes) -> None:
               f"{f' ({column})' if column else ''}")
 
 
+def element_groups(events) -> dict[str, tuple[int, ...]]:
+    """The indicators of the first element of each kind, by the element the event table names ("fl.strut.damper":
+    kind "strut.damper"), and all of them."""
+    elements: dict[str, list[int]] = {}
+    for k, entry in enumerate(events):
+        elements.setdefault(entry["name"].split(" in ")[-1].rstrip(")"), []).append(k)
+    groups, kinds = {}, set()
+    for element, indices in elements.items():
+        kind = element.split(".", 1)[-1]
+        if kind not in kinds:
+            kinds.add(kind)
+            groups[element] = tuple(indices)
+    groups["all"] = tuple(range(len(events)))
+    return groups
+
+
+def group_model(system, scene: str, keep: tuple[int, ...]):
+    """The compiled module of the scene's text with mbs_events holding the indicators `keep` alone."""
+    from mbs import pipeline
+    from mbs.compiler import events
+    from mbs.runtime import build
+    from mbs.runtime.translation_units import COLD_APART
+    every = events.event_code
+
+    def narrowed(*args, **kwargs):
+        indicators, values, table = every(*args, **kwargs)
+        return tuple(indicators[k] for k in keep), values, tuple(table[k] for k in keep)
+    events.event_code = narrowed
+    try:
+        generated = pipeline.generate(system.model, system.scene(scene), cold_apart=COLD_APART)
+    finally:
+        events.event_code = every
+    return build.load(build.build(generated.c_source))
+
+
+#: The child of --groups: mbs_events of one group over the states saved by the parent (no run here: callgrind collects
+#: in every mbs_events of the process).
+GROUP_CHILD = f"BENCH = {str(Path(__file__).resolve().parent)!r}\n" + """
+import sys
+from pathlib import Path
+import numpy as np
+import mbs
+sys.path.insert(0, BENCH)
+from indicators import element_groups, group_model
+path, scene, group, states = Path(sys.argv[1]), sys.argv[2], sys.argv[3], np.load(sys.argv[4])
+system = mbs.load(path)
+keep = element_groups(system.generate(scene).events)[group]
+module = group_model(system, scene, keep)
+t, x, p = states["t"], states["x"], states["p"]
+f = module.Function("events", p, np.zeros(module.NWORK))
+out = np.zeros((len(t), len(keep)))
+f.rows(t, x, out, p[np.newaxis, :].copy(), np.zeros(len(t), dtype=np.intp))
+print("ROWS", len(t))
+"""
+
+
+def saved_states(scene: str, path: Path) -> None:
+    """The rows of a run of the scene (time, state) and its parameters, into an .npz file for the children."""
+    import mbs
+    system = mbs.load(MODEL)
+    res, compiled = system.simulate(scene), system.compile(scene)
+    x = np.ascontiguousarray(np.column_stack([res[name] for name in compiled.x_names]))
+    np.savez(path, t=np.ascontiguousarray(res["time"], dtype=float), x=x,
+             p=np.array(system.start(scene)[0].p, dtype=float))
+
+
+def groups(scene: str) -> None:
+    """--groups: instructions per call of mbs_events narrowed to one element's indicators (see the docstring)."""
+    import mbs
+    named = element_groups(mbs.load(MODEL).generate(scene).events)
+    print(f"Iltis {scene}: instructions per call of mbs_events holding one element's indicators alone (callgrind, "
+          f"over the rows of a run)")
+    with tempfile.TemporaryDirectory() as tmp:
+        states = Path(tmp) / "states.npz"
+        saved_states(scene, states)
+        for group, keep in named.items():
+            child = [sys.executable, "-c", GROUP_CHILD, str(MODEL), scene, group, str(states)]
+            subprocess.run(child, check=True, capture_output=True)  # the build, outside valgrind
+            out = Path(tmp) / "callgrind.group"
+            done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no",
+                                   "--toggle-collect=mbs_events", f"--callgrind-out-file={out}", *child],
+                                  capture_output=True, text=True)
+            if done.returncode != 0 or "ROWS" not in done.stdout:
+                raise SystemExit(f"valgrind run failed ({group}):\n{done.stderr[-2000:]}")
+            # (calls, not rows: a row equal to the one before it takes its value)
+            calls = [v for (_, callee), v in profile(out)[1].items() if callee == "mbs_events"]
+            count, cost = sum(v[0] for v in calls), sum(v[1] for v in calls)
+            print(f"  {group:<40}{len(keep):>3} indicators {cost / max(1, count):8.0f} per call ({count} calls)")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scene", default="bump_10", help="the scene whose integration is counted")
     parser.add_argument("--compare", nargs="*", default=["bump_10", "bump_5", "anti_5", "anti_10"],
                         help="scenes whose runs are compared outside valgrind")
     parser.add_argument("--no-count", action="store_true", help="skip the instruction counts")
+    parser.add_argument("--groups", action="store_true", help="instead: mbs_events narrowed to one element's")
     args = parser.parse_args(argv)
+    if args.groups:
+        if shutil.which("valgrind") is None:
+            print("valgrind is not on the PATH: nothing to count")
+            return 1
+        groups(args.scene)
+        return 0
     if not args.no_count:
         if shutil.which("valgrind") is None:
             print("valgrind is not on the PATH: nothing to count")
