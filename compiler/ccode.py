@@ -56,6 +56,7 @@ from .emit_common import (  # noqa: F401
     table_slopes,
 )
 from .equations import Equations
+from .events import angle_free_tape
 from .hooks import c_helpers as hook_helpers
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .jacobian_loops import loop_jacobian_or_none, loop_jacobian_work_size
@@ -213,7 +214,7 @@ class CEmitter:
         if head_ready is not None:
             head_ready(self.head(), len(self.eqs.tape))
         printer = CPrinter(self.names, len(self.tables))
-        functions = [self._function(plan_routine(self.eqs.tape, self.naming, printer, name, out, doc, shape,
+        functions = [self._function(plan_routine(self._tape_of(name), self.naming, printer, name, out, doc, shape,
                                                  results, check_positive=positive,
                                                  inline_max_chars=self.inline_max_chars))
                      for name, out, doc, shape, results, positive in self._routines()]
@@ -247,6 +248,13 @@ class CEmitter:
                 + [r for r in (self.constraint_matrix, state_rates_routine(self.eqs), self.closed_form_routine,
                                terms) if r]
                 + (list(self.friction[0]) if self.friction else []))
+
+    def _tape_of(self, routine: str):
+        """The tape a function is printed from: the indicators' without the sines and cosines of angles they do not
+        depend on (compiler/events.py angle_free_tape: a wheel's spin), every other function's the equations'."""
+        if routine != "mbs_events":
+            return self.eqs.tape
+        return angle_free_tape(self.eqs.tape, [e for _, e in self.events])
 
     def _loop_terms(self) -> bool:
         """Whether the file has mbs_loop_terms, and mbs_mass_matrix, mbs_forces, mbs_constraint_acceleration

@@ -1,0 +1,129 @@
+"""The indicators printed without the sines and cosines of angles they do not depend on (compiler/events.py
+angle_free_tape): a wheel centre's world velocity composed from the spinning wheel's rotation and its velocity in
+its own frame loses the spin (c^2 + s^2 = 1) and keeps its value; what does depend on the angle is left as it is;
+the Iltis quarter car's mbs_events no longer evaluates the hub's spin, its right-hand side still does."""
+
+import random
+from pathlib import Path
+
+import pytest
+import sympy as sp
+
+from mbs.compiler import events
+from mbs.compiler.events import angle_free_tape
+from mbs.compiler.tape import Tape
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def spinning_wheel():
+    """A tape of a wheel's centre velocity, world z component: row 2 of R0 Ry(a) times Ry(a)^T vp, and the symbols
+    (a, the row's entries, vp, an extra term)."""
+    tape = Tape()
+    a = sp.Symbol("a")
+    r0, r2, v0, v2, z = sp.symbols("r0 r2 v0 v2 z")
+    c, s = tape.temp(sp.cos(a), "c"), tape.temp(sp.sin(a), "s")
+    row0, row2 = tape.temp(r0 * c - r2 * s, "R_20"), tape.temp(r0 * s + r2 * c, "R_22")
+    w0, w2 = tape.temp(c * v0 - s * v2, "w_0"), tape.temp(c * v2 + s * v0, "w_2")
+    vel = tape.temp(row0 * w0 + row2 * w2 + z, "vel")
+    return tape, vel, (a, r0, r2, v0, v2, z), (c, s, row0, w0)
+
+
+def values(tape, outputs, point):
+    return [float(e.xreplace(point)) for e in tape.expand(outputs)]
+
+
+def test_the_spin_cancels_in_the_velocity_of_the_wheel_centre():
+    tape, vel, symbols, (c, s, *_) = spinning_wheel()
+    fork = angle_free_tape(tape, [vel])
+    assert fork is not tape
+    entries = {e.symbol for e in fork.entries_for([vel])}
+    assert c not in entries and s not in entries  # neither sine nor cosine left to evaluate
+    a, r0, r2, v0, v2, z = symbols
+    assert sp.expand(fork.entry(vel).expr - (r0 * v0 + r2 * v2 + z)) == 0
+    rng = random.Random(5)
+    for _ in range(5):
+        point = {x: sp.Float(rng.uniform(-2.0, 2.0)) for x in symbols}
+        assert values(fork, [vel], point) == pytest.approx(values(tape, [vel], point), rel=1e-13, abs=1e-13)
+    assert {e.symbol for e in tape.entries_for([vel])} >= {c, s}  # the equations' tape is left as it was
+
+
+def test_what_depends_on_the_angle_is_left_as_it_is():
+    tape, vel, (a, r0, r2, v0, v2, z), (c, s, row0, w0) = spinning_wheel()
+    one_product = tape.temp(row0 * w0, "p")       # c^2 r0 v0 - ...: depends on a
+    square = tape.temp(c * c + s, "q")            # 1 - s^2 + s: depends on a
+    assert angle_free_tape(tape, [one_product, square]) is tape
+    # the velocity alone would lose the angle, but the product reads c and s anyway: nothing to save
+    assert angle_free_tape(tape, [vel, one_product]) is tape
+
+
+def test_pythagoras_alone_and_a_division_by_the_angle():
+    tape = Tape()
+    a, x = sp.symbols("a x")
+    c, s = tape.temp(sp.cos(a), "c"), tape.temp(sp.sin(a), "s")
+    one = tape.temp(x * c ** 2 + x * s ** 2, "one")
+    quotient = tape.temp(x / (c * c + s * s), "quotient")  # not a polynomial in c, s: not examined
+    assert sp.expand(angle_free_tape(tape, [one]).entry(one).expr - x) == 0
+    assert angle_free_tape(tape, [quotient]) is tape
+
+
+def test_the_switch_off_gives_the_tape_itself(monkeypatch):
+    tape, vel, *_ = spinning_wheel()
+    monkeypatch.setattr(events, "ANGLE_FREE_INDICATORS", False)
+    assert angle_free_tape(tape, [vel]) is tape
+
+
+def function_text(source: str, name: str) -> str:
+    start = source.index(f"int {name}(")
+    return source[start:source.index("\n}\n", start)]
+
+
+def test_the_quarter_car_indicators_do_not_evaluate_the_hub_spin():
+    import mbs
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
+    generated = system.generate("bump_5")
+    source = generated.c_source
+    spin = [line.split("=")[0].split()[-1] for line in source.splitlines()
+            if "fl_omega*t" in line and "const double" in line]
+    assert spin, "the hub's spin angle is on the tape"
+    indicators = function_text(source, "mbs_events")
+    assert not any(f"{name})" in indicators for name in spin)  # no cos(phi), sin(phi) of it
+    assert "fl_omega" not in indicators
+    assert any(f"cos({name})" in source for name in spin)  # the right-hand side still rotates the wheel
+
+
+def test_the_quarter_car_locates_the_same_events_as_with_the_former_indicators():
+    """bump_10 of the quarter car with mbs_events printed both ways (the former: ANGLE_FREE_INDICATORS False, through
+    mbs.pipeline.generate, which the derivation cache does not stand between): the same events in the same order,
+    at the same times and with the same results to round-off."""
+    import dataclasses
+
+    import numpy as np
+
+    import mbs
+    from mbs import pipeline
+    from mbs.runtime import build
+    from mbs.runtime.backends import CBackend
+    from mbs.runtime.translation_units import COLD_APART
+
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
+    current = system.simulate("bump_10")
+    events.ANGLE_FREE_INDICATORS = False
+    try:
+        former = pipeline.generate(system.model, system.scene("bump_10"), cold_apart=COLD_APART)
+    finally:
+        events.ANGLE_FREE_INDICATORS = True
+    assert function_text(former.c_source, "mbs_events") != function_text(system.generate("bump_10").c_source,
+                                                                         "mbs_events")
+    compiled = system.compile("bump_10")
+    model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(former.c_source))))
+    for key in [key for key, value in system._compiled.items() if value is compiled]:
+        system._compiled[key] = model
+    before = system.simulate("bump_10")
+    assert len(current.events) > 0
+    assert [(e["event"], e["direction"]) for e in current.events] == [
+        (e["event"], e["direction"]) for e in before.events]
+    assert np.allclose([e["time"] for e in current.events], [e["time"] for e in before.events], rtol=0, atol=1e-12)
+    for name in current.names:
+        scale = max(1.0, float(np.max(np.abs(before[name]))))
+        assert np.max(np.abs(current[name] - before[name])) <= 1e-9 * scale, name
