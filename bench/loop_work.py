@@ -1,9 +1,10 @@
 """The run-time loop work of the Iltis over the bump (c/loops.c), current against former, in instructions.
 
-    python bench/loop_work.py [--scene bump_10] [--no-rows]
+    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR]
 
 Two builds of the scene's model: the current one and the former (FORMER_FLAGS, each a compile-time switch of
-c/loops.c that brings back the former arithmetic of one change).  For each build, one run of the scene's
+c/loops.c that brings back the former arithmetic of one change; with --baseline DIR instead the run-time C files of
+DIR, another revision's runtime/c, e.g. `git archive REV runtime/c | tar -x -C /tmp/base`, found first: -I DIR).  For each build, one run of the scene's
 integration (`Solver.sample`, the scene's own integrator and tolerances) under valgrind's callgrind
 (load-independent), per call or step:
 
@@ -43,7 +44,7 @@ from former_builds import flagged_build, simulate_with  # noqa: E402
 from output_rows import callgrind as rows_callgrind  # noqa: E402
 
 #: The former behaviour, one switch per change (c/loops.c).
-FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1")
+FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1", "-DMBS_LOOP_BLOCK_FORMER=1")
 
 #: The child: one simulate of the scene with the model built with the flags given; callgrind collects inside
 #: Solver.sample only.  Prints the accepted steps and rhs calls.
@@ -114,12 +115,15 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="bump_10")
     ap.add_argument("--no-rows", action="store_true", help="skip the rows of the results")
+    ap.add_argument("--baseline", metavar="DIR", default="",
+                    help="the former: the run-time C files of DIR (another revision's runtime/c) instead of the flags")
     args = ap.parse_args(argv)
+    former_flags = (f"-I{Path(args.baseline).resolve()}",) if args.baseline else FORMER_FLAGS
     if shutil.which("valgrind") is None or shutil.which("callgrind_annotate") is None:
         raise SystemExit("needs valgrind (callgrind, callgrind_annotate) on the PATH")
     system = mbs.load(MODEL)
-    builds = {"current": (), "former": FORMER_FLAGS}
-    print(f"Iltis {args.scene}: the loops' run-time work, instructions (callgrind); former: {' '.join(FORMER_FLAGS)}")
+    builds = {"current": (), "former": former_flags}
+    print(f"Iltis {args.scene}: the loops' run-time work, instructions (callgrind); former: {' '.join(former_flags)}")
     with tempfile.TemporaryDirectory(prefix="mbs-bench-loop-work-") as tmp:
         tmp = Path(tmp)
         parts = {label: run_parts(args.scene, flags, tmp) for label, flags in builds.items()}
@@ -139,13 +143,13 @@ def main(argv=None) -> int:
             saved = tmp / "rows.npz"
             rows = saved_rows(system, args.scene, saved)
             libraries = {"current": Path(system.compile(args.scene).backend.module.__file__),
-                         "former": flagged_build(system, args.scene, FORMER_FLAGS).backend.module.__file__}
+                         "former": flagged_build(system, args.scene, former_flags).backend.module.__file__}
             per_row = {label: rows_callgrind(Path(path), saved, tmp)["total"] / rows
                        for label, path in libraries.items()}
             print("  " + f"{f'rows ({rows}), a row':<34}" + "".join(f"{per_row[label]:>14,.0f}" for label in builds)
                   + f"{per_row['current'] / per_row['former']:>8.3f}")
     print(f"  simulate({args.scene!r}) current against former: "
-          + compare_results(system, args.scene, flagged_build(system, args.scene, FORMER_FLAGS)))
+          + compare_results(system, args.scene, flagged_build(system, args.scene, former_flags)))
     return 0
 
 
