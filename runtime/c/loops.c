@@ -677,7 +677,7 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
  * steering rod's).  Each size listed costs compiler CPU once per model (the glue unit's 0.66 s grew to 0.93 s with
  * size 6, 1.07 s with sizes 3 and 6, 1.32 s with every size from 2 to 6); other sizes gain a little all the same
  * (the 10-four-bar chain's one block of 20 rows: 1 % fewer instructions a call). */
-#if MBS_LOOP_BLOCK_FORMER
+#if MBS_LOOP_BLOCK_FORMER || MBS_NC < 6 || MBS_NV < 6  /* (no block of 6 rows: no instance that could not run) */
 #define MBS_LOOP_BY_SIZE(n, CALL) CALL(n)
 #else
 #define MBS_LOOP_BY_SIZE(n, CALL) \
