@@ -64,10 +64,10 @@
  * independent velocities, then those no loop moves, whose entries are M's) with exact zeros between the blocks of
  * loops that M does not couple (mbs_loop_blocks_coupled).  The same arithmetic in the same order as before these
  * (the same bits), in fewer instructions: the Iltis's loop_rhs 50,000 a call against 52,700 (bench/rhs_instructions.py
- * --baseline with the former runtime/c).  Each block's kernels (its elimination, the solves, its null-space columns
- * and multipliers) are inlined with the block's size a constant for 6 rows, the Iltis corner's (MBS_LOOP_BY_SIZE),
- * their loops unrolled: the same arithmetic again, the loop algebra of a bump_10 rhs 17,023 -> 15,279 instructions
- * and the projection of an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).
+ * --baseline with the former runtime/c).  Each block's kernels (its elimination, the solves and multipliers) are
+ * inlined with the block's size a constant for 6 rows, the Iltis corner's (MBS_LOOP_BY_SIZE), their loops unrolled:
+ * the same arithmetic again, the loop algebra of a bump_10 rhs 17,023 -> 15,868 instructions and the projection of
+ * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -657,9 +657,10 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 /* The kernels of one block of the kept partition (its elimination, solve, null-space columns and multipliers) are
  * inlined with the block's size, its number of pivot rows, a constant for the sizes MBS_LOOP_BY_SIZE lists, so that
  * their loops over the block's rows and columns unroll: tiny loops (a spatial loop's 6 rows and fewer) whose control
- * and index arithmetic cost more than their products.  Other sizes take the same kernels with the size a variable;
- * the same arithmetic in the same order either way (the same bits).  -DMBS_LOOP_BLOCK_FORMER=1: every size a
- * variable (bench/loop_work.py). */
+ * and index arithmetic cost more than their products.  The null space's columns (mbs_loop_null_space_block) keep their
+ * loops: unrolled, they took 500 instructions fewer a call but made the Iltis's loop_rhs about 10 % slower in CPU time
+ * (interleaved medians).  Other sizes take the same kernels with the size a variable; the same arithmetic in the same
+ * order either way (the same bits).  -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
 #ifndef MBS_LOOP_BLOCK_FORMER
 #define MBS_LOOP_BLOCK_FORMER 0
 #endif
@@ -1255,7 +1256,8 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns. */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
- * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists. */
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops
+ * not unrolled (see MBS_LOOP_UNROLL). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
                                              const int *jl, int *start, const int *cpi, int *e)
 {
@@ -1263,11 +1265,9 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
     double *T = w->T, *y = w->y + k0, yt[MBS_NC];
     int *Ti = w->Ti, j, k, c;
     if (!w->forward) {
-        MBS_LOOP_UNROLL
         for (k = 0; k < n; k++) {  /* L11 y = -gddot0 on the block's rows */
             const double *g = B + k * MBS_NV;
             double sum = -w->h[(int)w->rp[k0 + k]];
-            MBS_LOOP_UNROLL
             for (c = 0; c < k; c++) sum -= g[c] * y[c];
             y[k] = sum;
         }
@@ -1277,40 +1277,33 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
         start[j] = *e;
         T[*e] = 1.0;
         Ti[(*e)++] = cpi[jl[j]];
-        MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             const double *g = B + k * MBS_NV;
             double sum = -g[col];
             if (j == j0) {
                 double s0 = y[k];
-                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) {
                     s0 -= g[c] * y[c];
                     sum -= g[c] * yt[c];
                 }
                 y[k] = s0 / g[k];
             } else {
-                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) sum -= g[c] * yt[c];
             }
             yt[k] = sum / g[k];
         }
-        MBS_LOOP_UNROLL
         for (k = 0; k < n; k++) {
             T[*e] = yt[k];
             Ti[(*e)++] = cpi[k0 + k];
         }
     }
     if (j0 == j1) {  /* no independent column moves this block: c0_D alone */
-        MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             double sum = y[k];
-            MBS_LOOP_UNROLL
             for (c = k + 1; c < n; c++) sum -= B[k * MBS_NV + c] * y[c];
             y[k] = sum / B[k * MBS_NV + k];
         }
     }
-    MBS_LOOP_UNROLL
     for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
 }
 
