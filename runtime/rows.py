@@ -64,8 +64,9 @@ def project_rows(data: Workspace, ps, ts: np.ndarray, xs: np.ndarray, which: np.
     :func:`evaluate_rows` of ``project``; on the C back end by ``project_row`` (c/mbs_glue.c, c/loops.c
     mbs_loop_project_row), whose rows start their Newton steps from the factors of G the row before left and
     evaluate and factor G once at the projected positions, where ``project`` does both twice (the Iltis over the
-    bump: 30,500 instructions a row against 41,000; the same projection to round-off).  Returns (rows done, None),
-    or at the first failure (its row, the MbsError)."""
+    bump: 30,500 instructions a row against 41,000; the same projection to round-off, but that a row whose
+    positions lie within 1e-13 of the constraints keeps them, as an accepted step does: c/loops.c
+    MBS_LOOP_STEP_KEPT).  Returns (rows done, None), or at the first failure (its row, the MbsError)."""
     name = "project_row" if "project_row" in data.model.functions else "project"
     return evaluate_rows(data, name, ps, ts, xs, which, projected)
 

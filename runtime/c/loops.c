@@ -64,7 +64,10 @@
  * independent velocities, then those no loop moves, whose entries are M's) with exact zeros between the blocks of
  * loops that M does not couple (mbs_loop_blocks_coupled).  The same arithmetic in the same order as before these
  * (the same bits), in fewer instructions: the Iltis's loop_rhs 50,000 a call against 52,700 (bench/rhs_instructions.py
- * --baseline with the former runtime/c).
+ * --baseline with the former runtime/c).  Each block's kernels (its elimination, the solves and multipliers) are
+ * inlined with the block's size a constant for 6 rows, the Iltis corner's (MBS_LOOP_BY_SIZE), their loops unrolled:
+ * the same arithmetic again, the loop algebra of a bump_10 rhs 17,023 -> 15,868 instructions and the projection of
+ * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -154,6 +157,19 @@
 #define MBS_LOOP_STEP_KEPT 0.0
 #else
 #define MBS_LOOP_STEP_KEPT 1e-13
+#endif
+/* A row of the results (mbs_loop_project_row) within MBS_LOOP_STEP_KEPT of the position constraints keeps its positions
+ * as an accepted step does (its velocities and accelerations are solved at them), where the polish took them to the
+ * round-off floor with the previous row's factors: the Iltis over the bump at 10 m/s, two rows in three of those
+ * polished, for 6,400 instructions each.  The rows feed nothing back into the run.  -DMBS_LOOP_ROW_POLISH_FORMER=1:
+ * every row polished (bench/loop_work.py). */
+#ifndef MBS_LOOP_ROW_POLISH_FORMER
+#define MBS_LOOP_ROW_POLISH_FORMER 0
+#endif
+/* -DMBS_LOOP_RECHECK_FORMER=1: the constraints evaluated once more after the polish of an accepted step that drifted
+ * beyond MBS_LOOP_TOL, where its last Newton step left their residual at those very positions (bench/loop_work.py). */
+#ifndef MBS_LOOP_RECHECK_FORMER
+#define MBS_LOOP_RECHECK_FORMER 0
 #endif
 
 #define MBS_LOOP_SINGULAR 1
@@ -638,6 +654,91 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     *bl.clean = 0;
 }
 
+/* The kernels of one block of the kept partition (its elimination, solve, null-space columns and multipliers) are
+ * inlined with the block's size, its number of pivot rows, a constant for the sizes MBS_LOOP_BY_SIZE lists, so that
+ * their loops over the block's rows and columns unroll: tiny loops (a spatial loop's 6 rows and fewer) whose control
+ * and index arithmetic cost more than their products.  The null space's columns (mbs_loop_null_space_block) keep their
+ * loops: unrolled, they took 500 instructions fewer a call but made the Iltis's loop_rhs about 10 % slower in CPU time
+ * (interleaved medians).  Other sizes take the same kernels with the size a variable; the same arithmetic in the same
+ * order either way (the same bits).  -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
+#ifndef MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_BLOCK_FORMER 0
+#endif
+#if defined(__GNUC__) && !defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL _Pragma("GCC unroll 8")
+#elif defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL _Pragma("unroll 8")
+#else
+#define MBS_LOOP_UNROLL
+#endif
+#if defined(__GNUC__)
+#define MBS_LOOP_INLINE static inline __attribute__((always_inline))
+#else
+#define MBS_LOOP_INLINE static inline
+#endif
+/* CALL(size) with size n, a constant for the sizes listed, else a variable: two loops closed by spherical joints
+ * (3 rows each) and coupled, 6 rows (the Iltis's corners, whose wheel carrier closes the leaf spring's loop and the
+ * steering rod's).  Each size listed costs compiler CPU once per model (the glue unit's 0.66 s grew to 0.93 s with
+ * size 6, 1.07 s with sizes 3 and 6, 1.32 s with every size from 2 to 6); other sizes gain a little all the same
+ * (the 10-four-bar chain's one block of 20 rows: 1 % fewer instructions a call). */
+#if MBS_LOOP_BLOCK_FORMER || MBS_NC < 6 || MBS_NV < 6  /* (no block of 6 rows: no instance that could not run) */
+#define MBS_LOOP_BY_SIZE(n, CALL) CALL(n)
+#else
+#define MBS_LOOP_BY_SIZE(n, CALL) \
+    do {                          \
+        switch (n) {              \
+        case 6: CALL(6); break;   \
+        default: CALL(n); break;  \
+        }                         \
+    } while (0)
+#endif
+/* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
+ * (nj) and, when `forward`, y riding along; returns the smallest relative pivot so far, or -1 when a pivot
+ * vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, so that its loops unroll. */
+MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y, const int k0, const int n,
+                                             const int *jl, const int nj, const int forward, const double amax0,
+                                             double minpivot)
+{
+    double *B = A + k0 * MBS_NV + k0, tmp;
+    int k, i, c, e;
+    MBS_LOOP_UNROLL
+    for (k = 0; k < n; k++) {
+        int pi = k;
+        double amax = fabs(B[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
+        MBS_LOOP_UNROLL
+        for (i = k + 1; i < n; i++) {
+            const double v = fabs(B[i * MBS_NV + k]);
+            if (v > amax) { amax = v; pi = i; }
+        }
+        if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return -1.0;
+        minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
+        if (pi != k) {
+            double *x = B + k * MBS_NV, *z = B + pi * MBS_NV;
+            for (c = 0; c < n; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
+            x = A + (k0 + k) * MBS_NV;
+            z = A + (k0 + pi) * MBS_NV;
+            for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
+            tmp = rp[k0 + k]; rp[k0 + k] = rp[k0 + pi]; rp[k0 + pi] = tmp;
+            if (forward) { tmp = y[k0 + k]; y[k0 + k] = y[k0 + pi]; y[k0 + pi] = tmp; }
+        }
+        MBS_LOOP_UNROLL
+        for (i = k + 1; i < n; i++) {
+            double l, *bi = B + i * MBS_NV, *ai = A + (k0 + i) * MBS_NV;
+            const double *bk = B + k * MBS_NV, *ak = A + (k0 + k) * MBS_NV;
+            if (bi[k] == 0.0) continue;
+            l = bi[k] /= bk[k];
+            MBS_LOOP_UNROLL
+            for (c = k + 1; c < n; c++) bi[c] -= l * bk[c];
+            if (nj == 1)  /* a loop's block with one independent column (the Iltis's): no loop for it */
+                ai[jl[0]] -= l * ak[jl[0]];
+            else
+                for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
+            if (forward) y[k0 + i] -= l * y[k0 + k];  /* the forward substitution's terms, in its order */
+        }
+    }
+    return minpivot;
+}
+
 /* Factor G (w->G0, as mbs_loop_jacobian_at left it) with the kept partition, block by block (its plan): each
  * block's pivot rows in the kept column order into w->G, the rest of its r rows zero, row exchanges among the
  * block's rows only (they leave the partition unchanged).  rp, cp set.  Returns the smallest pivot relative to
@@ -650,7 +751,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     const double *kp = w->keep, *G0 = w->G0;
     const int r = (int)kp[1];
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *A = w->G, *y = w->y, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL, tmp;
+    double *A = w->G, *y = w->y, amax0 = 0.0, probe = 0.0, minpivot = HUGE_VAL;
     const int forward = w->terms;  /* gddot0 at hand: its forward substitution rides along (w->forward) */
     int i, k, c, b, e;
     w->forward = 0;
@@ -685,37 +786,12 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     if (!(probe == 0.0)) return -1.0;
     if (!(amax0 > 0.0)) return 0.0;
     for (b = 0; b < *bl.nb; b++) {
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-        for (k = k0; k < k1; k++) {
-            int pi = k;
-            double amax = fabs(A[k * MBS_NV + k]);  /* (G is finite here: the probe above) */
-            const double *a = A + (k + 1) * MBS_NV + k;  /* down column k */
-            for (i = k + 1; i < k1; i++, a += MBS_NV) {
-                const double v = fabs(*a);
-                if (v > amax) { amax = v; pi = i; }
-            }
-            if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return 0.0;
-            minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
-            if (pi != k) {
-                double *x = A + k * MBS_NV, *z = A + pi * MBS_NV;
-                for (c = k0; c < k1; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
-                for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
-                tmp = w->rp[k]; w->rp[k] = w->rp[pi]; w->rp[pi] = tmp;
-                if (forward) { tmp = y[k]; y[k] = y[pi]; y[pi] = tmp; }
-            }
-            for (i = k + 1; i < k1; i++) {
-                double l, *ai = A + i * MBS_NV;
-                const double *ak = A + k * MBS_NV;
-                if (ai[k] == 0.0) continue;
-                l = ai[k] /= ak[k];
-                for (c = k + 1; c < k1; c++) ai[c] -= l * ak[c];
-                if (nj == 1)  /* a loop's block with one independent column (the Iltis's): no loop for it */
-                    ai[jl[0]] -= l * ak[jl[0]];
-                else
-                    for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
-                if (forward) y[i] -= l * y[k];  /* the forward substitution's terms, in its order */
-            }
-        }
+        const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
+#define MBS_LOOP_ELIMINATE(size) \
+        minpivot = mbs_loop_eliminate_block(A, w->rp, y, k0, size, jl, nj, forward, amax0, minpivot)
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_ELIMINATE);
+#undef MBS_LOOP_ELIMINATE
+        if (minpivot < 0.0) return 0.0;
     }
     w->forward = forward;
     return minpivot;
@@ -729,30 +805,49 @@ static void mbs_loop_plan_dirty(const mbs_loop_work *w)
 
 /* mbs_loop_solve with the factors of mbs_loop_factor_blocks: each block's rows from its own columns (the same
  * arithmetic in the same order: the other blocks' entries of a row are exact zeros). */
+/* One block's part of mbs_loop_solve_blocks (n pivot rows from position k0, its independent columns jl), inlined with n
+ * a constant for the sizes MBS_LOOP_BY_SIZE lists. */
+MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *h, double *z, const int k0, const int n,
+                                        const int *jl, const int nj)
+{
+    const double *B = w->G + k0 * MBS_NV + k0;
+    double *y = w->y + k0;
+    int c, e, k;
+    MBS_LOOP_UNROLL
+    for (k = 0; k < n; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
+        double s = h ? -h[(int)w->rp[k0 + k]] : 0.0;
+        MBS_LOOP_UNROLL
+        for (c = 0; c < k; c++) s -= B[k * MBS_NV + c] * y[c];
+        y[k] = s;
+    }
+    for (e = 0; e < nj; e++) {
+        const double zj = z[(int)w->cp[jl[e]]];
+        const double *a = w->G + k0 * MBS_NV + jl[e];
+        if (zj != 0.0) {
+            MBS_LOOP_UNROLL
+            for (k = 0; k < n; k++) y[k] -= a[k * MBS_NV] * zj;
+        }
+    }
+    MBS_LOOP_UNROLL
+    for (k = n - 1; k >= 0; k--) {  /* U11 z_D = y */
+        double s = y[k];
+        MBS_LOOP_UNROLL
+        for (c = k + 1; c < n; c++) s -= B[k * MBS_NV + c] * y[c];
+        y[k] = s / B[k * MBS_NV + k];
+    }
+    MBS_LOOP_UNROLL
+    for (k = 0; k < n; k++) z[(int)w->cp[k0 + k]] = y[k];
+}
+
 static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z)
 {
-    const double *A = w->G;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *y = w->y;
-    int b, c, e, k;
+    int b;
     for (b = 0; b < *bl.nb; b++) {
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-        for (k = k0; k < k1; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
-            double s = h ? -h[(int)w->rp[k]] : 0.0;
-            for (c = k0; c < k; c++) s -= A[k * MBS_NV + c] * y[c];
-            y[k] = s;
-        }
-        for (e = 0; e < nj; e++) {
-            const double zj = z[(int)w->cp[jl[e]]];
-            if (zj != 0.0)
-                for (k = k0; k < k1; k++) y[k] -= A[k * MBS_NV + jl[e]] * zj;
-        }
-        for (k = k1 - 1; k >= k0; k--) {  /* U11 z_D = y */
-            double s = y[k];
-            for (c = k + 1; c < k1; c++) s -= A[k * MBS_NV + c] * y[c];
-            y[k] = s / A[k * MBS_NV + k];
-        }
-        for (k = k0; k < k1; k++) z[(int)w->cp[k]] = y[k];
+        const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
+#define MBS_LOOP_SOLVE(size) mbs_loop_solve_block(w, h, z, k0, size, jl, nj)
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_SOLVE);
+#undef MBS_LOOP_SOLVE
     }
 }
 
@@ -886,17 +981,22 @@ static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_w
 
 /* The polishing Newton steps with the factors at hand after a converged projection from factors kept from before
  * (mbs_loop_project_stamped, mbs_loop_project_from_row): at most MBS_LOOP_POLISH_STEPS while the residual `res` is
- * above MBS_LOOP_POLISH and each halves it; a step that does not reduce it is undone (the round-off floor). */
-static int mbs_loop_polish(double t, double *q, const double *p, mbs_loop_work *w, int r, double res)
+ * above MBS_LOOP_POLISH and each halves it; a step that does not reduce it is undone (the round-off floor).
+ * *after (when not NULL): max |g| at the positions left, which w->g holds, or -1 when a step was undone (w->g then
+ * holds the residual of the positions undone, not of those left). */
+static int mbs_loop_polish(double t, double *q, const double *p, mbs_loop_work *w, int r, double res, double *after)
 {
     int i, k, s;
+    if (after) *after = res;
     for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
         const double before = res;
         if ((s = mbs_loop_newton_step(t, q, p, w, r)) != 0) return s;
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        if (after) *after = res;
         if (!(res < before)) {  /* at the round-off floor: undo this step */
             for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
             mbs_loop_normalize_q(q);
+            if (after) *after = -1.0;
             break;
         }
         if (res > 0.5 * before) break;
@@ -1155,55 +1255,70 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * forward substitution (unless the elimination did it, w->forward), then the back substitutions with U11 of c0_D
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns. */
+/* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops
+ * not unrolled (see MBS_LOOP_UNROLL). */
+MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
+                                             const int *jl, int *start, const int *cpi, int *e)
+{
+    const double *B = w->G + k0 * MBS_NV + k0;
+    double *T = w->T, *y = w->y + k0, yt[MBS_NC];
+    int *Ti = w->Ti, j, k, c;
+    if (!w->forward) {
+        for (k = 0; k < n; k++) {  /* L11 y = -gddot0 on the block's rows */
+            const double *g = B + k * MBS_NV;
+            double sum = -w->h[(int)w->rp[k0 + k]];
+            for (c = 0; c < k; c++) sum -= g[c] * y[c];
+            y[k] = sum;
+        }
+    }
+    for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
+        const int col = jl[j] - k0;  /* relative to the block's first column */
+        start[j] = *e;
+        T[*e] = 1.0;
+        Ti[(*e)++] = cpi[jl[j]];
+        for (k = n - 1; k >= 0; k--) {
+            const double *g = B + k * MBS_NV;
+            double sum = -g[col];
+            if (j == j0) {
+                double s0 = y[k];
+                for (c = k + 1; c < n; c++) {
+                    s0 -= g[c] * y[c];
+                    sum -= g[c] * yt[c];
+                }
+                y[k] = s0 / g[k];
+            } else {
+                for (c = k + 1; c < n; c++) sum -= g[c] * yt[c];
+            }
+            yt[k] = sum / g[k];
+        }
+        for (k = 0; k < n; k++) {
+            T[*e] = yt[k];
+            Ti[(*e)++] = cpi[k0 + k];
+        }
+    }
+    if (j0 == j1) {  /* no independent column moves this block: c0_D alone */
+        for (k = n - 1; k >= 0; k--) {
+            double sum = y[k];
+            for (c = k + 1; c < n; c++) sum -= B[k * MBS_NV + c] * y[c];
+            y[k] = sum / B[k * MBS_NV + k];
+        }
+    }
+    for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
+}
+
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
 {
-    const double *G = w->G;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
-    double *T = w->T, *y = w->y, yt[MBS_NC];
-    int *Ti = w->Ti, b, j, k, c, e = 0;
+    double *T = w->T;
+    int *Ti = w->Ti, b, j, e = 0;
     const int m = MBS_NV - r;
     memset(w->c0, 0, MBS_NV * sizeof(double));
     for (b = 0; b < *bl.nb; b++) {
-        const int k0 = bl.k0[b], k1 = bl.k0[b + 1], j0 = bl.j0[b], j1 = bl.j0[b + 1];
-        if (!w->forward)
-            for (k = k0; k < k1; k++) {  /* L11 y = -gddot0 on the block's rows */
-                const double *g = G + k * MBS_NV;
-                double sum = -w->h[(int)w->rp[k]];
-                for (c = k0; c < k; c++) sum -= g[c] * y[c];
-                y[k] = sum;
-            }
-        for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
-            const int col = bl.jl[j];
-            start[j] = e;
-            T[e] = 1.0;
-            Ti[e++] = cpi[col];
-            for (k = k1 - 1; k >= k0; k--) {
-                const double *g = G + k * MBS_NV;
-                double sum = -g[col];
-                if (j == j0) {
-                    double s0 = y[k];
-                    for (c = k + 1; c < k1; c++) {
-                        s0 -= g[c] * y[c];
-                        sum -= g[c] * yt[c];
-                    }
-                    y[k] = s0 / g[k];
-                } else {
-                    for (c = k + 1; c < k1; c++) sum -= g[c] * yt[c];
-                }
-                yt[k] = sum / g[k];
-            }
-            for (k = k0; k < k1; k++) {
-                T[e] = yt[k];
-                Ti[e++] = cpi[k];
-            }
-        }
-        if (j0 == j1)  /* no independent column moves this block: c0_D alone */
-            for (k = k1 - 1; k >= k0; k--) {
-                double sum = y[k];
-                for (c = k + 1; c < k1; c++) sum -= G[k * MBS_NV + c] * y[c];
-                y[k] = sum / G[k * MBS_NV + k];
-            }
-        for (k = k0; k < k1; k++) w->c0[cpi[k]] = y[k];
+        const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, j0 = bl.j0[b], j1 = bl.j0[b + 1];
+#define MBS_LOOP_NULL_SPACE(size) mbs_loop_null_space_block(w, k0, size, j0, j1, bl.jl, start, cpi, &e)
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_NULL_SPACE);
+#undef MBS_LOOP_NULL_SPACE
     }
     w->forward = 0;  /* y is c0_D now */
     for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
@@ -1694,18 +1809,23 @@ static int mbs_loop_stamp_holds(double t, const double *x, const double *p, cons
  * residual above MBS_LOOP_STEP_DRIFT, or above MBS_LOOP_TOL after the polish) goes the way of mbs_project. */
 static int mbs_loop_project_stamped(double t, const double *x, const double *p, mbs_loop_work *w)
 {
-    double *q = w->xc, res;
+    double *q = w->xc, res, after;
     const int r = (int)w->stamp[3];
     int i, s;
     w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
-    res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+    after = res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
     if (!(res <= MBS_LOOP_STEP_DRIFT)) return -1;
-    if (res > MBS_LOOP_STEP_KEPT && (s = mbs_loop_polish(t, q, p, w, r, res)) != 0) return s;
-    if (res > MBS_LOOP_TOL) {  /* drifted beyond the tolerance: within it after the polish, else projected afresh */
-        if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
-        if (!(mbs_loop_maxabs(w->g, MBS_NC, NULL) <= MBS_LOOP_TOL)) return -1;
+    if (res > MBS_LOOP_STEP_KEPT && (s = mbs_loop_polish(t, q, p, w, r, res, &after)) != 0) return s;
+    if (res > MBS_LOOP_TOL) {  /* drifted beyond the tolerance: within it after the polish, else projected afresh;
+                                * the polish's last residual is that of the positions it left unless it undid a
+                                * step (the same constraints at the same positions: the same bits) */
+        if (after < 0.0 || MBS_LOOP_RECHECK_FORMER) {
+            if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+            after = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+        }
+        if (!(after <= MBS_LOOP_TOL)) return -1;
     }
     /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, dv_I = 0 */
     if ((s = mbs_constraint_velocity(t, w->xc, p, w->c3, w->tree)) != 0) return s;
@@ -1772,28 +1892,44 @@ static double mbs_loop_mass_row_dot(const double *restrict M, int c, const doubl
     return sum;
 }
 
+/* One block's part of mbs_loop_lambda (n pivot rows from position k0), inlined with n a constant for the sizes
+ * MBS_LOOP_BY_SIZE lists. */
+MBS_LOOP_INLINE void mbs_loop_lambda_block(mbs_loop_work *w, const int k0, const int n)
+{
+    const double *B = w->G + k0 * MBS_NV + k0;
+    double *y = w->y + k0;
+    int i, j, k;
+    MBS_LOOP_UNROLL
+    for (k = 0; k < n; k++) {
+        double sum = mbs_loop_mass_row_dot(w->M, (int)w->cp[k0 + k], w->vd, -w->f[(int)w->cp[k0 + k]]);
+        MBS_LOOP_UNROLL
+        for (j = 0; j < k; j++) sum -= B[j * MBS_NV + k] * y[j];  /* U11^T y = b */
+        y[k] = sum / B[k * MBS_NV + k];
+    }
+    MBS_LOOP_UNROLL
+    for (k = n - 1; k >= 0; k--) {  /* L11^T z = y */
+        MBS_LOOP_UNROLL
+        for (i = k + 1; i < n; i++) y[k] -= B[i * MBS_NV + k] * y[i];
+    }
+}
+
 /* lambda from the accelerations just solved (w->vd, with M, f and the factors of G at w->xc, rank r). */
 static int mbs_loop_lambda(mbs_loop_work *w, int r, double *lambda)
 {
-    const double *A = w->G;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     const int blocks = !MBS_LOOP_ROWS_FORMER && w->blocked && bl.k0[*bl.nb] == r;
-    int i, j, k, b, k0 = 0, k1 = r;
+    int k, b;
     /* b = (M vdot - f) on the dependent columns; G_RD^T lambda_R = b with G_RD = L11 U11; with the kept
      * partition's factors block by block (the entries of L11 and U11 outside a block are exact zeros) */
-    for (b = 0; b < (blocks ? *bl.nb : 1); b++) {
-        if (blocks) {
-            k0 = bl.k0[b];
-            k1 = bl.k0[b + 1];
+    if (!blocks)
+        mbs_loop_lambda_block(w, 0, r);
+    else
+        for (b = 0; b < *bl.nb; b++) {
+            const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0;
+#define MBS_LOOP_LAMBDA(size) mbs_loop_lambda_block(w, k0, size)
+            MBS_LOOP_BY_SIZE(n, MBS_LOOP_LAMBDA);
+#undef MBS_LOOP_LAMBDA
         }
-        for (k = k0; k < k1; k++) {
-            double sum = mbs_loop_mass_row_dot(w->M, (int)w->cp[k], w->vd, -w->f[(int)w->cp[k]]);
-            for (j = k0; j < k; j++) sum -= A[j * MBS_NV + k] * w->y[j];  /* U11^T y = b */
-            w->y[k] = sum / A[k * MBS_NV + k];
-        }
-        for (k = k1 - 1; k >= k0; k--)  /* L11^T z = y */
-            for (i = k + 1; i < k1; i++) w->y[k] -= A[i * MBS_NV + k] * w->y[i];
-    }
     memset(lambda, 0, MBS_NC * sizeof(double));
     for (k = 0; k < r; k++) lambda[(int)w->rp[k]] = w->y[k];
     return isfinite(mbs_loop_maxabs(lambda, MBS_NC, NULL)) ? 0 : MBS_LOOP_NONFINITE;
@@ -1909,7 +2045,8 @@ static int mbs_loop_project_from_row(double t, const double *x, const double *p,
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res <= MBS_LOOP_SLOW * before)) return -1;
     }
-    if (mbs_loop_polish(t, q, p, w, r, res) != 0) return -1;
+    if ((res > MBS_LOOP_STEP_KEPT || MBS_LOOP_ROW_POLISH_FORMER) && mbs_loop_polish(t, q, p, w, r, res, NULL) != 0)
+        return -1;
     if (mbs_loop_jacobian_at(t, w->xc, p, w, 1) != 0) return -1;
     if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
     mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
