@@ -67,8 +67,9 @@ def event_tables(model) -> EventTables:
 @dataclass
 class Segments:
     """Rows of the run: times, states, and per row the index of the p copy in force.  Blocks of sample rows and
-    single rows at events are kept as they come (views, no copies) and joined once at the end; so are the p
-    copies (blocks of rows: replay adds one per log, `values` joins them)."""
+    single rows at events are kept as they come (views, no copies), and so are replay's blocks, as the places of
+    their pieces within the block (index arithmetic, no rows copied); `arrays` writes every row once into the
+    joined arrays.  The p copies likewise (blocks of rows: replay adds one per log, `values` joins them)."""
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
@@ -107,25 +108,34 @@ class Segments:
             self.states.append(states)
             self.counts.append((len(times), which, twin))
 
+    def append_scattered(self, rows: int, pieces: tuple) -> None:
+        """A block of ``rows`` rows given as pieces (places within the block, times, states, p copy per row, twin
+        flags or None), which together fill each of its rows once: placed by `arrays` straight into the joined
+        arrays."""
+        if rows:
+            self.times.append(None)
+            self.states.append(pieces)
+            self.counts.append((rows, None, None))
+
     def arrays(self, nx: int):
-        """(times, states, index of the p copy, twin mask) of every row: each joined by one numpy call, the blocks
-        with a p copy or a twin flag per row put in place after."""
+        """(times, states, index of the p copy, twin mask) of every row: each block written once in its place."""
         rows = sum(n for n, _, _ in self.counts)
-        if not rows:
-            return np.empty(0), np.empty((0, nx)), np.empty(0, dtype=int), np.zeros(0, dtype=bool)
-        times = np.concatenate(self.times).astype(float, copy=False)
-        states = np.concatenate(self.states)
-        scalar = [k if not isinstance(k, np.ndarray) else 0 for _, k, _ in self.counts]
-        which = np.repeat(np.array(scalar, dtype=int), [n for n, _, _ in self.counts])
-        twin = np.zeros(rows, dtype=bool)
+        times, states = np.empty(rows), np.empty((rows, nx))
+        which, twin = np.empty(rows, dtype=int), np.zeros(rows, dtype=bool)
         i = 0
-        for n, k, same in self.counts:
-            if isinstance(k, np.ndarray):
-                which[i:i + n] = k
-            if isinstance(same, np.ndarray):
-                twin[i:i + n] = same
-            elif same:
-                twin[i] = same  # a single row
+        for block_times, block_states, (n, k, same) in zip(self.times, self.states, self.counts):
+            if block_times is None:  # a scattered block (append_scattered)
+                t_view, x_view, which_view, twin_view = times[i:i + n], states[i:i + n], which[i:i + n], twin[i:i + n]
+                for place, t, x, copy, flags in block_states:
+                    t_view[place], x_view[place], which_view[place] = t, x, copy
+                    if flags is not None:
+                        twin_view[place] = flags
+            else:
+                times[i:i + n], states[i:i + n], which[i:i + n] = block_times, block_states, k
+                if isinstance(same, np.ndarray):
+                    twin[i:i + n] = same
+                elif same:
+                    twin[i] = same  # a single row
             i += n
         return times, states, which, twin
 
@@ -470,7 +480,8 @@ _DIRECTIONS = np.array([DIRECTION_NAMES[-1], DIRECTION_NAMES[1]], dtype=object)
 
 
 def _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m) -> int:
-    """replay's rows, appended to the segments as one block: returns the first sample row not yet booked."""
+    """replay's rows, appended to the segments as one block (the places of its pieces: Segments.append_scattered, no
+    rows copied here): returns the first sample row not yet booked."""
     # rows: per event its sample rows from the previous event on, the row before it, the row after it unless a
     # sample falls on its time (that sample, filled by C after the restart, is the row after it)
     split = np.maximum(np.searchsorted(times, t_event, side="left"), start)  # first sample row at or after it
@@ -493,15 +504,11 @@ def _place_rows(log, times, states, start, segments, t_event, twin, before, firs
     passed = np.searchsorted(split, samples, side="right")  # events before each sample row
     place = samples - start + passed + afters_before[passed]
     rows = len(samples) + m + int(after.sum())
-    block_t, block_x = np.empty(rows), np.empty((rows, nx))
-    block_which, block_twin = np.empty(rows, dtype=int), np.zeros(rows, dtype=bool)
-    block_t[place], block_x[place], block_which[place] = times[start:split[-1]], states[start:split[-1]], \
-        copy_of[passed]
-    block_t[at], block_x[at], block_which[at] = t_event, log[:, 1:1 + nx], copy_of[:m]
     has = np.flatnonzero(after)
-    block_t[at[has] + 1], block_x[at[has] + 1] = t_event[has], log[has, 1 + nx:1 + 2 * nx]
-    block_which[at[has] + 1], block_twin[at[has] + 1] = first_copy + has, twin[has]
-    segments.append(block_t, block_x, block_which, block_twin)
+    segments.append_scattered(rows, ((place, times[start:split[-1]], states[start:split[-1]], copy_of[passed], None),
+                                     (at, t_event, log[:, 1:1 + nx], copy_of[:m], None),
+                                     (at[has] + 1, t_event[has], log[has, 1 + nx:1 + 2 * nx], first_copy + has,
+                                      twin[has])))
     return int(split[-1])
 
 
