@@ -145,7 +145,8 @@ class EventLog:
     events only flip switches' branches as columns (times, event names, directions, changes: replay's
     _book_branches), without an object per entry: bump_10 books 390, and an EventRecord each, then a row each for
     res.events, cost 2.0 M of the 16.9 M instructions of its Python (bench/driver_instructions.py).  ``rows()``:
-    res.events, a dict per entry in the order booked, as EventRecord.as_row makes them."""
+    res.events, a dict per entry in the order booked, as EventRecord.as_row makes them, made when res.events is first
+    read (runtime/results.py: the results keep the log itself)."""
 
     __slots__ = ("_blocks", "_size")
 
