@@ -36,6 +36,10 @@ class EventTables:
     switches: np.ndarray      # (intp) the indicators of switches ...
     switch_flags: np.ndarray  # (intp) ... and their branch flags, when no two share one (else None)
     switch_column: np.ndarray  # (intp) per indicator its place among the switches (-1: no switch)
+    can_rise: np.ndarray      # (bool) directions >= 0, and ...
+    can_fall: np.ndarray      # (bool) ... directions <= 0: the crossing test's masks, made once
+    rough: np.ndarray         # (bool) not smooth
+    switch_span: slice | None  # switch_flags as a slice of p, when they are consecutive (else None)
 
     @classmethod
     def of(cls, model) -> "EventTables":
@@ -54,10 +58,18 @@ class EventTables:
         switch_column[switches] = np.arange(switches.size)
         names = tuple(s.name for s in specs)
         object_names = np.array(names + (None,), dtype=object)[:-1]  # (None: a 1-D array even of tuples)
-        for a in (switches, switch_column, object_names):
+        can_rise, can_fall, rough = directions >= 0, directions <= 0, ~smooth
+        for a in (switches, switch_column, object_names, can_rise, can_fall, rough):
             a.flags.writeable = False
+        consecutive = switch_flags is not None and switch_flags.size and \
+            np.array_equal(switch_flags, np.arange(switch_flags[0], switch_flags[0] + switch_flags.size))
+        span = slice(int(switch_flags[0]), int(switch_flags[0]) + switch_flags.size) if consecutive else None
         return cls(directions, flags, branch_only, not_branch_only, smooth, names, object_names,
-                   switches, switch_flags, switch_column)
+                   switches, switch_flags, switch_column, can_rise, can_fall, rough, span)
+
+    def crossings(self, g_old: np.ndarray, g_new: np.ndarray) -> np.ndarray:
+        """events.crossing_rows(g_old, g_new, directions) with the directions' masks made once: rows of a log."""
+        return ((g_old < 0) & (g_new >= 0) & self.can_rise) | ((g_old > 0) & (g_new <= 0) & self.can_fall)
 
 
 def event_tables(model) -> EventTables:
@@ -378,7 +390,7 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     events = event_tables(model)
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-    fired = crossing_rows(g_old, g_event, events.directions)  # the indicators that fired, per entry
+    fired = events.crossings(g_old, g_event)  # the indicators that fired, per entry
     before = segments.in_force(p_now)
     if m >= BOOK_AT_ONCE and not np.any(fired[:, events.not_branch_only]):
         copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
@@ -428,8 +440,10 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     bump_10 books 390 crossings): (the values in force after each entry, twin flags); p_now ends as the last entry
     left it."""
     events = event_tables(model)
-    m = len(fired_mask)
-    entry, k = np.nonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
+    m, nev = fired_mask.shape
+    crossed = np.flatnonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
+    entry = crossed // nev
+    k = crossed - entry * nev
     flag = events.flags[k]
     new = (g_event[entry, k] > g_old[entry, k]).astype(float)  # rising: the branch 1, falling: 0
     if events.switch_flags is not None:  # each switch its own flag: one crossing per flag and entry at most
@@ -450,7 +464,8 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     times = t_event[entry].tolist()
     records.add_columns(times, events.object_names[k].tolist(), _DIRECTIONS[new.astype(np.intp)].tolist(), changes)
     fired_times += times
-    twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
+    # an entry whose crossings are all of continuous switches (and that has one)
+    twin = (np.bincount(entry, minlength=m) > 0) & (np.bincount(entry, weights=events.rough[k], minlength=m) == 0)
     return copies, twin
 
 
@@ -460,17 +475,24 @@ def _filled_forward(events: EventTables, k: np.ndarray, entry: np.ndarray, new: 
     switches k in entry order (each switch its own flag), their flags set to ``new``: a crossing finds what the
     crossing of its switch before it set (the first finds p_now), an entry the values the last crossing of each
     switch up to it set (no crossing yet: p_now)."""
-    if not entry.size:  # (a log whose entries show no crossing)
-        return new.copy(), np.repeat(p_now[None, :], m, axis=0)
-    column = events.switch_column[k]
-    last = np.full((m, events.switches.size), -1, dtype=np.intp)
-    last[entry, column] = np.arange(entry.size)  # a crossing's index grows with its entry:
-    np.maximum.accumulate(last, axis=0, out=last)  # the last crossing of each switch up to each entry
-    before = np.where(entry > 0, last[entry - 1, column], -1)  # the crossing of its switch before it, if any
-    old = np.where(before >= 0, new[before], p_now[events.flags[k]])
     flags = events.switch_flags
-    copies = np.repeat(p_now[None, :], m, axis=0)
-    copies[:, flags] = np.where(last >= 0, new[last], p_now[flags])
+    size = flags.size
+    # the values a crossing can find: the crossings' own, then the flags' values in p_now, which the negative
+    # indices -size .. -1 reach (a switch's column c at c - size: below every crossing's index, so that the
+    # running maximum below keeps them only until the switch's first crossing)
+    found = np.concatenate((new, p_now[flags]))
+    last = np.empty((m + 1, size), dtype=np.intp)  # row e + 1: the last crossing of each switch up to entry e
+    last[:] = np.arange(-size, 0)
+    column = events.switch_column[k]
+    last[entry + 1, column] = np.arange(entry.size)  # a crossing's index grows with its entry:
+    np.maximum.accumulate(last, axis=0, out=last)  # the last crossing of each switch up to each entry
+    old = found[last[entry, column]]  # the crossing of its switch before it (row entry: up to the entry before)
+    copies = np.empty((m, p_now.size))
+    copies[:] = p_now
+    if events.switch_span is not None:  # (the flags side by side in p: a slice, no index per value)
+        copies[:, events.switch_span] = found[last[1:]]
+    else:
+        copies[:, flags] = found[last[1:]]
     return old, copies
 
 

@@ -107,7 +107,8 @@ def test_twin_contacts_closer_than_the_departure_step_are_one_event_in_the_pytho
     assert closing[0]["time"] == pytest.approx(np.sqrt(2 * h / g), abs=1e-6)  # scipy's event location, rtol 1e-10
 
 
-@pytest.mark.parametrize("flags", [(0, 2, 1), (0, 2, 0)], ids=["a flag each", "two switches share a flag"])
+@pytest.mark.parametrize("flags", [(0, 2, 1), (1, 2, 3), (0, 2, 0)],
+                         ids=["a flag each", "flags side by side in p", "two switches share a flag"])
 def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
     """replay's numpy path for logs whose events only flip branches (event_loop._book_branches: filled forward per
     switch, or per flag where two switches share one) against its entry-by-entry loop (_book_each, which applies
@@ -127,6 +128,7 @@ def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
     fired = event_loop.crossing_rows(g_old, g_event, np.array([s.direction for s in specs]))
     assert fired.sum() > 20 and np.any(fired.sum(axis=1) > 1) and not np.all(fired.any(axis=1))
     start = np.array([0.0, 1.0, 1.0, 7.5])
+    assert (event_loop.event_tables(model).switch_span is not None) == (flags == (1, 2, 3))
     booked = []
     for book in (lambda p, r, f: event_loop._book_each(model, None, log, fired, p, r, f),
                  lambda p, r, f: event_loop._book_branches(model, fired, g_old, g_event, log[:, 0], p, r, f)):
@@ -152,6 +154,21 @@ def test_one_pair_s_crossings_are_those_of_the_rows_mask():
         expected = np.flatnonzero(crossing_rows(g_old, g_new, directions))
         found = crossings(g_old, g_new, directions)
         assert found.dtype == expected.dtype and np.array_equal(found, expected)
+
+
+def test_the_tables_crossings_are_those_of_the_rows_mask():
+    """EventTables.crossings (the directions' masks made once per model) against events.crossing_rows on rows of
+    random indicators with zeros of both signs, NaN and infinities, in every direction."""
+    from types import SimpleNamespace
+
+    from mbs.runtime.events import EventSpec
+    rng = np.random.default_rng(5)
+    values = np.array([-2.0, -0.0, 0.0, 1.5, np.nan, np.inf, -np.inf, 1e-300])
+    directions = rng.choice([-1, 0, 1], 30)
+    model = SimpleNamespace(events=tuple(EventSpec(f"e{k}", int(d)) for k, d in enumerate(directions)))
+    tables = event_loop.EventTables.of(model)
+    g_old, g_new = rng.choice(values, (200, 30)), rng.choice(values, (200, 30))
+    assert np.array_equal(tables.crossings(g_old, g_new), event_loop.crossing_rows(g_old, g_new, directions))
 
 
 def test_the_event_log_s_rows_are_those_of_its_records_in_the_order_booked():
