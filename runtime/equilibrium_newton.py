@@ -179,6 +179,8 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
         if not largest > 0.0:
             break
         chosen.append(j)
+        if len(chosen) == k:  # (the last pivot: nothing left to make orthogonal to it)
+            break
         q = R[:, j] / math.sqrt(largest)  # (both correctly rounded: the same bits as np.sqrt)
         R -= q[:, None] * (q @ R)  # np.outer(q, q @ R), as it computes it
     return chosen
