@@ -49,9 +49,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from: the solvers' set-up, init_switches, the
-#: guard's cycle, a run's memory; 0af93aa before the driver's cuts, 1abfa02 before the first ones).
-BASELINE = "c5d63d1"
+#: The driver before the latest cuts (the commit that work started from: the replay's blocks written once, the event
+#: log's rows made when read, the crossings' masks per model, a kept start's work memory copied once; c5d63d1 before
+#: the solvers' set-up and a run's memory, 0af93aa before the driver's cuts, 1abfa02 before the first ones).
+BASELINE = "d455a0e"
 #: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
 REPEATS = {"calls": 5, "faults": 20, "cpu": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
