@@ -466,11 +466,11 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     crossed = np.flatnonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
     entry = crossed // nev
     k = crossed - entry * nev
-    flag = events.flags[k]
     new = (g_event[entry, k] > g_old[entry, k]).astype(float)  # rising: the branch 1, falling: 0
     if events.switch_flags is not None:  # each switch its own flag: one crossing per flag and entry at most
         old, copies = _filled_forward(events, k, entry, new, p_now, m)
     else:
+        flag = events.flags[k]
         old, copies = np.empty_like(new), np.repeat(p_now[None, :], m, axis=0)
         for f in np.unique(flag).tolist():
             on = np.flatnonzero(flag == f)  # its crossings in order (entries non-decreasing)
