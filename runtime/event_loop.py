@@ -548,12 +548,15 @@ def _place_rows(log, times, states, start, segments, t_event, twin, before, firs
     samples = np.arange(start, split[-1])
     passed = np.searchsorted(split, samples, side="right")  # events before each sample row
     place = samples - start + passed + afters_before[passed]
-    rows = len(samples) + m + int(after.sum())
-    has = np.flatnonzero(after)
+    afters = int(afters_before[-1])
+    rows = len(samples) + m + afters
+    if afters == m:  # every event has its row after it (no sample on an event's time): the log's columns as they are
+        after_rows = (at + 1, t_event, log[:, 1 + nx:1 + 2 * nx], copy_of[1:], twin)
+    else:
+        has = np.flatnonzero(after)
+        after_rows = (at[has] + 1, t_event[has], log[has, 1 + nx:1 + 2 * nx], first_copy + has, twin[has])
     segments.append_scattered(rows, ((place, times[start:split[-1]], states[start:split[-1]], copy_of[passed], None),
-                                     (at, t_event, log[:, 1:1 + nx], copy_of[:m], None),
-                                     (at[has] + 1, t_event[has], log[has, 1 + nx:1 + 2 * nx], first_copy + has,
-                                      twin[has])))
+                                     (at, t_event, log[:, 1:1 + nx], copy_of[:m], None), after_rows))
     return int(split[-1])
 
 

@@ -190,3 +190,32 @@ def test_the_event_log_s_rows_are_those_of_its_records_in_the_order_booked():
     assert [list(row) for row in log.rows()] == [list(r.as_row()) for r in records]  # the keys in the same order
     assert log.events() == [r.event for r in records]
     assert event_loop.event_rows(log) == event_loop.event_rows(records)
+
+
+@pytest.mark.parametrize("on_samples", [False, True], ids=["every event its row after", "events on sample times"])
+def test_a_long_log_s_rows_placed_at_once_are_those_placed_piece_by_piece(monkeypatch, on_samples):
+    """replay's rows of a log of BOOK_AT_ONCE entries or more, placed as one block (event_loop._place_rows: index
+    arithmetic, the log's columns taken as they are where every event has its row after it), against the pieces
+    the short logs append one by one: the same times, states, p copies and twins in the joined arrays.  An event on a
+    sample's time has no row after it (that sample, filled after the restart, is)."""
+    rng = np.random.default_rng(13)
+    nx, times = 2, np.arange(10) / 10  # (k / 10: the doubles nearest to 0.1, 0.3 as the event times below)
+    states = rng.random((times.size, nx))
+    t_event = np.array([0.05, 0.1, 0.15, 0.22, 0.3, 0.41, 0.55, 0.63, 0.77]) if on_samples else \
+        np.array([0.05, 0.12, 0.15, 0.22, 0.33, 0.41, 0.55, 0.63, 0.77])
+    m = t_event.size
+    assert m >= event_loop.BOOK_AT_ONCE
+    log = np.column_stack([t_event, rng.random((m, 2 * nx))])
+    twin = rng.random(m) < 0.5
+    joined = []
+    for at_once in (True, False):
+        monkeypatch.setattr(event_loop, "BOOK_AT_ONCE", event_loop.BOOK_AT_ONCE if at_once else m + 1)
+        segments = event_loop.Segments()
+        segments.add_values(np.zeros((m + 1, 3)))
+        row = event_loop._place_rows(log, times, states, 1, segments, t_event, twin, 0, 1, nx, m)
+        joined.append((row, *segments.arrays(nx)))
+    assert joined[0][0] == joined[1][0]
+    for placed, pieces in zip(joined[0][1:], joined[1][1:]):
+        assert placed.dtype == pieces.dtype and np.array_equal(placed, pieces)
+    # the samples from row 1 up to the last event, and two rows per event but the two on samples (0.1 s, 0.3 s)
+    assert joined[0][1].size == (joined[0][0] - 1) + 2 * m - (2 if on_samples else 0)
