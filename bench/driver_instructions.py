@@ -26,7 +26,9 @@ a bulk copy or fill (the rows' tables, the work memory: memcpy, memset) as about
 1 MB: 1.05 M), more than such a copy costs beside as many instructions of the interpreter.
 
 --faults adds what callgrind does not see: the minor page faults and the system CPU per simulate (getrusage over 20
-warm calls, one process per checkout, scene and start: a first start, and the kept one).  A run's big arrays come
+warm calls, one process per checkout, scene and start: a first start, and the kept one, each run's results alive
+during the next; and a first start whose results are let go before the next run, as a loop over runs that keeps a
+figure of each does).  A run's big arrays come
 from the heap, which glibc gives back to the kernel at the run's end when its free top exceeds the trim threshold;
 the next run then touches fresh pages again, a fault each.  The count depends on the run's peak memory and the
 order of its allocations (deterministic for a given build and sequence of calls, not a measure of load).
@@ -49,9 +51,10 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from: the solvers' set-up, init_switches, the
-#: guard's cycle, a run's memory; 0af93aa before the driver's cuts, 1abfa02 before the first ones).
-BASELINE = "c5d63d1"
+#: The driver before the latest cuts (the commit that work started from: the replay's blocks written once, the event
+#: log's rows made when read, the crossings' masks per model, a kept start's work memory copied once; c5d63d1 before
+#: the solvers' set-up and a run's memory, 0af93aa before the driver's cuts, 1abfa02 before the first ones).
+BASELINE = "d455a0e"
 #: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
 REPEATS = {"calls": 5, "faults": 20, "cpu": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
@@ -71,7 +74,8 @@ assert mbs.__file__.startswith(sys.argv[1]) or sys.argv[1] == "-", mbs.__file__
 system = mbs.load(model)
 first = getattr(system, "forget_starts", lambda: None)  # each a first start (a checkout with kept starts)
 run = {"simulate": lambda: (first(), system.simulate(scene)), "start": lambda: (first(), system.start(scene)),
-       "kept": lambda: system.simulate(scene)}[part]
+       "kept": lambda: system.simulate(scene),
+       "dropped": lambda: (first(), system.simulate(scene), None)[2]}[part]  # (each result let go at once)
 run(); run()
 if how == "cpu":  # the median process CPU time of a call, after a warm-up (no valgrind)
     import statistics, time
@@ -164,8 +168,8 @@ def main(argv=None) -> int:
                 for label in trees for how in ("callgrind",)]
         jobs += [(label, scene, "simulate", "calls") for scene in args.scenes for label in trees]
         if args.faults:
-            jobs += [(label, scene, part, "faults") for scene in args.scenes for part in ("simulate", "kept")
-                     for label in trees]
+            jobs += [(label, scene, part, "faults") for scene in args.scenes
+                     for part in ("simulate", "kept", "dropped") for label in trees]
         with concurrent.futures.ThreadPoolExecutor(args.jobs) as pool:
             futures = {job: pool.submit(child, trees[job[0]], job[1], job[2],
                                         REPEATS.get(job[3], args.repeat), job[3], tmp) for job in jobs}
@@ -196,7 +200,8 @@ def main(argv=None) -> int:
                   f"{1e3 * statistics.median(now):.2f} ms against {1e3 * statistics.median(then):.2f} ms, ratio of "
                   f"the rounds' {statistics.median(ratios):.3f} (rounds: {', '.join(f'{r:.3f}' for r in ratios)})")
         if args.faults:
-            for part, what in (("simulate", "a first start"), ("kept", "the kept start")):
+            for part, what in (("simulate", "a first start"), ("kept", "the kept start"),
+                               ("dropped", "a first start, each result let go before the next run")):
                 (faults_now, sys_now), (faults_then, sys_then) = (counts[(label, scene, part, "faults")]
                                                                   for label in trees)
                 print(f"  minor page faults per simulate from {what}: {faults_now:.1f} against {faults_then:.1f} "

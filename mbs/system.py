@@ -238,20 +238,20 @@ class System:
         them). The work memory goes with the state: the loop solver keeps its partition there from call to call,
         and the run goes on from the one the equilibrium's last call chose, as after a fresh start. vectors: the
         binding's (System._binding), where p and the initial state are kept."""
-        data = Workspace(compiled)
-        data.p, data.x = System._start_vectors(compiled, gen, values, vectors)
-        key = (id(compiled), equilibrium, data.p.tobytes(), data.x.tobytes())
+        p, x0 = System._start_vectors(compiled, gen, values, vectors)
+        key = (id(compiled), equilibrium, p.tobytes(), x0.tobytes())
         kept = self._starts.pop(key, None)
         if kept is None or kept[0] is not compiled:  # (an id is reused only after its object is gone)
+            data = Workspace(compiled)
+            data.p, data.x = p, x0
             System._assemble_into(data, gen)
             if equilibrium:
                 data.x = static_equilibrium(compiled, data, data.x).x
             kept = (compiled, data.x.copy(), data.work.copy())
             while len(self._starts) >= KEPT_STARTS:  # the oldest first (no error if another thread took it)
                 self._starts.pop(next(iter(self._starts), None), None)
-        else:
-            data.x = kept[1]
-            data.work[:] = kept[2]
+        else:  # (its work memory copied once, not zeroed first)
+            data = Workspace._resumed(compiled, p, kept[1], kept[2])
         self._starts[key] = kept  # the most recent last
         return data
 

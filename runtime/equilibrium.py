@@ -72,6 +72,7 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
     frozen = lambda _t, y: data.rhs(t, y)  # noqa: E731  (prescribed motions held at time t)
     solver = get_integrator("RK45")  # driven from Python: this is set-up, not the hot path
     steps = resets = 0
+    acc = None  # |vdot| at x, once evaluated there
     while steps < MAX_STEPS:
         acc = np.abs(_acceleration(data, t, x, nq))
         if acc.max() <= ACCELERATION_TOLERANCE:
@@ -92,7 +93,9 @@ def static_equilibrium(model: CompiledModel, data: Workspace, x0: np.ndarray, t:
         if "project" in model.functions:
             x = data.project(t, x)
         resets += 1
-    acc = np.abs(_acceleration(data, t, x, nq))
+        acc = None  # (x moved)
+    if acc is None:  # (else the loop's last check evaluated it at this x: the same call, the same values)
+        acc = np.abs(_acceleration(data, t, x, nq))
     worst = model.v_names[int(np.argmax(acc))] if acc.size else ""
     # the run starts from here with the velocities it was given (a vehicle cruising at its speed)
     x[nq:] = np.asarray(x0, dtype=float)[nq:]

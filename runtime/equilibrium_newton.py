@@ -147,6 +147,12 @@ class _Rows:
 
     def __call__(self, name: str, states: np.ndarray, size: int) -> np.ndarray:
         out = np.empty((len(states), size))
+        f = self.data.function(name)
+        # the C back end's rows straight away (the arrays are made for it: contiguous, of its types); the rows'
+        # pass of runtime/rows.py when a row fails there (its error) or on another back end
+        if hasattr(f, "rows") and states.flags.c_contiguous and \
+                f.rows(self.ts, states, out, self.ps, self.which) == len(states):
+            return out
         done, error = evaluate_rows(self.data, name, self.ps, self.ts, states, self.which, out)
         if error is not None:
             raise error
@@ -173,6 +179,8 @@ def _pivot_columns(A: np.ndarray, k: int) -> list[int]:
         if not largest > 0.0:
             break
         chosen.append(j)
+        if len(chosen) == k:  # (the last pivot: nothing left to make orthogonal to it)
+            break
         q = R[:, j] / math.sqrt(largest)  # (both correctly rounded: the same bits as np.sqrt)
         R -= q[:, None] * (q @ R)  # np.outer(q, q @ R), as it computes it
     return chosen

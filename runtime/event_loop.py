@@ -36,6 +36,13 @@ class EventTables:
     switches: np.ndarray      # (intp) the indicators of switches ...
     switch_flags: np.ndarray  # (intp) ... and their branch flags, when no two share one (else None)
     switch_column: np.ndarray  # (intp) per indicator its place among the switches (-1: no switch)
+    can_rise: np.ndarray      # (bool) directions >= 0, and ...
+    can_fall: np.ndarray      # (bool) ... directions <= 0: the crossing test's masks, made once
+    rough: np.ndarray         # (bool) not smooth
+    switch_span: slice | None  # switch_flags as a slice of p, when they are consecutive (else None)
+    direction_list: tuple     # directions, smooth and whether any event does more than flip a branch, as
+    smooth_list: tuple        # plain Python values (the loops over a short log's entries)
+    any_not_branch_only: bool
 
     @classmethod
     def of(cls, model) -> "EventTables":
@@ -54,10 +61,19 @@ class EventTables:
         switch_column[switches] = np.arange(switches.size)
         names = tuple(s.name for s in specs)
         object_names = np.array(names + (None,), dtype=object)[:-1]  # (None: a 1-D array even of tuples)
-        for a in (switches, switch_column, object_names):
+        can_rise, can_fall, rough = directions >= 0, directions <= 0, ~smooth
+        for a in (switches, switch_column, object_names, can_rise, can_fall, rough):
             a.flags.writeable = False
+        consecutive = switch_flags is not None and switch_flags.size and \
+            np.array_equal(switch_flags, np.arange(switch_flags[0], switch_flags[0] + switch_flags.size))
+        span = slice(int(switch_flags[0]), int(switch_flags[0]) + switch_flags.size) if consecutive else None
         return cls(directions, flags, branch_only, not_branch_only, smooth, names, object_names,
-                   switches, switch_flags, switch_column)
+                   switches, switch_flags, switch_column, can_rise, can_fall, rough, span,
+                   tuple(directions.tolist()), tuple(smooth.tolist()), bool(not_branch_only.any()))
+
+    def crossings(self, g_old: np.ndarray, g_new: np.ndarray) -> np.ndarray:
+        """events.crossing_rows(g_old, g_new, directions) with the directions' masks made once: rows of a log."""
+        return ((g_old < 0) & (g_new >= 0) & self.can_rise) | ((g_old > 0) & (g_new <= 0) & self.can_fall)
 
 
 def event_tables(model) -> EventTables:
@@ -67,8 +83,9 @@ def event_tables(model) -> EventTables:
 @dataclass
 class Segments:
     """Rows of the run: times, states, and per row the index of the p copy in force.  Blocks of sample rows and
-    single rows at events are kept as they come (views, no copies) and joined once at the end; so are the p
-    copies (blocks of rows: replay adds one per log, `values` joins them)."""
+    single rows at events are kept as they come (views, no copies), and so are replay's blocks, as the places of
+    their pieces within the block (index arithmetic, no rows copied); `arrays` writes every row once into the
+    joined arrays.  The p copies likewise (blocks of rows: replay adds one per log, `values` joins them)."""
 
     times: list = field(default_factory=list)
     states: list = field(default_factory=list)
@@ -107,25 +124,34 @@ class Segments:
             self.states.append(states)
             self.counts.append((len(times), which, twin))
 
+    def append_scattered(self, rows: int, pieces: tuple) -> None:
+        """A block of ``rows`` rows given as pieces (places within the block, times, states, p copy per row, twin
+        flags or None), which together fill each of its rows once: placed by `arrays` straight into the joined
+        arrays."""
+        if rows:
+            self.times.append(None)
+            self.states.append(pieces)
+            self.counts.append((rows, None, None))
+
     def arrays(self, nx: int):
-        """(times, states, index of the p copy, twin mask) of every row: each joined by one numpy call, the blocks
-        with a p copy or a twin flag per row put in place after."""
+        """(times, states, index of the p copy, twin mask) of every row: each block written once in its place."""
         rows = sum(n for n, _, _ in self.counts)
-        if not rows:
-            return np.empty(0), np.empty((0, nx)), np.empty(0, dtype=int), np.zeros(0, dtype=bool)
-        times = np.concatenate(self.times).astype(float, copy=False)
-        states = np.concatenate(self.states)
-        scalar = [k if not isinstance(k, np.ndarray) else 0 for _, k, _ in self.counts]
-        which = np.repeat(np.array(scalar, dtype=int), [n for n, _, _ in self.counts])
-        twin = np.zeros(rows, dtype=bool)
+        times, states = np.empty(rows), np.empty((rows, nx))
+        which, twin = np.empty(rows, dtype=int), np.zeros(rows, dtype=bool)
         i = 0
-        for n, k, same in self.counts:
-            if isinstance(k, np.ndarray):
-                which[i:i + n] = k
-            if isinstance(same, np.ndarray):
-                twin[i:i + n] = same
-            elif same:
-                twin[i] = same  # a single row
+        for block_times, block_states, (n, k, same) in zip(self.times, self.states, self.counts):
+            if block_times is None:  # a scattered block (append_scattered)
+                t_view, x_view, which_view, twin_view = times[i:i + n], states[i:i + n], which[i:i + n], twin[i:i + n]
+                for place, t, x, copy, flags in block_states:
+                    t_view[place], x_view[place], which_view[place] = t, x, copy
+                    if flags is not None:
+                        twin_view[place] = flags
+            else:
+                times[i:i + n], states[i:i + n], which[i:i + n] = block_times, block_states, k
+                if isinstance(same, np.ndarray):
+                    twin[i:i + n] = same
+                elif same:
+                    twin[i] = same  # a single row
             i += n
         return times, states, which, twin
 
@@ -135,7 +161,8 @@ class EventLog:
     events only flip switches' branches as columns (times, event names, directions, changes: replay's
     _book_branches), without an object per entry: bump_10 books 390, and an EventRecord each, then a row each for
     res.events, cost 2.0 M of the 16.9 M instructions of its Python (bench/driver_instructions.py).  ``rows()``:
-    res.events, a dict per entry in the order booked, as EventRecord.as_row makes them."""
+    res.events, a dict per entry in the order booked, as EventRecord.as_row makes them, made when res.events is first
+    read (runtime/results.py: the results keep the log itself)."""
 
     __slots__ = ("_blocks", "_size")
 
@@ -367,30 +394,48 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     events = event_tables(model)
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
-    fired = crossing_rows(g_old, g_event, events.directions)  # the indicators that fired, per entry
     before = segments.in_force(p_now)
-    if m >= BOOK_AT_ONCE and not np.any(fired[:, events.not_branch_only]):
-        copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
-    else:  # an event that does more than flip a switch's branch: entry by entry
-        copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
+    if m < BOOK_AT_ONCE:  # a short log: entry by entry, its crossings found in plain Python (a few numpy calls
+        #                   on its rows would cost more than the loop over its entries' indicators)
+        copies, twin = _book_each(model, data, log, _crossing_lists(events, g_old, g_event), p_now, records,
+                                  fired_times)
+    else:
+        fired = events.crossings(g_old, g_event)  # the indicators that fired, per entry
+        if not (events.any_not_branch_only and fired[:, events.not_branch_only].any()):
+            copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
+        else:  # an event that does more than flip a switch's branch: entry by entry
+            copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
     first_copy = segments.add_values(copies)  # the values after event e are copy first_copy + e
     return _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m)
 
 
+def _crossing_lists(events: EventTables, g_old: np.ndarray, g_event: np.ndarray) -> list[list[int]]:
+    """Per entry (row) the indicators that crossed, as EventTables.crossings marks them (events.crossings's
+    comparisons in plain Python)."""
+    directions = events.direction_list
+    return [[k for k, (a, b, d) in enumerate(zip(before, at, directions))
+             if (a < 0 and b >= 0 and d >= 0) or (a > 0 and b <= 0 and d <= 0)]
+            for before, at in zip(g_old.tolist(), g_event.tolist())]
+
+
 def _book_each(model, data, log, fired_mask, p_now, records, fired_times):
-    """replay's actions and records entry by entry: (the values in force after each entry, twin flags)."""
+    """replay's actions and records entry by entry: (the values in force after each entry, twin flags).
+    ``fired_mask``: the crossings (a mask of entries by indicators, or a list per entry of the indicators)."""
     m, nx, nev = len(log), model.nx, len(model.events)
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
     values = log[:, 1 + 2 * nx + 2 * nev:]
-    fired_lists: list[list[int]] = [[] for _ in range(m)]
-    for entry, k in zip(*(a.tolist() for a in np.nonzero(fired_mask))):
-        fired_lists[entry].append(k)
+    if isinstance(fired_mask, list):
+        fired_lists = fired_mask
+    else:
+        fired_lists = [[] for _ in range(m)]
+        for entry, k in zip(*(a.tolist() for a in np.nonzero(fired_mask))):
+            fired_lists[entry].append(k)
     twin = np.zeros(m, dtype=bool)
     copies = np.empty((m, p_now.size))
     specs = model.events
     events = event_tables(model)
-    branch_only, smooth = events.branch_only, events.smooth.tolist()  # plain Python from here on: per event
+    branch_only, smooth = events.branch_only, events.smooth_list  # plain Python from here on: per event
     before_values, at_values = g_old.tolist(), g_event.tolist()
     for e, (fired, t) in enumerate(zip(fired_lists, t_event.tolist())):
         if all(branch_only[k] for k in fired):
@@ -417,13 +462,15 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     bump_10 books 390 crossings): (the values in force after each entry, twin flags); p_now ends as the last entry
     left it."""
     events = event_tables(model)
-    m = len(fired_mask)
-    entry, k = np.nonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
-    flag = events.flags[k]
+    m, nev = fired_mask.shape
+    crossed = np.flatnonzero(fired_mask)  # the crossings in the order of the loop: by entry, then by indicator
+    entry = crossed // nev
+    k = crossed - entry * nev
     new = (g_event[entry, k] > g_old[entry, k]).astype(float)  # rising: the branch 1, falling: 0
     if events.switch_flags is not None:  # each switch its own flag: one crossing per flag and entry at most
         old, copies = _filled_forward(events, k, entry, new, p_now, m)
     else:
+        flag = events.flags[k]
         old, copies = np.empty_like(new), np.repeat(p_now[None, :], m, axis=0)
         for f in np.unique(flag).tolist():
             on = np.flatnonzero(flag == f)  # its crossings in order (entries non-decreasing)
@@ -439,7 +486,8 @@ def _book_branches(model, fired_mask, g_old, g_event, t_event, p_now, records, f
     times = t_event[entry].tolist()
     records.add_columns(times, events.object_names[k].tolist(), _DIRECTIONS[new.astype(np.intp)].tolist(), changes)
     fired_times += times
-    twin = fired_mask.any(axis=1) & ~(fired_mask & ~events.smooth).any(axis=1)
+    # an entry whose crossings are all of continuous switches (and that has one)
+    twin = (np.bincount(entry, minlength=m) > 0) & (np.bincount(entry, weights=events.rough[k], minlength=m) == 0)
     return copies, twin
 
 
@@ -449,17 +497,24 @@ def _filled_forward(events: EventTables, k: np.ndarray, entry: np.ndarray, new: 
     switches k in entry order (each switch its own flag), their flags set to ``new``: a crossing finds what the
     crossing of its switch before it set (the first finds p_now), an entry the values the last crossing of each
     switch up to it set (no crossing yet: p_now)."""
-    if not entry.size:  # (a log whose entries show no crossing)
-        return new.copy(), np.repeat(p_now[None, :], m, axis=0)
-    column = events.switch_column[k]
-    last = np.full((m, events.switches.size), -1, dtype=np.intp)
-    last[entry, column] = np.arange(entry.size)  # a crossing's index grows with its entry:
-    np.maximum.accumulate(last, axis=0, out=last)  # the last crossing of each switch up to each entry
-    before = np.where(entry > 0, last[entry - 1, column], -1)  # the crossing of its switch before it, if any
-    old = np.where(before >= 0, new[before], p_now[events.flags[k]])
     flags = events.switch_flags
-    copies = np.repeat(p_now[None, :], m, axis=0)
-    copies[:, flags] = np.where(last >= 0, new[last], p_now[flags])
+    size = flags.size
+    # the values a crossing can find: the crossings' own, then the flags' values in p_now, which the negative
+    # indices -size .. -1 reach (a switch's column c at c - size: below every crossing's index, so that the
+    # running maximum below keeps them only until the switch's first crossing)
+    found = np.concatenate((new, p_now[flags]))
+    last = np.empty((m + 1, size), dtype=np.intp)  # row e + 1: the last crossing of each switch up to entry e
+    last[:] = np.arange(-size, 0)
+    column = events.switch_column[k]
+    last[entry + 1, column] = np.arange(entry.size)  # a crossing's index grows with its entry:
+    np.maximum.accumulate(last, axis=0, out=last)  # the last crossing of each switch up to each entry
+    old = found[last[entry, column]]  # the crossing of its switch before it (row entry: up to the entry before)
+    copies = np.empty((m, p_now.size))
+    copies[:] = p_now
+    if events.switch_span is not None:  # (the flags side by side in p: a slice, no index per value)
+        copies[:, events.switch_span] = found[last[1:]]
+    else:
+        copies[:, flags] = found[last[1:]]
     return old, copies
 
 
@@ -470,7 +525,8 @@ _DIRECTIONS = np.array([DIRECTION_NAMES[-1], DIRECTION_NAMES[1]], dtype=object)
 
 
 def _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m) -> int:
-    """replay's rows, appended to the segments as one block: returns the first sample row not yet booked."""
+    """replay's rows, appended to the segments as one block (the places of its pieces: Segments.append_scattered, no
+    rows copied here): returns the first sample row not yet booked."""
     # rows: per event its sample rows from the previous event on, the row before it, the row after it unless a
     # sample falls on its time (that sample, filled by C after the restart, is the row after it)
     split = np.maximum(np.searchsorted(times, t_event, side="left"), start)  # first sample row at or after it
@@ -492,16 +548,15 @@ def _place_rows(log, times, states, start, segments, t_event, twin, before, firs
     samples = np.arange(start, split[-1])
     passed = np.searchsorted(split, samples, side="right")  # events before each sample row
     place = samples - start + passed + afters_before[passed]
-    rows = len(samples) + m + int(after.sum())
-    block_t, block_x = np.empty(rows), np.empty((rows, nx))
-    block_which, block_twin = np.empty(rows, dtype=int), np.zeros(rows, dtype=bool)
-    block_t[place], block_x[place], block_which[place] = times[start:split[-1]], states[start:split[-1]], \
-        copy_of[passed]
-    block_t[at], block_x[at], block_which[at] = t_event, log[:, 1:1 + nx], copy_of[:m]
-    has = np.flatnonzero(after)
-    block_t[at[has] + 1], block_x[at[has] + 1] = t_event[has], log[has, 1 + nx:1 + 2 * nx]
-    block_which[at[has] + 1], block_twin[at[has] + 1] = first_copy + has, twin[has]
-    segments.append(block_t, block_x, block_which, block_twin)
+    afters = int(afters_before[-1])
+    rows = len(samples) + m + afters
+    if afters == m:  # every event has its row after it (no sample on an event's time): the log's columns as they are
+        after_rows = (at + 1, t_event, log[:, 1 + nx:1 + 2 * nx], copy_of[1:], twin)
+    else:
+        has = np.flatnonzero(after)
+        after_rows = (at[has] + 1, t_event[has], log[has, 1 + nx:1 + 2 * nx], first_copy + has, twin[has])
+    segments.append_scattered(rows, ((place, times[start:split[-1]], states[start:split[-1]], copy_of[passed], None),
+                                     (at, t_event, log[:, 1:1 + nx], copy_of[:m], None), after_rows))
     return int(split[-1])
 
 

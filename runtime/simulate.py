@@ -274,7 +274,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
-    return Results(tuple(names), table, metadata, events=records.rows(), copy=False)
+    return Results(tuple(names), table, metadata, events=records, copy=False)  # (its rows when read)
 
 
 def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> None:

@@ -35,16 +35,31 @@ class Workspace:
     """
 
     def __init__(self, model: CompiledModel):
+        self._init(model, np.zeros(model.nwork))
+
+    def _init(self, model: CompiledModel, work: np.ndarray) -> None:
         self.model = model
         self.t = 0.0
         self._x = np.array(model.x0, dtype=float)
         self._p = np.array(model.p_default, dtype=float)
-        self._work = np.zeros(model.nwork)
+        self._work = work
         self.stats: dict[str, int] = {}
         # the model functions bound to this workspace, each made at its first use (a run uses about half of
         # them), then the same object at every call
         self._functions: dict = {}
         self._wrap = None
+
+    @classmethod
+    def _resumed(cls, model: CompiledModel, p: np.ndarray, x: np.ndarray, work: np.ndarray) -> "Workspace":
+        """A workspace of ``model`` at t = 0 with copies of p, x and the work memory ``work`` (a state kept from an
+        earlier start, mbs/system.py System._kept_start): as Workspace(model) with p, x and work then assigned, but
+        the work memory copied once instead of zeroed and then overwritten (the Iltis: 172 kB a run)."""
+        if work.shape != (model.nwork,):
+            raise UsageError(f"work needs shape ({model.nwork},), got {work.shape}")
+        data = cls.__new__(cls)
+        data._init(model, np.array(work, dtype=float))
+        data.p, data.x = p, x
+        return data
 
     @property
     def x(self) -> np.ndarray:

@@ -107,7 +107,8 @@ def test_twin_contacts_closer_than_the_departure_step_are_one_event_in_the_pytho
     assert closing[0]["time"] == pytest.approx(np.sqrt(2 * h / g), abs=1e-6)  # scipy's event location, rtol 1e-10
 
 
-@pytest.mark.parametrize("flags", [(0, 2, 1), (0, 2, 0)], ids=["a flag each", "two switches share a flag"])
+@pytest.mark.parametrize("flags", [(0, 2, 1), (1, 2, 3), (0, 2, 0)],
+                         ids=["a flag each", "flags side by side in p", "two switches share a flag"])
 def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
     """replay's numpy path for logs whose events only flip branches (event_loop._book_branches: filled forward per
     switch, or per flag where two switches share one) against its entry-by-entry loop (_book_each, which applies
@@ -127,6 +128,7 @@ def test_a_log_of_switch_flips_is_booked_at_once_as_entry_by_entry(flags):
     fired = event_loop.crossing_rows(g_old, g_event, np.array([s.direction for s in specs]))
     assert fired.sum() > 20 and np.any(fired.sum(axis=1) > 1) and not np.all(fired.any(axis=1))
     start = np.array([0.0, 1.0, 1.0, 7.5])
+    assert (event_loop.event_tables(model).switch_span is not None) == (flags == (1, 2, 3))
     booked = []
     for book in (lambda p, r, f: event_loop._book_each(model, None, log, fired, p, r, f),
                  lambda p, r, f: event_loop._book_branches(model, fired, g_old, g_event, log[:, 0], p, r, f)):
@@ -154,6 +156,21 @@ def test_one_pair_s_crossings_are_those_of_the_rows_mask():
         assert found.dtype == expected.dtype and np.array_equal(found, expected)
 
 
+def test_the_tables_crossings_are_those_of_the_rows_mask():
+    """EventTables.crossings (the directions' masks made once per model) against events.crossing_rows on rows of
+    random indicators with zeros of both signs, NaN and infinities, in every direction."""
+    from types import SimpleNamespace
+
+    from mbs.runtime.events import EventSpec
+    rng = np.random.default_rng(5)
+    values = np.array([-2.0, -0.0, 0.0, 1.5, np.nan, np.inf, -np.inf, 1e-300])
+    directions = rng.choice([-1, 0, 1], 30)
+    model = SimpleNamespace(events=tuple(EventSpec(f"e{k}", int(d)) for k, d in enumerate(directions)))
+    tables = event_loop.EventTables.of(model)
+    g_old, g_new = rng.choice(values, (200, 30)), rng.choice(values, (200, 30))
+    assert np.array_equal(tables.crossings(g_old, g_new), event_loop.crossing_rows(g_old, g_new, directions))
+
+
 def test_the_event_log_s_rows_are_those_of_its_records_in_the_order_booked():
     """event_loop.EventLog keeps the entries replay books at once as columns (no EventRecord each): its rows and
     event names are those of the records the Python loop makes for the same entries, in the order booked, blocks of
@@ -173,3 +190,32 @@ def test_the_event_log_s_rows_are_those_of_its_records_in_the_order_booked():
     assert [list(row) for row in log.rows()] == [list(r.as_row()) for r in records]  # the keys in the same order
     assert log.events() == [r.event for r in records]
     assert event_loop.event_rows(log) == event_loop.event_rows(records)
+
+
+@pytest.mark.parametrize("on_samples", [False, True], ids=["every event its row after", "events on sample times"])
+def test_a_long_log_s_rows_placed_at_once_are_those_placed_piece_by_piece(monkeypatch, on_samples):
+    """replay's rows of a log of BOOK_AT_ONCE entries or more, placed as one block (event_loop._place_rows: index
+    arithmetic, the log's columns taken as they are where every event has its row after it), against the pieces
+    the short logs append one by one: the same times, states, p copies and twins in the joined arrays.  An event on a
+    sample's time has no row after it (that sample, filled after the restart, is)."""
+    rng = np.random.default_rng(13)
+    nx, times = 2, np.arange(10) / 10  # (k / 10: the doubles nearest to 0.1, 0.3 as the event times below)
+    states = rng.random((times.size, nx))
+    t_event = np.array([0.05, 0.1, 0.15, 0.22, 0.3, 0.41, 0.55, 0.63, 0.77]) if on_samples else \
+        np.array([0.05, 0.12, 0.15, 0.22, 0.33, 0.41, 0.55, 0.63, 0.77])
+    m = t_event.size
+    assert m >= event_loop.BOOK_AT_ONCE
+    log = np.column_stack([t_event, rng.random((m, 2 * nx))])
+    twin = rng.random(m) < 0.5
+    joined = []
+    for at_once in (True, False):
+        monkeypatch.setattr(event_loop, "BOOK_AT_ONCE", event_loop.BOOK_AT_ONCE if at_once else m + 1)
+        segments = event_loop.Segments()
+        segments.add_values(np.zeros((m + 1, 3)))
+        row = event_loop._place_rows(log, times, states, 1, segments, t_event, twin, 0, 1, nx, m)
+        joined.append((row, *segments.arrays(nx)))
+    assert joined[0][0] == joined[1][0]
+    for placed, pieces in zip(joined[0][1:], joined[1][1:]):
+        assert placed.dtype == pieces.dtype and np.array_equal(placed, pieces)
+    # the samples from row 1 up to the last event, and two rows per event but the two on samples (0.1 s, 0.3 s)
+    assert joined[0][1].size == (joined[0][0] - 1) + 2 * m - (2 if on_samples else 0)

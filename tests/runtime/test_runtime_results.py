@@ -127,3 +127,28 @@ def test_column_names_are_the_str_of_each_name_given_checked_once_per_tuple():
     assert named["time"][0] == 0.0
     with pytest.raises(UsageError):
         Results(("time", "time"), [[0.0, 1.0]])
+
+
+def test_an_event_log_given_as_an_object_is_made_into_its_rows_when_first_read(tmp_path):
+    """The simulation driver hands its log (runtime/event_loop.py EventLog) as it is: res.events is its rows, made
+    at the first read (once), written to files and pickled as a list, and assignable as before."""
+    import pickle
+
+    from mbs.runtime.event_loop import EventLog
+    from mbs.runtime.events import EventRecord
+
+    log = EventLog([EventRecord(0.5, "impact", "falling", "ball.v: -1 -> 0.8")])
+    log.add_columns([0.75, 1.0], ["switch", "switch"], ["rising", "falling"], ["branch 0 -> 1", ""])
+    made = []
+    wrapper = type("Watched", (), {"rows": lambda self: made.append(1) or log.rows()})()  # (counts the calls)
+    res = Results(["time"], np.zeros((1, 1)), {}, events=wrapper)
+    assert not made
+    expected = [{"time": 0.5, "event": "impact", "direction": "falling", "changes": "ball.v: -1 -> 0.8"},
+                {"time": 0.75, "event": "switch", "direction": "rising", "changes": "branch 0 -> 1"},
+                {"time": 1.0, "event": "switch", "direction": "falling", "changes": ""}]
+    assert res.events == expected and res.events is res.events and made == [1]
+    assert Results(["time"], np.zeros((1, 1)), {}, events=log).events == expected
+    assert Results.from_npz(res.to_npz(tmp_path / "r.npz")).events == expected
+    assert pickle.loads(pickle.dumps(res)).events == expected
+    res.events = expected[:1]
+    assert res.events == expected[:1]
