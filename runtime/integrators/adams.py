@@ -1,7 +1,9 @@
-"""Adams in C (c/adams.c): variable-step, variable-order Adams-Bashforth-Moulton PECE, orders 1 to 12.
+"""Adams in C (c/adams.c): variable-step, variable-order Adams-Bashforth-Moulton, orders 1 to 12, PECE or PEC.
 
-Two right-hand sides per step against DOPRI5's six, and high orders where the solution is smooth: at tight
-tolerances on non-stiff models it reaches an accuracy with fewer right-hand sides (python bench/adams.py).  At an
+Two right-hand sides per step against DOPRI5's six (one where the step is small against the problem's time scale,
+h L <= 0.05 at orders up to 6: PEC, the predicted state's f taken as the history's newest value), and high orders
+where the solution is smooth: at tight tolerances on non-stiff models it reaches an accuracy with fewer right-hand
+sides (python bench/adams.py).  At a
 switch (an event without a jump of the state) it keeps its history and lets the order control step over the kink
 (c/adams.c).
 """
@@ -54,6 +56,6 @@ class AdamsDense(DenseOutput):
 @register
 class Adams(NativeSolver):
     name = "adams"
-    description = "variable-order Adams-Bashforth-Moulton PECE in C (orders 1-12), dense output, history kept at events"
+    description = "variable-order Adams-Bashforth-Moulton PECE/PEC in C (orders 1-12), dense output, history kept at events"
     native_method = "adams"
     dense_class = AdamsDense
