@@ -14,8 +14,10 @@ sections apart.
 The generated file is compiled on its own with the model units' flags (runtime/build.py FLAGS and
 GCC_MODEL_UNIT_FLAGS) and -g, into a program that calls mbs_loop_terms --calls times at the scene's initial state
 with its speeds perturbed (the loop solver's functions, defined in runtime/c/loops.c, are stubs: never called).
-The total is a few per cent below what bench/rhs_instructions.py's profile shows for the model's own build (the
-Iltis's bump_5: 28,000 here, 30,300 there: one unit here, split units there).  Needs gcc and valgrind.
+The total is below what bench/rhs_instructions.py's profile shows for the model's own build (the Iltis's bump_5:
+20,900 here, 23,100 there; 28,000 and 30,300 before the body frames moved to the joints): one unit here, split units
+there, and only the lines of the generated file here (the math library's sines and cosines not).  Needs gcc and
+valgrind.
 """
 
 from __future__ import annotations
