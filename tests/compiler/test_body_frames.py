@@ -4,8 +4,8 @@ linear part and the composite-rigid-body algorithm's columns and the inverse dyn
 instead of products (the Iltis's loop terms: 27,390 -> 20,900 instructions a call).  Against the former lowering
 (every body frame at its part's origin: `_body_origin` made 0), built in a cache of its own, at random states:
 the mass matrix, the forces, the constraint Jacobian and the constraint acceleration of a loop model, the outputs
-(frame sensors: positions, velocities, reactions, tyre loads), the named frames' poses and velocities and
-the inverse dynamics agree to round-off."""
+(frame sensors: positions, velocities, reactions, tyre loads), the named frames' poses and velocities, the
+inverse dynamics and the parts' poses the animation draws agree to round-off."""
 
 import sys
 from pathlib import Path
@@ -51,7 +51,9 @@ def evaluate(source, scene, frames, cache: Path, rng_seed=3):
         from mbs.dynamics import dynamics_functions
         dynamics = dynamics_functions(system, scene, frames=list(frames))
     rng = np.random.default_rng(rng_seed)
-    found = {name: [] for name in names + (["frames", "frame velocities", "inverse dynamics"] if frames else [])}
+    if frames:
+        names_of_frames = ["frames", "frame velocities", "inverse dynamics", "animated poses"]
+    found = {name: [] for name in names + (names_of_frames if frames else [])}
     for _ in range(4):
         x = start.x.copy()
         x[:compiled.nq] += rng.normal(0.0, 0.05, compiled.nq)
@@ -60,6 +62,10 @@ def evaluate(source, scene, frames, cache: Path, rng_seed=3):
         for name in names:
             found[name].append(np.ravel(data.function(name)(0.1, x)))
         if frames:
+            from mbs.animation import world_poses
+            params = {p.name: p.value for p in system.model.parameters}
+            poses = world_poses(system, scene, np.array([0.1]), x[None, :compiled.nq], params)
+            found["animated poses"].append(np.ravel(poses))
             q, v = x[:compiled.nq], x[compiled.nq:]
             found["frames"].append(np.concatenate([np.ravel(a) for a in dynamics.frame_positions(q, 0.1)]))
             found["frame velocities"].append(np.ravel(dynamics.frame_velocities(q, v, 0.1)))
