@@ -1,20 +1,23 @@
 """Where the instructions of the generated mbs_loop_terms go, by the sections of the derivation (issue 12).
 
     python bench/loop_terms_sections.py [--model library/iltis/vehicle.mbs] [--scene bump_5] [--calls 200]
-                                        [--lines SECTION]
+                                        [--lines SECTION] [--bodies]
 
 mbs_loop_terms gives the loop solver [M; f; G; gddot0] (compiler/ccode_loop_terms.py); on the Iltis it is most of
 the constrained right-hand side.  This prints its instructions per call (callgrind, load-independent) summed over
 the section comments the generated C carries ("body 14 (fl.lower_ball): composite inertia", with the bodies'
 numbers folded: "body N : composite inertia"), plus the stores of the outputs' zeros and copies, the reads of
 x and p and of the parts' carry, and the helpers (mbs_all_finite, lookup tables) under the last comment above them.
---lines SECTION prints the costliest lines of the sections whose name contains SECTION.
+--lines SECTION prints the costliest lines of the sections whose name contains SECTION; --bodies keeps each body's
+sections apart.
 
 The generated file is compiled on its own with the model units' flags (runtime/build.py FLAGS and
 GCC_MODEL_UNIT_FLAGS) and -g, into a program that calls mbs_loop_terms --calls times at the scene's initial state
 with its speeds perturbed (the loop solver's functions, defined in runtime/c/loops.c, are stubs: never called).
-The total is a few per cent below what bench/rhs_instructions.py's profile shows for the model's own build (the
-Iltis's bump_5: 28,000 here, 30,300 there: one unit here, split units there).  Needs gcc and valgrind.
+The total is below what bench/rhs_instructions.py's profile shows for the model's own build (the Iltis's bump_5:
+20,900 here, 23,100 there; 28,000 and 30,300 before the body frames moved to the joints): one unit here, split units
+there, and only the lines of the generated file here (the math library's sines and cosines not).  Needs gcc and
+valgrind.
 """
 
 from __future__ import annotations
@@ -94,13 +97,14 @@ def line_costs(dump: Path, source: str) -> collections.Counter:
     return cost
 
 
-def sections(text: list[str]) -> list[str]:
-    """The section of each line (1-based: entry 0 unused) by the comment above it, bodies' numbers folded."""
+def sections(text: list[str], fold: bool = True) -> list[str]:
+    """The section of each line (1-based: entry 0 unused) by the comment above it, bodies' numbers folded unless
+    `fold` is false."""
     out, section = ["?"], "?"
     for line in text:
         comment = re.match(r"\s*/\* (.*) \*/$", line)
         if comment:
-            section = re.sub(r"\d+", "N", re.sub(r"\(.*?\)", "", comment.group(1)))
+            section = re.sub(r"\d+", "N", re.sub(r"\(.*?\)", "", comment.group(1))) if fold else comment.group(1)
         if line.startswith("int "):
             section = "(function entries)"
         if re.match(r"\s*out\[\d+\] = (0|out\[\d+\]);", line):
@@ -121,6 +125,7 @@ def main(argv=None) -> int:
     parser.add_argument("--calls", type=int, default=200)
     parser.add_argument("--top", type=int, default=30, help="sections printed")
     parser.add_argument("--lines", metavar="SECTION", help="the costliest lines of the sections containing this")
+    parser.add_argument("--bodies", action="store_true", help="each body's sections apart (numbers not folded)")
     args = parser.parse_args(argv)
     if shutil.which("valgrind") is None or shutil.which("gcc") is None:
         print("needs gcc and valgrind on the PATH")
@@ -146,7 +151,7 @@ def main(argv=None) -> int:
                         str(folder / "p.txt"), str(nx), str(np_), str(args.calls)], check=True, capture_output=True)
         cost = line_costs(dump, str(source))
         text = code.splitlines()
-        where = sections(text)
+        where = sections(text, fold=not args.bodies)
         total = collections.Counter()
         for n, c in cost.items():
             total[where[n] if n < len(where) else "?"] += c

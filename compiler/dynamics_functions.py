@@ -101,7 +101,8 @@ def named_frames(lowered, names) -> list:
                                        None)])
         frame = part.frame_map[frame_name]
         body = -1 if part_name == M.INERTIAL else lowered.topology.bodies.index(part_name)
-        out.append((name, body, [geometry(c) for c in frame.position],
+        origin = (0, 0, 0) if body < 0 else lowered.body_origins[body]   # (the body frame's, compiler/lower.py)
+        out.append((name, body, [geometry(c) - o for c, o in zip(frame.position, origin)],
                     tuple(tuple(geometry(c) for c in row) for row in frame.rotation)))
     return out
 

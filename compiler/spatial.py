@@ -204,15 +204,20 @@ class RigidInertia:
         Ibar = congruence(tape, R, self.Ibar, name + "R", symmetric=True)
         if is_zero(r):
             return RigidInertia(self.m, h, Ibar)
-        # Ibar' = Ibar - (h r^T + r h^T) - m r r^T + (2 r.h + m |r|^2) 1, with h the rotated first moment.
-        diag = add(mul(2, dot(r, h)), mul(self.m, dot(r, r)))
+        # Ibar' = Ibar - (h r^T + r h^T) - m r r^T + (2 r.h + m |r|^2) 1, with h the rotated first moment. With the
+        # new first moment h' = h + m r that is Ibar - h r^T - r h'^T off the diagonal and, on it,
+        # Ibar_ii + sum over k != i of r_k (h_k + h'_k): 12 multiplications instead of about 40, and no terms
+        # that cancel on the diagonal (2 h_i r_i + m r_i^2, added in 2 r.h + m |r|^2 and taken off again).
+        h_p = tape.vector([add(x, mul(self.m, y)) for x, y in zip(h, r)], name + "h")
+        both = [tape.temp(mul(y, add(x, z)), f"{name}s_{k}") for k, (x, y, z) in enumerate(zip(h, r, h_p))]
         out = [[None] * 3 for _ in range(3)]
         for i in range(3):
             for j in range(i, 3):
-                e = add(Ibar[i][j], -mul(h[i], r[j]), -mul(r[i], h[j]), -mul(self.m, mul(r[i], r[j])),
-                        diag if i == j else ZERO)
+                if i == j:
+                    e = add(Ibar[i][i], *(both[k] for k in range(3) if k != i))
+                else:
+                    e = add(Ibar[i][j], -mul(h[i], r[j]), -mul(r[i], h_p[j]))
                 out[i][j] = out[j][i] = tape.temp(e, f"{name}_{i}{j}")
-        h_p = tape.vector([add(x, mul(self.m, y)) for x, y in zip(h, r)], name + "h")
         return RigidInertia(self.m, h_p, tuple(tuple(row) for row in out))
 
     def plus(self, tape: Tape, other: "RigidInertia", name: str) -> "RigidInertia":

@@ -42,7 +42,8 @@ class Animation:
 
 
 def world_poses(system, scene, t: np.ndarray, states: np.ndarray, params: dict) -> list[np.ndarray]:
-    """(n, 7) pose of every tree body: origin and rotation quaternion (x, y, z, w) of its frame in the world."""
+    """(n, 7) pose of every tree body's part: the origin of its coordinates and the rotation quaternion (x, y, z, w)
+    in the world."""
     from mbs.compiler.kinematics import Kinematics
     from mbs.compiler.symbolic import parameter_symbol
     from mbs.compiler.tree import t as t_symbol
@@ -50,8 +51,9 @@ def world_poses(system, scene, t: np.ndarray, states: np.ndarray, params: dict) 
     tree = gen.lowered.tree
     kin = Kinematics(tree)
     outputs = []
-    for i in range(len(tree.bodies)):
-        R, r = kin.world_pose(i)
+    for i, origin in enumerate(gen.lowered.body_origins):
+        R, r = kin.world_pose(i)   # (the body frame's origin is not the part's: compiler/lower.py, Lowered)
+        r = [x - sum(R[a][b] * origin[b] for b in range(3)) for a, x in enumerate(r)]
         outputs.append([*r, *(R[a][b] for a in range(3) for b in range(3))])
     env = {s: states[:, k] for k, s in enumerate(tree.q_symbols)}
     env[t_symbol] = t

@@ -41,10 +41,13 @@ def test_the_start_is_the_mirror_image_of_itself(vehicle):
     """The model is symmetric about the car's xz plane, so its rest is: no roll, no heading, no lateral offset, and
     each right coordinate the mirror image of its left twin, to round-off. Heading and lateral position feel no
     force at rest, so the equilibrium must leave them where they start (0); it moved the heading by 9e-10 rad by
-    the noise of its Jacobian, which rolled the car over the in-phase bump at 10 m/s by 5e-9 rad."""
+    the noise of its Jacobian, which rolled the car over the in-phase bump at 10 m/s by 5e-9 rad. What is left is
+    the round-off of the Newton steps, a spread: with the car body's mass changed by -4 ... 4 ulp the heading
+    ended between 1.6e-14 and 1.07e-12 rad (median 5.0e-13; with the body frames at the joints, compiler/lower.py,
+    1.0e-14 to 1.14e-12, median 4.9e-13), so the bound is 1e-11, two decades below the former noise."""
     result, outputs = vehicle.equilibrium("bump_5")
     for name in ("roll", "yaw", "lateral"):
-        assert abs(outputs[name]) < 1e-12, name
+        assert abs(outputs[name]) < 1e-11, name
     compiled = vehicle.compile("bump_5")
     names = list(compiled.q_names) + list(compiled.v_names)
     mirrored = ("lower_ball.qx", "lower_ball.qz", "lower_ball.wx", "lower_ball.wz")  # components that change sign
