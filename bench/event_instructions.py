@@ -110,6 +110,20 @@ print("ACCEPTED", stats["nsteps"] - stats["nreject"])
 """
 
 
+def sample_under_callgrind(child: list[str], out: Path) -> tuple[int, tuple[int, ...], dict]:
+    """One child process (`child`, a command whose stdout has a line "STATS n ...") under callgrind, collecting
+    inside Solver.sample only (solver_sample), its build made first outside valgrind: (the instructions collected,
+    the numbers of its STATS line, the call pairs of profile(out))."""
+    subprocess.run(child, check=True, capture_output=True)
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=solver_sample",
+                           f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
+    total = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    stats = re.search(r"^STATS ((?:\d+ ?)+)$", done.stdout, re.M)
+    if done.returncode != 0 or not total or not stats:
+        raise SystemExit(f"valgrind run failed ({' '.join(child[3:])}):\n{done.stderr[-2000:]}")
+    return int(total.group(1)), tuple(int(v) for v in stats.group(1).split()), profile(out)[1]
+
+
 def profile(path: Path) -> tuple[dict[str, int], dict[tuple[str, str], tuple[int, int]]]:
     """A callgrind output file's instructions per function (its own, callees excluded) and per call pair
     (caller, callee): (calls, inclusive instructions of those calls)."""

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import re
 import shutil
 import subprocess
 import sys
@@ -48,7 +47,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from event_instructions import RESTART, RHS_NAMES, ROOT_FINDER, profile  # noqa: E402
+from event_instructions import RESTART, RHS_NAMES, ROOT_FINDER, sample_under_callgrind  # noqa: E402
 
 
 def former_model(system, scene: str):
@@ -88,22 +87,13 @@ print("STATS", stats["nsteps"] - stats["nreject"], stats["nfev"], stats["nevents
 def counted(scene: str, which: str, workdir: Path) -> dict:
     """The integration's instructions and mbs_events' calls by caller, of one run under callgrind."""
     child = [sys.executable, "-c", CHILD, str(MODEL), scene, which]
-    subprocess.run(child, check=True, capture_output=True)  # the builds, outside valgrind
-    out = workdir / f"callgrind.{which}"
-    done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=solver_sample",
-                           f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
-    total = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
-    stats = re.search(r"^STATS (\d+) (\d+) (\d+)$", done.stdout, re.M)
-    if done.returncode != 0 or not total or not stats:
-        raise SystemExit(f"valgrind run failed ({which}):\n{done.stderr[-2000:]}")
-    _, pairs = profile(out)
+    total, (accepted, nfev, nevents), pairs = sample_under_callgrind(child, workdir / f"callgrind.{which}")
 
     def calls(callers, callees) -> tuple[int, int]:
         found = [v for (a, b), v in pairs.items()
                  if (callers is None or a in callers) and b in callees and a not in callees]
         return sum(v[0] for v in found), sum(v[1] for v in found)
-    accepted, nfev, nevents = map(int, stats.groups())
-    return {"integration": (0, int(total.group(1))), "rhs": calls(None, RHS_NAMES),
+    return {"integration": (0, total), "rhs": calls(None, RHS_NAMES),
             "indicators": calls(None, ("mbs_events",)),
             "at the steps' ends": calls(("mbs_ode_find_event",), ("mbs_events",)),
             "in the root finding": calls(ROOT_FINDER, ("mbs_events",)),

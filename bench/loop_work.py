@@ -25,9 +25,7 @@ Nothing is asserted: figures are printed for a reader to compare.
 from __future__ import annotations
 
 import argparse
-import re
 import shutil
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -39,7 +37,7 @@ import mbs
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
 from bump_cost import MODEL, saved_rows  # noqa: E402
-from event_instructions import profile  # noqa: E402
+from event_instructions import sample_under_callgrind  # noqa: E402
 from former_builds import flagged_build, simulate_with  # noqa: E402
 from output_rows import callgrind as rows_callgrind  # noqa: E402
 
@@ -66,15 +64,7 @@ def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tu
     """{part: (calls, inclusive instructions)} of one run's integration with the build of `flags`, and
     "integration": (accepted steps, total), "rhs calls": (rhs calls, 0)."""
     child = [sys.executable, "-c", CHILD, str(MODEL), scene, *flags]
-    subprocess.run(child, check=True, capture_output=True)  # the build, outside valgrind
-    out = workdir / "callgrind.out"
-    done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no", "--toggle-collect=solver_sample",
-                           f"--callgrind-out-file={out}", *child], capture_output=True, text=True)
-    total = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
-    stats = re.search(r"^STATS (\d+) (\d+)$", done.stdout, re.M)
-    if done.returncode != 0 or not total or not stats:
-        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
-    _, pairs = profile(out)
+    total, (accepted, _), pairs = sample_under_callgrind(child, workdir / "callgrind.out")
 
     def calls(callers, callee) -> tuple[int, int]:
         found = [v for (a, b), v in pairs.items() if a in callers and b == callee]
@@ -83,7 +73,7 @@ def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tu
     return {"rhs": calls(rhs_callers, "mbs_loop_rhs_direct"),
             "loop algebra": calls(("mbs_loop_rhs_direct",), "mbs_loop_solve_accelerations"),
             "projection": calls(("mbs_ode_accept",), "mbs_loop_project_step"),
-            "integration": (int(stats.group(1)), int(total.group(1)))}
+            "integration": (accepted, total)}
 
 
 #: Columns whose range over the run is below this are round-off around a quantity zero by symmetry (a bearing's
