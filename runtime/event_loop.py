@@ -296,7 +296,12 @@ def run_with_events(model, data, make_solver, times: np.ndarray, t_end: float, p
                 x = y_event
                 break
             x, new = apply_events(model, data, fired, solver.g_old, g_event, t_event, y_event, names)
-            if "project" in model.functions:  # closed loops: new speeds consistent with the constraints
+            # closed loops: new speeds consistent with the constraints, unless only continuous switches fired (nothing
+            # jumped, no constraint changed): projecting the located state then moved indicators within round-off of
+            # zero across it, whose switches the restart's look-ahead took over unlogged (the Iltis over the bump at
+            # 10 m/s with ida, Radau, BDF: 21, 12, 42 such flips a run, 3, 4, 10 without the projection); c/ode.c's
+            # restarts do not project either
+            if "project" in model.functions and not continuous(model, fired):
                 x = data.project(t_event, x)
             jumped = any(array == "x" for k in fired for array, _, _ in model.events[k].assignments)
             # a restart without a jump of the state (a switch or a mode changed) starts at the step size the

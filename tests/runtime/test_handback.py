@@ -120,3 +120,21 @@ def test_a_new_solver_takes_over_only_before_its_first_step():
     with pytest.raises(RuntimeError):
         two.take_over(one, gs, gs)
     one.take_over(two, gs, gs)  # (without restarts set: nothing to carry, and no error)
+
+
+def test_the_python_event_loop_projects_only_where_something_jumps(stop, monkeypatch):
+    """With an integrator that hands every event to Python (scipy's Radau), the loop's speeds are projected at the
+    ramp's two events (the prescribed speed steps) and not at the stop's (a continuous switch: nothing jumps, and
+    projecting the located state moved other indicators within round-off of zero across it, whose switches then
+    changed without an event)."""
+    system, _ = stop
+    projected = []
+    real = Workspace.project.fget  # (a property: the compiled function, bound to the workspace)
+    monkeypatch.setattr(Workspace, "project", property(
+        lambda self: lambda t, x: projected.append(t) or real(self)(t, x)))
+    res = system.simulate("swings", integrator="Radau", rtol=1e-8, atol=1e-10)
+    assert res.success, res.message
+    continuous = {e["time"] for e in res.events if "stop" in e["event"]}
+    ramp = {e["time"] for e in res.events if "prescribed" in e["event"]}
+    assert continuous and len(ramp) == 2
+    assert ramp <= set(projected) and not continuous & set(projected)
