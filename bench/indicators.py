@@ -2,7 +2,7 @@
 
     python bench/indicators.py [--scene bump_10] [--compare bump_10 bump_5 anti_5 anti_10] [--no-count]
 
-The former text: mbs_events printed from the equations' tape as it is (compiler/events.py ANGLE_FREE_INDICATORS
+The former text: mbs_events printed from the equations' tape as it is (compiler/angle_free.py ANGLE_FREE_INDICATORS
 False: the sines and cosines of the wheels' spin evaluated, which the tyres' indicators do not depend on),
 generated through mbs.pipeline.generate (the derivation cache does not see the switch) and built like any model
 (cached by content).  Both builds differ in mbs_events alone.
@@ -53,16 +53,16 @@ from event_instructions import RESTART, RHS_NAMES, ROOT_FINDER, sample_under_cal
 def former_model(system, scene: str):
     """The scene's compiled model with mbs_events printed as before (ANGLE_FREE_INDICATORS False)."""
     from mbs import pipeline
-    from mbs.compiler import events
+    from mbs.compiler import angle_free
     from mbs.runtime import build
     from mbs.runtime.backends import CBackend
     from mbs.runtime.translation_units import COLD_APART
     compiled = system.compile(scene)
-    events.ANGLE_FREE_INDICATORS = False
+    angle_free.ANGLE_FREE_INDICATORS = False
     try:
         generated = pipeline.generate(system.model, system.scene(scene), cold_apart=COLD_APART)
     finally:
-        events.ANGLE_FREE_INDICATORS = True
+        angle_free.ANGLE_FREE_INDICATORS = True
     return dataclasses.replace(compiled, backend=CBackend(build.load(build.build(generated.c_source))))
 
 

@@ -56,7 +56,7 @@ from .emit_common import (  # noqa: F401
     table_slopes,
 )
 from .equations import Equations
-from .events import angle_free_tape
+from .angle_free import angle_free_tape
 from .hooks import c_helpers as hook_helpers
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .jacobian_loops import loop_jacobian_or_none, loop_jacobian_work_size
@@ -251,7 +251,7 @@ class CEmitter:
 
     def _tape_of(self, routine: str):
         """The tape a function is printed from: the indicators' without the sines and cosines of angles they do not
-        depend on (compiler/events.py angle_free_tape: a wheel's spin), every other function's the equations'."""
+        depend on (compiler/angle_free.py angle_free_tape: a wheel's spin), every other function's the equations'."""
         if routine != "mbs_events":
             return self.eqs.tape
         return angle_free_tape(self.eqs.tape, [e for _, e in self.events])

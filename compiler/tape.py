@@ -16,7 +16,7 @@ an early `return 1`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import sympy as sp
 
@@ -152,6 +152,14 @@ class Tape:
         other._names = set(self._names)
         other._section = self._section
         return other
+
+    def rewrite(self, symbol: sp.Dummy, expr: sp.Expr) -> None:
+        """The temporary `symbol` holds `expr` instead, an expression of the same value (same name and place): for a
+        fork that one function is printed from (compiler/angle_free.py), never for a tape others were planned on."""
+        old = self._entry_of[symbol]
+        new = replace(old, expr=expr, _deps=None, _symbols=None, _reads=None, _dep_places=None)
+        self.entries[old.place] = new
+        self._entry_of[symbol] = new
 
     def section(self, label: str) -> None:
         """Label the entries created from now on (e.g. "body 3 (link3): velocity")."""

@@ -1,4 +1,4 @@
-"""The indicators printed without the sines and cosines of angles they do not depend on (compiler/events.py
+"""The indicators printed without the sines and cosines of angles they do not depend on (compiler/angle_free.py
 angle_free_tape): a wheel centre's world velocity composed from the spinning wheel's rotation and its velocity in
 its own frame loses the spin (c^2 + s^2 = 1) and keeps its value; what does depend on the angle is left as it is;
 the Iltis quarter car's mbs_events no longer evaluates the hub's spin, its right-hand side still does."""
@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 import sympy as sp
 
-from mbs.compiler import events
-from mbs.compiler.events import angle_free_tape
+from mbs.compiler import angle_free
+from mbs.compiler.angle_free import angle_free_tape
 from mbs.compiler.tape import Tape
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -69,7 +69,7 @@ def test_pythagoras_alone_and_a_division_by_the_angle():
 
 def test_the_switch_off_gives_the_tape_itself(monkeypatch):
     tape, vel, *_ = spinning_wheel()
-    monkeypatch.setattr(events, "ANGLE_FREE_INDICATORS", False)
+    monkeypatch.setattr(angle_free, "ANGLE_FREE_INDICATORS", False)
     assert angle_free_tape(tape, [vel]) is tape
 
 
@@ -108,11 +108,11 @@ def test_the_quarter_car_locates_the_same_events_as_with_the_former_indicators()
 
     system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
     current = system.simulate("bump_10")
-    events.ANGLE_FREE_INDICATORS = False
+    angle_free.ANGLE_FREE_INDICATORS = False
     try:
         former = pipeline.generate(system.model, system.scene("bump_10"), cold_apart=COLD_APART)
     finally:
-        events.ANGLE_FREE_INDICATORS = True
+        angle_free.ANGLE_FREE_INDICATORS = True
     assert function_text(former.c_source, "mbs_events") != function_text(system.generate("bump_10").c_source,
                                                                          "mbs_events")
     compiled = system.compile("bump_10")
