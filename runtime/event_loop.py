@@ -40,8 +40,7 @@ class EventTables:
     can_fall: np.ndarray      # (bool) ... directions <= 0: the crossing test's masks, made once
     rough: np.ndarray         # (bool) not smooth
     switch_span: slice | None  # switch_flags as a slice of p, when they are consecutive (else None)
-    direction_list: tuple     # directions, smooth and whether any event does more than flip a branch, as
-    smooth_list: tuple        # plain Python values (the loops over a short log's entries)
+    smooth_list: tuple        # smooth and whether any event does more than flip a branch, as plain Python values
     any_not_branch_only: bool
 
     @classmethod
@@ -69,7 +68,7 @@ class EventTables:
         span = slice(int(switch_flags[0]), int(switch_flags[0]) + switch_flags.size) if consecutive else None
         return cls(directions, flags, branch_only, not_branch_only, smooth, names, object_names,
                    switches, switch_flags, switch_column, can_rise, can_fall, rough, span,
-                   tuple(directions.tolist()), tuple(smooth.tolist()), bool(not_branch_only.any()))
+                   tuple(smooth.tolist()), bool(not_branch_only.any()))
 
     def crossings(self, g_old: np.ndarray, g_new: np.ndarray) -> np.ndarray:
         """events.crossing_rows(g_old, g_new, directions) with the directions' masks made once: rows of a log."""
@@ -400,42 +399,25 @@ def replay(model, data, log: np.ndarray, p_now: np.ndarray, times, states, start
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
     before = segments.in_force(p_now)
-    if m < BOOK_AT_ONCE:  # a short log: entry by entry, its crossings found in plain Python (a few numpy calls
-        #                   on its rows would cost more than the loop over its entries' indicators)
-        copies, twin = _book_each(model, data, log, _crossing_lists(events, g_old, g_event), p_now, records,
-                                  fired_times)
-    else:
-        fired = events.crossings(g_old, g_event)  # the indicators that fired, per entry
-        if not (events.any_not_branch_only and fired[:, events.not_branch_only].any()):
-            copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
-        else:  # an event that does more than flip a switch's branch: entry by entry
-            copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
+    fired = events.crossings(g_old, g_event)  # the indicators that fired, per entry
+    if m >= BOOK_AT_ONCE and not (events.any_not_branch_only and fired[:, events.not_branch_only].any()):
+        copies, twin = _book_branches(model, fired, g_old, g_event, t_event, p_now, records, fired_times)
+    else:  # a short log, or an event that does more than flip a switch's branch: entry by entry
+        copies, twin = _book_each(model, data, log, fired, p_now, records, fired_times)
     first_copy = segments.add_values(copies)  # the values after event e are copy first_copy + e
     return _place_rows(log, times, states, start, segments, t_event, twin, before, first_copy, nx, m)
 
 
-def _crossing_lists(events: EventTables, g_old: np.ndarray, g_event: np.ndarray) -> list[list[int]]:
-    """Per entry (row) the indicators that crossed, as EventTables.crossings marks them (events.crossings's
-    comparisons in plain Python)."""
-    directions = events.direction_list
-    return [[k for k, (a, b, d) in enumerate(zip(before, at, directions))
-             if (a < 0 and b >= 0 and d >= 0) or (a > 0 and b <= 0 and d <= 0)]
-            for before, at in zip(g_old.tolist(), g_event.tolist())]
-
-
 def _book_each(model, data, log, fired_mask, p_now, records, fired_times):
     """replay's actions and records entry by entry: (the values in force after each entry, twin flags).
-    ``fired_mask``: the crossings (a mask of entries by indicators, or a list per entry of the indicators)."""
+    ``fired_mask``: the crossings, a mask of entries by indicators."""
     m, nx, nev = len(log), model.nx, len(model.events)
     t_event = log[:, 0]
     g_old, g_event = log[:, 1 + 2 * nx:1 + 2 * nx + nev], log[:, 1 + 2 * nx + nev:1 + 2 * nx + 2 * nev]
     values = log[:, 1 + 2 * nx + 2 * nev:]
-    if isinstance(fired_mask, list):
-        fired_lists = fired_mask
-    else:
-        fired_lists = [[] for _ in range(m)]
-        for entry, k in zip(*(a.tolist() for a in np.nonzero(fired_mask))):
-            fired_lists[entry].append(k)
+    fired_lists = [[] for _ in range(m)]
+    for entry, k in zip(*(a.tolist() for a in np.nonzero(fired_mask))):
+        fired_lists[entry].append(k)
     twin = np.zeros(m, dtype=bool)
     copies = np.empty((m, p_now.size))
     specs = model.events
