@@ -209,7 +209,9 @@ def event_table(compiled) -> dict | None:
     return dict(frozen=compiled.p_names.index("switch.frozen") if "switch.frozen" in compiled.p_names else -1,
                 directions=[e.direction for e in compiled.events], flag=[e.switch for e in compiled.events],
                 inclusive=[int(e.inclusive) for e in compiled.events],
-                handled=list(tables[0]) if tables is not None else [0] * len(compiled.events),
+                # (2, a prescribed motion's switch on a model with loops, that the Python run projects after in C:
+                # handed back here, and fmu_apply_events projects after it)
+                handled=[int(h == 1) for h in tables[0]] if tables is not None else [0] * len(compiled.events),
                 terminal=[int(e.terminal) for e in compiled.events], first=first, index=index, slot=slot,
                 target=target, names=[e.name for e in compiled.events])
 

@@ -352,17 +352,16 @@ def c_restart_tables(model):
 def _restart_tables(model):
     """Which events the C sampling loop may apply and restart from itself (c/ode.c, mbs_ode_restart): those whose
     actions are generated C that assigns run-time values only (switch branches, modes, parameters), not a jump
-    of the state and not the end of the run, and on a model with loops not a switch of a prescribed motion
-    (its speed steps there, and the loops' speeds with it: Python projects the state onto the constraints after
-    it, as the FMU does after an event it does not restart in C).  Returns (handled, flag, first, index, slot) as
-    C wants them, or None when no event qualifies."""
+    of the state and not the end of the run.  On a model with loops a switch of a prescribed motion is marked 2
+    (c/ode.c MBS_ODE_HANDLED_PROJECT): its speed steps there, and the loops' speeds with it, so C projects the state
+    onto the constraints after it, as this loop does after an event handed back.  Returns (handled, flag, first,
+    index, slot) as C wants them, or None when no event qualifies."""
     handled, flag, first, index, slot = [], [], [0], [], []
     loops = "project" in model.functions
     for spec in model.events:
         ok = (not spec.terminal and all(array == "p" for array, _, _ in spec.assignments)
-              and not is_friction_event(model, spec.name)  # Python checks the held forces after those
-              and not (loops and spec.prescribed))
-        handled.append(int(ok))
+              and not is_friction_event(model, spec.name))  # Python checks the held forces after those
+        handled.append(2 if ok and loops and spec.prescribed else int(ok))
         flag.append(spec.switch)
         for _, target, value_slot in (spec.assignments if ok else ()):
             index.append(target)

@@ -32,6 +32,19 @@
  * that direction start this much larger again (up to the controller's step: see mbs_ode_learn_first_step). */
 #define MBS_ODE_FIRST_STEP_RELAX 1.2
 
+/* handled[k] of an event whose actions make the state leave the constraints it was on (on a model with loops a
+ * prescribed motion's switch: its speed steps, and the loops' speeds with it): mbs_ode_restart applies it, projects
+ * the state with the model's projection (o->project, as every accepted step) and restarts from there, what the
+ * caller does when the event is handed back to it (runtime/event_loop.py), without a new solver.
+ * -DMBS_ODE_PRESCRIBED_FORMER=1 builds the former behaviour: such an event goes back to the caller (the same-run
+ * baseline of bench/restart_steps.py --former prescribed). */
+#define MBS_ODE_HANDLED_PROJECT 2
+#ifdef MBS_ODE_PRESCRIBED_FORMER
+#define MBS_ODE_PROJECT_IN_C 0
+#else
+#define MBS_ODE_PROJECT_IN_C 1
+#endif
+
 /* The root finder's memory of one step (mbs_ode_trials), and how many trial points it keeps: a crossing takes about
  * eight evaluations, the indicators that cross in one step together (the twin wheels) a dozen or two. */
 #define MBS_ODE_TRIALS 64
@@ -74,7 +87,8 @@ typedef struct mbs_ode_restarts {
     double *p;              /* the parameters the run uses (o->p), writable: modes and branch flags change */
     mbs_fn actions;         /* mbs_event_actions (the values the actions assign), or NULL without values */
     int nvalues;            /* its output size */
-    int *handled;           /* [nev]: 1 when the event can be applied here (no jump of x, not terminal) */
+    int *handled;           /* [nev]: 1 when the event can be applied here (no jump of x, not terminal), 2 when
+                             * so but the state is projected after it (MBS_ODE_HANDLED_PROJECT) */
     int *flag;              /* [nev]: p index of a switch's branch flag, or -1 */
     int *first;             /* [nev + 1]: the p assignments of event k are index[first[k] .. first[k + 1]) */
     int *index, *slot;      /* p index assigned, and the slot of the actions' output it takes */
@@ -561,6 +575,26 @@ static int mbs_ode_settle(mbs_ode *o, const double *g)
     return changed;
 }
 
+/* Whether the event of indicator k is applied and restarted from here (mbs_ode_restart) rather than handed back. */
+static int mbs_ode_handles(const mbs_ode *o, int k)
+{
+    const int handled = o->restarts->handled[k];
+    return handled == 1 || (handled == MBS_ODE_HANDLED_PROJECT && MBS_ODE_PROJECT_IN_C && o->project);
+}
+
+/* The state at an event whose actions were applied projected onto the constraints with the new values (o->project,
+ * the projection of every accepted step).  Returns its status; on a failure y is left as it was. */
+static int mbs_ode_project_event(mbs_ode *o)
+{
+    int s = o->project(o->t, o->y, o->p, o->yproj, o->work);
+    if (s != MBS_OK) {
+        o->model_status = s;
+        return s;
+    }
+    memcpy(o->y, o->yproj, (size_t)o->n * sizeof(double));
+    return MBS_OK;
+}
+
 static int mbs_ode_restart(mbs_ode *o);
 static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const double *g_event);
 #ifdef MBS_ODE_TRACE
@@ -642,7 +676,7 @@ static int mbs_ode_bridge(mbs_ode *o)
     if (kept) memcpy(o->g_new, kept, (size_t)o->nev * sizeof(double));
     else if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
     for (k = 0; k < o->nev; k++)
-        if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k]) && !r->handled[k]) goto done;
+        if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k]) && !mbs_ode_handles(o, k)) goto done;
     o->nfev++;
     if (o->fn(t2, o->y_try, o->p, r->f_bridge, o->work) != MBS_OK) goto done;
     for (i = 0; i < o->n; i++) r->f_bridge[i] = 0.5 * (t2 - t1) * (r->f_bridge[i] - o->f[i]);
@@ -668,7 +702,7 @@ done:
 static int mbs_ode_restart(mbs_ode *o)
 {
     mbs_ode_restarts *r = o->restarts;
-    int k, j, n = o->n, nev = o->nev, fired = 0, pass;
+    int k, j, n = o->n, nev = o->nev, fired = 0, pass, project = 0;
     double *entry, *g_event, *values;
     if (!r || mbs_ode_log_room(r)) return 0;
     entry = r->log + (size_t)r->count * r->width;
@@ -680,13 +714,14 @@ static int mbs_ode_restart(mbs_ode *o)
     o->trials->event_ready = 0;
     for (k = 0; k < nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], g_event[k])) {
-            if (!r->handled[k] || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) {
+            if (!mbs_ode_handles(o, k) || o->t - r->last_t[k] <= r->window * fmax(1.0, fabs(o->t))) {
 #ifdef MBS_ODE_TRACE
                 fprintf(stderr, "HANDBACK %.17g k %d handled %d\n", o->t, k, r->handled[k]);
 #endif
                 return 0;
             }
             fired++;
+            project |= r->handled[k] == MBS_ODE_HANDLED_PROJECT;
         }
     }
     if (!fired || (r->nvalues && r->actions(o->t, o->y, o->p, values, o->work) != MBS_OK)) return 0;
@@ -699,13 +734,16 @@ static int mbs_ode_restart(mbs_ode *o)
         for (j = r->first[k]; j < r->first[k + 1]; j++) r->p[r->index[j]] = values[r->slot[j]];
         if (r->flag[k] >= 0) r->p[r->flag[k]] = g_event[k] > o->g_old[k] ? 1.0 : 0.0;
     }
-    /* no projection here: the state did not jump, and the dense output at the event is as near the constraints
-     * as any state inside a step (the next accepted step is projected).  Projecting it would move the indicators
-     * that just fired by the integration error, back across zero at times: the switch would then settle on its
-     * old side and fire again within 1e-11 s. */
+    /* no projection after a switch that leaves the state on its constraints: the state did not jump, and the
+     * dense output at the event is as near the constraints as any state inside a step (the next accepted step is
+     * projected).  Projecting it would move the indicators that just fired by the integration error, back across
+     * zero at times: the switch would then settle on its old side and fire again within 1e-11 s.  A prescribed
+     * motion's switch steps the loops' speeds: projected with the new values, as the caller did after it. */
+    if (project && mbs_ode_project_event(o) != MBS_OK) o->status = MBS_ODE_MODEL_FAILED;
     memcpy(entry + 1 + (size_t)n, o->y, (size_t)n * sizeof(double));
     r->count++;
     o->t_old = o->t;
+    if (o->status == MBS_ODE_MODEL_FAILED) return 1;  /* logged, with the state as it was: the run stops there */
     for (pass = 0;; pass++) {
         if (mbs_ode_eval(o, o->t, o->y, o->f) != MBS_OK) {
             o->status = MBS_ODE_MODEL_FAILED;

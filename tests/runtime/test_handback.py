@@ -1,10 +1,12 @@
-"""A run handed back to Python at an event (on a model with loops, a prescribed motion's switch: Python projects the
-loop's speeds there) goes on in a new C solver that takes over what the old one learned, as a restart in C keeps it
-(c/mbs_python.c mbs_ode_take_over): the first-step fractions per indicator and direction, the indicators' last
-events, the step a restart in C goes on with, DOPRI5's controller memory.  The baseline is the same model built with
--DMBS_ODE_HANDBACK_FORMER=1 (the new solver learned nothing), run in the same test; the reference the same scene at
-rtol 1e-11.  The fixture: a slider crank whose slider hits a stiff stop (a switch restarted in C) on every swing,
-before, between and after the two hand-backs of its base's ramp."""
+"""A run handed back to Python at an event without a jump of the state (a friction law's event, after which Python
+checks the held forces; on a model with loops a prescribed motion's switch, before C projected after it itself:
+tests/runtime/test_prescribed_restart.py) goes on in a new C solver that takes over what the old one learned, as a
+restart in C keeps it (c/mbs_python.c mbs_ode_take_over): the first-step fractions per indicator and direction, the
+indicators' last events, the step a restart in C goes on with, DOPRI5's controller memory.  The fixture: a slider
+crank whose slider hits a stiff stop (a switch restarted in C) on every swing, before, between and after the two
+switches of its base's ramp, built with -DMBS_ODE_PRESCRIBED_FORMER=1 so that those go back to Python; the baseline
+is the same model built with -DMBS_ODE_HANDBACK_FORMER=1 as well (the new solver learned nothing), run in the same
+test; the reference the same scene at rtol 1e-11."""
 
 from __future__ import annotations
 
@@ -20,7 +22,10 @@ from mbs.runtime.workspace import Workspace
 from former_builds import flagged_build, simulate_with
 
 MODELS = Path(__file__).parent / "models"
-FORMER = ("-DMBS_ODE_HANDBACK_FORMER=1",)
+#: the ramp's switches handed back to Python (c/ode.c MBS_ODE_PRESCRIBED_FORMER), as before C projected after them
+HANDING_BACK = ("-DMBS_ODE_PRESCRIBED_FORMER=1",)
+HANDBACK_FORMER = ("-DMBS_ODE_HANDBACK_FORMER=1",)
+FORMER = HANDING_BACK + HANDBACK_FORMER
 #: a sample of stops (stiffness N/m, where it engages m): the learned fractions differ with each
 STOPS = [(1e5, 0.46), (1e5, 0.47), (1e6, 0.46), (1e6, 0.47), (1e7, 0.46), (1e7, 0.47)]
 
@@ -28,7 +33,7 @@ STOPS = [(1e5, 0.46), (1e5, 0.47), (1e6, 0.46), (1e6, 0.47), (1e7, 0.46), (1e7, 
 @pytest.fixture(scope="module")
 def stop():
     system = mbs.load(MODELS / "handback_stop.mbs")
-    return system, flagged_build(system, "swings", FORMER)
+    return system, flagged_build(system, "swings", HANDING_BACK), flagged_build(system, "swings", FORMER)
 
 
 def samples(res, name: str) -> np.ndarray:
@@ -44,12 +49,12 @@ def event_times(res, name: str) -> np.ndarray:
 
 
 def test_the_fixture_hands_back_at_the_ramp_and_restarts_the_stop_in_c(stop, monkeypatch):
-    system, _ = stop
+    system, now, _ = stop
     taken = []
     take_over = native.NativeSolver.take_over
     monkeypatch.setattr(native.NativeSolver, "take_over",
                         lambda self, old, *rest: (taken.append(old.t), take_over(self, old, *rest))[1])
-    res = system.simulate("swings")
+    res = simulate_with(system, "swings", now)
     assert res.success, res.message
     assert taken == [pytest.approx(0.2), pytest.approx(0.5)]  # the ramp's ends
     assert len(event_times(res, "guide.stop")) >= 10  # the stop, on every swing, restarted in C
@@ -59,11 +64,11 @@ def test_a_run_handed_back_goes_on_with_fewer_rejections_and_rhs_calls(stop):
     """Over the sample of stops: fewer rejected steps and fewer evaluations of f than the new solver that learned
     nothing (the trace of k_stop 1e6, x_stop 0.465: after each hand-back that one rejected the first step of the
     stop's first restart twice, at 2e6 and 3e2 times the tolerance; the carried fraction's first step passed)."""
-    system, former = stop
+    system, handing_back, former = stop
     now, was = np.zeros(2), np.zeros(2)
     for k_stop, x_stop in STOPS:
         params = {"k_stop": k_stop, "x_stop": x_stop}
-        a = system.simulate("swings", params=params)
+        a = simulate_with(system, "swings", handing_back, params=params)
         b = simulate_with(system, "swings", former, params=params)
         assert a.success and b.success
         assert len(a.events) == len(b.events)
@@ -77,10 +82,11 @@ def test_a_run_handed_back_goes_on_with_fewer_rejections_and_rhs_calls(stop):
 def test_results_stay_within_the_tolerance_of_a_tight_reference(stop, k_stop, x_stop):
     """The same error control: the samples and the events' times against the scene at rtol 1e-11 as close as the
     former hand-back's (within twice its error, and 1e-5 at rtol 1e-7 over a second); the same events."""
-    system, former = stop
+    system, handing_back, former = stop
     params = {"k_stop": k_stop, "x_stop": x_stop}
     reference = system.simulate("swings", params=params, rtol=1e-11, atol=1e-13)
-    runs = [system.simulate("swings", params=params), simulate_with(system, "swings", former, params=params)]
+    runs = [simulate_with(system, "swings", handing_back, params=params),
+            simulate_with(system, "swings", former, params=params)]
     gaps, shifts = [], []
     for res in runs:
         assert [e["event"] for e in res.events] == [e["event"] for e in reference.events]
@@ -95,7 +101,7 @@ def test_a_run_that_never_hands_back_is_bit_identical():
     """fast_ramp's switch restarts in C and nothing goes back to Python: the take-over never runs."""
     system = mbs.load(MODELS / "fast_ramp.mbs")
     now = system.simulate("ramp")
-    was = simulate_with(system, "ramp", flagged_build(system, "ramp", FORMER))
+    was = simulate_with(system, "ramp", flagged_build(system, "ramp", HANDBACK_FORMER))
     assert now.metadata["stats"] == was.metadata["stats"]
     assert np.array_equal(now["push.s"], was["push.s"]) and np.array_equal(now.t, was.t)
 
@@ -127,7 +133,7 @@ def test_the_python_event_loop_projects_only_where_something_jumps(stop, monkeyp
     ramp's two events (the prescribed speed steps) and not at the stop's (a continuous switch: nothing jumps, and
     projecting the located state moved other indicators within round-off of zero across it, whose switches then
     changed without an event)."""
-    system, _ = stop
+    system, _, _ = stop
     projected = []
     real = Workspace.project.fget  # (a property: the compiled function, bound to the workspace)
     monkeypatch.setattr(Workspace, "project", property(
