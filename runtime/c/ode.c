@@ -802,8 +802,8 @@ static void mbs_ode_restart_step(mbs_ode *o, const double *g_before, const doubl
 
 /* A run handed back to the caller at an event C does not handle without a jump of the state (a friction law's event,
  * after which the caller checks the held forces; with -DMBS_ODE_PRESCRIBED_FORMER=1 a prescribed motion's switch on a
- * model with loops, whose speeds the caller projects) goes on in a new solver `to`, set up from the state after the event with its events and restarts,
- * before its first step.  What `from`, the solver that handed the event back, learned goes over, as a restart in C
+ * model with loops, whose speeds the caller projects) goes on in a new solver `to`, set up from the state after the
+ * event with its events and restarts, before its first step.  What `from`, the solver that handed the event back, learned goes over, as a restart in C
  * keeps it: the first-step fractions per indicator and direction, the times of the indicators' last events (the
  * chattering window; the indicators that fired at this event among them) and the step as mbs_ode_restart_step takes
  * it after a restart in C, from `from`'s controller and the step that found the event, instead of the caller's first
