@@ -1,11 +1,13 @@
 """The Iltis's event indicators (the generated mbs_events), current against the former text, in one run.
 
     python bench/indicators.py [--scene bump_10] [--compare bump_10 bump_5 anti_5 anti_10] [--no-count]
+                               [--former angles|lookups]
 
-The former text: mbs_events printed from the equations' tape as it is (compiler/angle_free.py ANGLE_FREE_INDICATORS
-False: the sines and cosines of the wheels' spin evaluated, which the tyres' indicators do not depend on),
-generated through mbs.pipeline.generate (the derivation cache does not see the switch) and built like any model
-(cached by content).  Both builds differ in mbs_events alone.
+The former text: mbs_events printed with one of compiler/angle_free.py's forks of the tape off, generated through
+mbs.pipeline.generate (the derivation cache does not see the switch) and built like any model (cached by content).
+Both builds differ in mbs_events alone.  --former angles (the default): ANGLE_FREE_INDICATORS False, the sines and
+cosines of the wheels' spin evaluated, which the tyres' indicators do not depend on; --former lookups: GATED_LOOKUPS
+False, the tyres' random road profiles looked up also where `rough` is 0 and scales them away.
 
 Instructions (valgrind's callgrind, load-independent; needs `valgrind` on the PATH): the integration of one run of
 --scene (`Solver.sample`, the scene's own integrator and tolerances: adams at rtol 5e-7 for bump_10) in a child
@@ -47,22 +49,26 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from event_instructions import RESTART, RHS_NAMES, ROOT_FINDER, sample_under_callgrind  # noqa: E402
+from event_instructions import RESTART, RHS_NAMES, ROOT_FINDER, profile, sample_under_callgrind  # noqa: E402
 
 
-def former_model(system, scene: str):
-    """The scene's compiled model with mbs_events printed as before (ANGLE_FREE_INDICATORS False)."""
+#: --former: the switch of compiler/angle_free.py the former text is printed with off
+FORMERS = {"angles": "ANGLE_FREE_INDICATORS", "lookups": "GATED_LOOKUPS"}
+
+
+def former_model(system, scene: str, former: str = "angles"):
+    """The scene's compiled model with mbs_events printed as before (the switch FORMERS[former] False)."""
     from mbs import pipeline
     from mbs.compiler import angle_free
     from mbs.runtime import build
     from mbs.runtime.backends import CBackend
     from mbs.runtime.translation_units import COLD_APART
     compiled = system.compile(scene)
-    angle_free.ANGLE_FREE_INDICATORS = False
+    setattr(angle_free, FORMERS[former], False)
     try:
         generated = pipeline.generate(system.model, system.scene(scene), cold_apart=COLD_APART)
     finally:
-        angle_free.ANGLE_FREE_INDICATORS = True
+        setattr(angle_free, FORMERS[former], True)
     return dataclasses.replace(compiled, backend=CBackend(build.load(build.build(generated.c_source))))
 
 
@@ -75,8 +81,8 @@ sys.path.insert(0, BENCH)
 from indicators import former_model
 path, scene, which = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
 system = mbs.load(path)
-if which == "former":
-    model, compiled = former_model(system, scene), system.compile(scene)
+if which != "current":
+    model, compiled = former_model(system, scene, which), system.compile(scene)
     for key in [key for key, value in system._compiled.items() if value is compiled]:
         system._compiled[key] = model
 stats = system.simulate(scene).metadata["stats"]
@@ -85,7 +91,8 @@ print("STATS", stats["nsteps"] - stats["nreject"], stats["nfev"], stats["nevents
 
 
 def counted(scene: str, which: str, workdir: Path) -> dict:
-    """The integration's instructions and mbs_events' calls by caller, of one run under callgrind."""
+    """The integration's instructions and mbs_events' calls by caller, of one run under callgrind (which: "current"
+    or a key of FORMERS)."""
     child = [sys.executable, "-c", CHILD, str(MODEL), scene, which]
     total, (accepted, nfev, nevents), pairs = sample_under_callgrind(child, workdir / f"callgrind.{which}")
 
@@ -101,12 +108,12 @@ def counted(scene: str, which: str, workdir: Path) -> dict:
             "accepted": accepted, "nfev": nfev, "nevents": nevents}
 
 
-def instructions(scene: str) -> None:
+def instructions(scene: str, former: str = "angles") -> None:
     """The instructions of the indicators, current against former (see the module's docstring)."""
     with tempfile.TemporaryDirectory() as tmp:
-        now, was = (counted(scene, which, Path(tmp)) for which in ("current", "former"))
+        now, was = (counted(scene, which, Path(tmp)) for which in ("current", former))
     print(f"Iltis {scene}, the scene's integrator and tolerances: instructions of one run's integration "
-          f"(Solver.sample, callgrind), current mbs_events against the former text")
+          f"(Solver.sample, callgrind), current mbs_events against the former text ({FORMERS[former]} False)")
     print(f"  accepted steps {now['accepted']} (former {was['accepted']}), rhs calls {now['nfev']} "
           f"({was['nfev']}), events {now['nevents']} ({was['nevents']})")
     print(f"  {'part':<26}{'calls':>7}{'current':>10}{'former':>10}{'ratio':>7}{'per call':>10}{'former':>8}"
@@ -118,7 +125,7 @@ def instructions(scene: str) -> None:
               f"{a / max(1, now['accepted']):10.0f}{b / max(1, was['accepted']):8.0f}")
 
 
-def compare(scenes) -> None:
+def compare(scenes, former: str = "angles") -> None:
     """Both builds' runs of each scene outside valgrind: the events, their times, the steps and the results."""
     import mbs
     sys.path.insert(0, str(ROOT / "tests" / "runtime"))
@@ -126,7 +133,7 @@ def compare(scenes) -> None:
     system = mbs.load(MODEL)
     print("\nBoth builds' runs outside valgrind (current against former):")
     for scene in scenes:
-        current, before = system.simulate(scene), simulate_with(system, scene, former_model(system, scene))
+        current, before = system.simulate(scene), simulate_with(system, scene, former_model(system, scene, former))
         same = [(e["event"], e["direction"]) for e in current.events] == [
             (e["event"], e["direction"]) for e in before.events]
         times = (np.array([e["time"] for e in current.events]) - np.array([e["time"] for e in before.events])
@@ -246,6 +253,7 @@ def main(argv=None) -> int:
                         help="scenes whose runs are compared outside valgrind")
     parser.add_argument("--no-count", action="store_true", help="skip the instruction counts")
     parser.add_argument("--groups", action="store_true", help="instead: mbs_events narrowed to one element's")
+    parser.add_argument("--former", choices=sorted(FORMERS), default="angles", help="the former text's switch off")
     args = parser.parse_args(argv)
     if args.groups:
         if shutil.which("valgrind") is None:
@@ -257,9 +265,9 @@ def main(argv=None) -> int:
         if shutil.which("valgrind") is None:
             print("valgrind is not on the PATH: nothing to count")
             return 1
-        instructions(args.scene)
+        instructions(args.scene, args.former)
     if args.compare:
-        compare(args.compare)
+        compare(args.compare, args.former)
     return 0
 
 

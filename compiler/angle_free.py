@@ -1,9 +1,10 @@
-"""Event indicators without the sines and cosines of angles they do not depend on (a wheel's spin).
+"""Event indicators without the sines and cosines of angles they do not depend on (a wheel's spin), and without the
+lookups a parameter at zero scales away (a road's random profile, off).
 
 A tyre's indicators read the world velocity of its wheel's centre, which the tape composes from the spinning wheel's
 rotation and its velocity in its own frame: the product is the same for every spin angle (c^2 + s^2 = 1), yet
 mbs_events evaluated the sine and cosine of each wheel's spin.  `angle_free_tape` forks the tape for mbs_events
-alone (compiler/ccode.py CEmitter._tape_of) with such products reduced exactly; the right-hand side keeps its tape.
+alone (compiler/ccode.py CEmitter._printed) with such products reduced exactly; the right-hand side keeps its tape.
 `python bench/indicators.py` measures it against the former text (ANGLE_FREE_INDICATORS False).
 """
 
@@ -13,6 +14,7 @@ import random
 
 import sympy as sp
 
+from .emit_common import TABLE_FUNCTION
 from .tape import symbols_of
 
 
@@ -155,3 +157,44 @@ def angle_free_tape(tape, outputs):
         if not {c, s} & {e.symbol for e in trial.entries_for(outputs)}:  # (else the rewrite saves no sin, cos)
             fork = trial
     return fork or tape
+
+
+#: The generated mbs_events with every lookup evaluated, also where a parameter at zero scales it away (False): the
+#: same-run baseline of python bench/indicators.py --lookups.
+GATED_LOOKUPS = True
+
+
+def gated_lookups(tape, outputs, parameters):
+    """(tape, outputs) with each product of a run-time parameter and a lookup table's value that `outputs` (the
+    indicators) read evaluated only where the parameter is not 0 (0 where it is): the tape's entries on a fork of it
+    (`tape` itself when they read none), the outputs' own expressions rewritten alike.
+
+    The Iltis's tyres read their road's height, the bump plus `rough` times a random profile (an ISO 8608 table of
+    thousands of knots): with `rough` at 0, as in every bump scene, mbs_events looked up the four wheels' tables at
+    every call for nothing (81 instructions each, a tenth of its instructions).  A table's value is finite (its data
+    are, and it interpolates between them or holds its ends), so the product is then 0 (to the sign of zero, which
+    the sum it is part of loses).  The right-hand side keeps its tape."""
+    outputs = [sp.sympify(e) for e in outputs]
+    if not GATED_LOOKUPS:
+        return tape, outputs
+    gates = {x for x in parameters if isinstance(x, sp.Symbol)}
+    fork = None
+    for entry in tape.entries_for(outputs):
+        expr = _gated(entry.expr, gates)
+        if expr != entry.expr:
+            fork = fork or tape.fork()
+            fork.rewrite(entry.symbol, expr)
+    return fork or tape, [_gated(e, gates) for e in outputs]
+
+
+def _gated(expr, gates):
+    """expr with each product of a parameter of `gates` and a lookup table's value gated by the parameter."""
+    return expr.replace(lambda e: _lookup_gate(e, gates) is not None,
+                        lambda e: sp.Piecewise((e, sp.Ne(_lookup_gate(e, gates), 0)), (0, True)))
+
+
+def _lookup_gate(expr, gates):
+    """The parameter of `gates` that a product of it and a lookup table's value is scaled by, or None."""
+    if not expr.is_Mul or not any(TABLE_FUNCTION.match(type(a).__name__) for a in expr.args if a.is_Function):
+        return None
+    return next((a for a in expr.args if a in gates), None)

@@ -56,7 +56,7 @@ from .emit_common import (  # noqa: F401
     table_slopes,
 )
 from .equations import Equations
-from .angle_free import angle_free_tape
+from .angle_free import angle_free_tape, gated_lookups
 from .hooks import c_helpers as hook_helpers
 from .jacobian import jacobian_or_none, parameter_jacobian_or_none
 from .jacobian_loops import loop_jacobian_or_none, loop_jacobian_work_size
@@ -214,10 +214,10 @@ class CEmitter:
         if head_ready is not None:
             head_ready(self.head(), len(self.eqs.tape))
         printer = CPrinter(self.names, len(self.tables))
-        functions = [self._function(plan_routine(self._tape_of(name), self.naming, printer, name, out, doc, shape,
-                                                 results, check_positive=positive,
-                                                 inline_max_chars=self.inline_max_chars))
-                     for name, out, doc, shape, results, positive in self._routines()]
+        functions = [self._function(plan_routine(tape, self.naming, printer, name, out, doc, shape, printed,
+                                                 check_positive=positive, inline_max_chars=self.inline_max_chars))
+                     for name, out, doc, shape, results, positive in self._routines()
+                     for tape, printed in [self._printed(name, results)]]
         tree = self.eqs.tree
         functions += [name_table("mbs_state_name", "state i", [s.name for s in tree.x_symbols]),
                       name_table("mbs_parameter_name", "parameter i", [s.name for s in self.parameters])]
@@ -249,12 +249,16 @@ class CEmitter:
                                terms) if r]
                 + (list(self.friction[0]) if self.friction else []))
 
-    def _tape_of(self, routine: str):
-        """The tape a function is printed from: the indicators' without the sines and cosines of angles they do not
-        depend on (compiler/angle_free.py angle_free_tape: a wheel's spin), every other function's the equations'."""
+    def _printed(self, routine: str, results: list) -> tuple:
+        """(tape, results) a function is printed from: the indicators' without the sines and cosines of angles they
+        do not depend on (compiler/angle_free.py angle_free_tape: a wheel's spin) and without the lookups a
+        parameter at 0 scales away (gated_lookups: a road's random profile, off), every other function's the
+        equations' tape and its own results."""
         if routine != "mbs_events":
-            return self.eqs.tape
-        return angle_free_tape(self.eqs.tape, [e for _, e in self.events])
+            return self.eqs.tape, results
+        indicators = [e for _, e in results]
+        tape, gated = gated_lookups(angle_free_tape(self.eqs.tape, indicators), indicators, self.parameters)
+        return tape, [(k, e) for (k, _), e in zip(results, gated)]
 
     def _loop_terms(self) -> bool:
         """Whether the file has mbs_loop_terms, and mbs_mass_matrix, mbs_forces, mbs_constraint_acceleration

@@ -127,3 +127,77 @@ def test_the_quarter_car_locates_the_same_events_as_with_the_former_indicators()
     for name in current.names:
         scale = max(1.0, float(np.max(np.abs(before[name]))))
         assert np.max(np.abs(current[name] - before[name])) <= 1e-9 * scale, name
+
+
+# ---- the lookups a parameter at 0 scales away (gated_lookups) ----
+
+def table_call(x):
+    return sp.Function("mbs_table_0")(x)
+
+
+def test_a_lookup_scaled_by_a_parameter_is_gated_by_it_on_the_tape_and_in_the_outputs():
+    tape = Tape()
+    rough, bump, x, z = sp.symbols("rough bump x z")
+    road = tape.temp(bump * x + rough * table_call(x), "road")
+    scaled_by_state = tape.temp(z * table_call(x), "by_state")  # a state's product: always evaluated
+    fork, (first, second, third) = angle_free.gated_lookups(tape, [road - z, scaled_by_state, rough * table_call(z)],
+                                                            [rough, bump])
+    assert fork is not tape
+    gated = sp.Piecewise((rough * table_call(x), sp.Ne(rough, 0)), (0, True))
+    assert fork.entry(road).expr == bump * x + gated
+    assert fork.entry(scaled_by_state).expr == z * table_call(x)
+    assert first == road - z and second == scaled_by_state
+    assert third == sp.Piecewise((rough * table_call(z), sp.Ne(rough, 0)), (0, True))
+    assert tape.entry(road).expr == bump * x + rough * table_call(x)  # the equations' tape is left as it was
+
+
+def test_without_a_gated_lookup_or_with_the_switch_off_the_tape_is_itself(monkeypatch):
+    tape = Tape()
+    rough, x = sp.symbols("rough x")
+    plain = tape.temp(rough * sp.cos(x), "plain")  # no table
+    assert angle_free.gated_lookups(tape, [plain], [rough])[0] is tape
+    road = tape.temp(rough * table_call(x), "road")
+    monkeypatch.setattr(angle_free, "GATED_LOOKUPS", False)
+    fork, outputs = angle_free.gated_lookups(tape, [road, rough * table_call(x)], [rough])
+    assert fork is tape and outputs == [road, rough * table_call(x)]
+
+
+def test_the_floor_profile_is_looked_up_only_where_it_is_scaled_and_the_runs_are_the_same_to_the_bit():
+    """A ball bouncing on a floor whose height is `rough` times a table (tests/compiler/models/gated_floor.mbs):
+    mbs_events evaluates the lookup only where rough is not 0, its right-hand side as written; the runs at rough 0
+    and 1 are those of the former text (GATED_LOOKUPS False, through mbs.pipeline.generate) to the bit."""
+    import dataclasses
+
+    import numpy as np
+
+    import mbs
+    from mbs import pipeline
+    from mbs.runtime import build
+    from mbs.runtime.backends import CBackend
+    from mbs.runtime.translation_units import COLD_APART
+
+    system = mbs.load(Path(__file__).parent / "models" / "gated_floor.mbs")
+    source = system.generate("bounce").c_source
+    assert "(rough != 0 ? rough*mbs_table_0(speed*t) : 0.0)" in function_text(source, "mbs_events")
+    assert "rough != 0" not in function_text(source, "mbs_rhs")
+    angle_free.GATED_LOOKUPS = False
+    try:
+        former = pipeline.generate(system.model, system.scene("bounce"), cold_apart=COLD_APART)
+    finally:
+        angle_free.GATED_LOOKUPS = True
+    assert "rough != 0" not in function_text(former.c_source, "mbs_events")
+    compiled = system.compile("bounce")
+    model = dataclasses.replace(compiled, backend=CBackend(build.load(build.build(former.c_source))))
+    for rough in (0.0, 1.0):
+        current = system.simulate("bounce", params={"rough": rough})
+        keys = [key for key, value in system._compiled.items() if value is compiled]
+        for key in keys:
+            system._compiled[key] = model
+        try:
+            before = system.simulate("bounce", params={"rough": rough})
+        finally:
+            for key in keys:
+                system._compiled[key] = compiled
+        assert len(current.events) > 10
+        assert current.events == before.events
+        assert np.array_equal(np.asarray(current.data), np.asarray(before.data))
