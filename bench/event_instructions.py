@@ -14,7 +14,7 @@ Every run here, in the children and in this process, is DOPRI5 at rtol 1e-7, ato
 (bench/dopri5_former.py DOPRI5_FORMER): the bump scenes' settings before they moved to adams, what this bench studies
 (the restarts and the machinery around DOPRI5's steps; the former builds' paths are DOPRI5's and c/ode.c's).
 
-    python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events] [--repeat 7]
+    python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events|scan] [--repeat 7]
 
 The integration of one run of the event form (`Solver.sample`, callgrind collecting inside it only: every step,
 projection, root finding and restart C does), split by part and counted for two builds of the same model in the
@@ -27,7 +27,10 @@ same run, current / former:
   every one to round-off and projecting afresh one that drifted beyond 1e-12;
 * --former events: -DMBS_ODE_EVENTS_FORMER=1, the former root finding (each crossing located from its step's ends
   alone, the departure probe taken in every search, the bracket closed by probes four doubles either side of the
-  secant's root and bisection, the indicators at an event evaluated again by its restart).
+  secant's root and bisection, the indicators at an event evaluated again by its restart);
+* --former scan: -DMBS_ODE_SCAN_FORMER=1, the former test for a crossing at a step's end (c/ode.c mbs_ode_find_event:
+  the root finding's bookkeeping set up for every indicator, each then tested in turn, where the indicators are now
+  tested all at once, vectorized, and a step without a crossing goes on at once).
 
 The parts: the rhs calls (of the steps, of the restarts), the projection of the accepted steps, the indicator
 evaluations (`mbs_events`: at the steps' ends, in the root finding, at the restarts, with their counts), the root
@@ -86,8 +89,10 @@ def instructions(form: str, scene: str, count: int, workdir: Path) -> int:
 
 
 #: The build switches of the baselines of --machinery: the former machinery (c/dopri5.c's scalar loops, the
-#: lookups' search over all knots) and the former root finding (c/ode.c).
-FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",)}
+#: lookups' search over all knots), the former root finding (c/ode.c) and the former test for a crossing at a step's
+#: end (c/ode.c mbs_ode_find_event: each indicator's bookkeeping set up, then tested in turn).
+FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",),
+           "scan": ("-DMBS_ODE_SCAN_FORMER=1",)}
 FORMER_FLAGS = FORMERS["events"]
 
 #: The tests' helpers (tests/runtime/former_builds.py: install_flagged_build), for the child processes
@@ -323,7 +328,7 @@ def main(argv=None) -> int:
     parser.add_argument("--machinery", action="store_true",
                         help="the integration's instructions by part, current against a former build")
     parser.add_argument("--former", choices=sorted(FORMERS), default="machinery",
-                        help="--machinery's baseline: the former machinery (default) or root finding")
+                        help="--machinery's baseline: the former machinery (default), root finding or crossing test")
     parser.add_argument("--repeat", type=int, default=7, help="--machinery's interleaved timed runs per build")
     args = parser.parse_args(argv)
     if shutil.which("valgrind") is None:

@@ -441,6 +441,43 @@ static void mbs_ode_keep_event(mbs_ode *o, double t, const double *g)
     memcpy(tr->g_event, g, (size_t)o->nev * sizeof(double));
 }
 
+/* -DMBS_ODE_SCAN_FORMER=1 builds the former test for a crossing at a step's end (each indicator's bookkeeping for the
+ * root finding set up, then tested in turn), the same-run baseline of bench/event_instructions.py --machinery
+ * --former scan. */
+#ifdef MBS_ODE_SCAN_FORMER
+#define MBS_ODE_SCAN 0
+#else
+#define MBS_ODE_SCAN 1
+#endif
+
+/* Whether any indicator crossed from g_old to g_new (mbs_ode_crossed), tested for all at once: nine steps in ten end
+ * without a crossing (the Iltis over the bump at 10 m/s), and the test is then all that mbs_ode_find_event does
+ * besides evaluating the indicators.  Without a branch per indicator (the comparisons combined bitwise: none has an
+ * effect, so none needs a short circuit), so that the compiler may vectorize it. */
+MBS_ODE_ELEMENTWISE static int mbs_ode_any_crossed(const mbs_ode *o, const double *g_old, const double *g_new)
+{
+    int k, any = 0;
+    for (k = 0; k < o->nev; k++) {
+        const int d = o->directions[k];
+        const double a = g_old[k], b = g_new[k];
+        any |= ((d >= 0) & (a < 0) & (b >= 0)) | ((d <= 0) & (a > 0) & (b <= 0));
+    }
+    return any;
+}
+
+/* A step without a crossing: its end's indicators are the next step's start's. */
+static void mbs_ode_no_event(mbs_ode *o)
+{
+    double *swap = o->g_old;
+    o->g_old = o->g_new;
+    o->g_new = swap;
+    o->trials->g_old_exact = 1;
+    if (o->restarts && o->restarts->h_resume > 0) {  /* the next crossing was not there */
+        o->h = o->restarts->h_resume;
+        o->restarts->h_resume = 0;
+    }
+}
+
 /* After an accepted step: stop at the earliest located crossing (status MBS_ODE_EVENT, t and y at it; g_old
  * keeps the indicators of the step's start so the caller can tell which fired), else move g_new to g_old.
  * Crossings within MBS_ODE_TWIN_WINDOW of the earliest are one event, at the latest of them, where each has
@@ -454,12 +491,16 @@ static void mbs_ode_keep_event(mbs_ode *o, double t, const double *g)
 static void mbs_ode_find_event(mbs_ode *o)
 {
     int k, s, found = 0;
-    double t_event = o->t, t_next = HUGE_VAL, t_first = HUGE_VAL, together, *swap, *located = o->t_located;
+    double t_event = o->t, t_next = HUGE_VAL, t_first = HUGE_VAL, together, *located = o->t_located;
     mbs_ode_restarts *r = o->restarts;
     if (!o->nev || (o->status != MBS_ODE_RUNNING && o->status != MBS_ODE_FINISHED)) return;
     s = o->events(o->t, o->y, o->p, o->g_new, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; return; }
     o->trials->count = 0;
+    if (MBS_ODE_SCAN && !mbs_ode_any_crossed(o, o->g_old, o->g_new)) {
+        mbs_ode_no_event(o);
+        return;
+    }
     mbs_ode_keep_trial(o, o->t, o->g_new);
     for (k = 0; k < o->nev; k++) {
         located[k] = NAN;
@@ -478,9 +519,7 @@ static void mbs_ode_find_event(mbs_ode *o)
             if (located[k] > t_event && located[k] < t_next) t_next = located[k];
     }
     if (!found) {
-        swap = o->g_old; o->g_old = o->g_new; o->g_new = swap;
-        o->trials->g_old_exact = 1;
-        if (r && r->h_resume > 0) { o->h = r->h_resume; r->h_resume = 0; }  /* the next crossing was not there */
+        mbs_ode_no_event(o);
         return;
     }
     if (r) { r->h_cut = o->t - o->t_old; r->t_next = t_next; }

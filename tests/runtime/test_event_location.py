@@ -56,3 +56,21 @@ def test_twin_contacts_are_located_as_the_former_root_finder_did_to_the_bit(twin
         assert closing["drop_right.contact)"] - closing["drop_left.contact)"] == pytest.approx(apart, abs=2e-12)
     else:
         assert closing["drop_left.contact)"] == closing["drop_right.contact)"]
+
+
+@pytest.mark.parametrize("model, scene, integrator", [("handback_stop.mbs", "swings", "dopri5"),
+                                                       ("handback_stop.mbs", "swings", "adams"),
+                                                       ("adams_switches.mbs", "run", None),
+                                                       ("twin_drops.mbs", "drops", None)])
+def test_the_crossing_test_at_a_step_end_runs_as_the_former_to_the_bit(model, scene, integrator):
+    """The indicators at a step's end tested for a crossing all at once (c/ode.c mbs_ode_any_crossed), the root
+    finding set up only after one: the run of the former test (-DMBS_ODE_SCAN_FORMER=1) to the bit, its events and
+    counters the same."""
+    system = mbs.load(Path(__file__).parent / "models" / model)
+    options = {"integrator": integrator} if integrator else {}
+    now = system.simulate(scene, **options)
+    was = simulate_with(system, scene, flagged_build(system, scene, ("-DMBS_ODE_SCAN_FORMER=1",)), **options)
+    assert now.success and len(now.events) > 1
+    assert now.events == was.events
+    assert now.metadata["stats"] == was.metadata["stats"]
+    assert np.array_equal(np.asarray(now.data), np.asarray(was.data))
