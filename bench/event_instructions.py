@@ -14,7 +14,8 @@ Every run here, in the children and in this process, is DOPRI5 at rtol 1e-7, ato
 (bench/dopri5_former.py DOPRI5_FORMER): the bump scenes' settings before they moved to adams, what this bench studies
 (the restarts and the machinery around DOPRI5's steps; the former builds' paths are DOPRI5's and c/ode.c's).
 
-    python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events|scan] [--repeat 7]
+    python bench/event_instructions.py --machinery [--scene bump_10] [--former machinery|events|scan|single]
+                                       [--repeat 7]
 
 The integration of one run of the event form (`Solver.sample`, callgrind collecting inside it only: every step,
 projection, root finding and restart C does), split by part and counted for two builds of the same model in the
@@ -30,7 +31,9 @@ same run, current / former:
   secant's root and bisection, the indicators at an event evaluated again by its restart);
 * --former scan: -DMBS_ODE_SCAN_FORMER=1, the former test for a crossing at a step's end (c/ode.c mbs_ode_find_event:
   the root finding's bookkeeping set up for every indicator, each then tested in turn, where the indicators are now
-  tested all at once, vectorized, and a step without a crossing goes on at once).
+  tested all at once, vectorized, and a step without a crossing goes on at once);
+* --former single: -DMBS_ODE_SINGLE_FORMER=1, the root finding evaluating every indicator at its trial points (c/ode.c
+  mbs_ode_trial_indicators), where it now evaluates the ones that crossed in the step alone (mbs_event_indicator).
 
 The parts: the rhs calls (of the steps, of the restarts), the projection of the accepted steps, the indicator
 evaluations (`mbs_events`: at the steps' ends, in the root finding, at the restarts, with their counts), the root
@@ -92,7 +95,7 @@ def instructions(form: str, scene: str, count: int, workdir: Path) -> int:
 #: lookups' search over all knots), the former root finding (c/ode.c) and the former test for a crossing at a step's
 #: end (c/ode.c mbs_ode_find_event: each indicator's bookkeeping set up, then tested in turn).
 FORMERS = {"machinery": ("-DMBS_MACHINERY_FORMER=1",), "events": ("-DMBS_ODE_EVENTS_FORMER=1",),
-           "scan": ("-DMBS_ODE_SCAN_FORMER=1",)}
+           "scan": ("-DMBS_ODE_SCAN_FORMER=1",), "single": ("-DMBS_ODE_SINGLE_FORMER=1",)}
 FORMER_FLAGS = FORMERS["events"]
 
 #: The tests' helpers (tests/runtime/former_builds.py: install_flagged_build), for the child processes
@@ -177,6 +180,8 @@ RHS_NAMES = ("mbs_loop_rhs_direct", "mbs_loop_rhs", "mbs_rhs")
 PROJECT_NAMES = ("mbs_loop_project_step", "mbs_project")
 ROOT_FINDER = ("mbs_ode_locate", "mbs_ode_g_at")
 RESTART = ("mbs_ode_restart", "mbs_ode_depart", "mbs_ode_bridge")
+#: the indicators: all at once, and one alone (the root finding's, c/ode.c mbs_ode_trial_indicators)
+INDICATOR_NAMES = ("mbs_events", "mbs_event_indicator")
 
 
 def integration_parts(path: Path, total: int) -> dict[str, float]:
@@ -191,10 +196,10 @@ def integration_parts(path: Path, total: int) -> dict[str, float]:
         return sum(v[1] for (a, b), v in pairs.items() if b in names and a not in names)
     rhs = calls(None, RHS_NAMES)
     rhs_restarts = calls(RESTART, RHS_NAMES)
-    events_at = {"ends": calls(("mbs_ode_find_event",), ("mbs_events",)),
-                 "roots": calls(ROOT_FINDER, ("mbs_events",)),
-                 "restarts": calls(RESTART, ("mbs_events",))}
-    indicators = calls(None, ("mbs_events",))
+    events_at = {"ends": calls(("mbs_ode_find_event",), INDICATOR_NAMES),
+                 "roots": calls(ROOT_FINDER, INDICATOR_NAMES),
+                 "restarts": calls(RESTART, INDICATOR_NAMES)}
+    indicators = calls(None, INDICATOR_NAMES)
     projection = calls(("mbs_ode_accept",), PROJECT_NAMES)
     root_finding = inclusive(ROOT_FINDER)
     step = inclusive(("dp_step",))
@@ -328,7 +333,8 @@ def main(argv=None) -> int:
     parser.add_argument("--machinery", action="store_true",
                         help="the integration's instructions by part, current against a former build")
     parser.add_argument("--former", choices=sorted(FORMERS), default="machinery",
-                        help="--machinery's baseline: the former machinery (default), root finding or crossing test")
+                        help="--machinery's baseline: the former machinery (default), root finding, crossing test "
+                             "or indicators at the trial points")
     parser.add_argument("--repeat", type=int, default=7, help="--machinery's interleaved timed runs per build")
     args = parser.parse_args(argv)
     if shutil.which("valgrind") is None:

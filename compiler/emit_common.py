@@ -407,13 +407,16 @@ class Routine:
 
 
 def plan_routine(tape, naming: Naming, printer: ExprPrinter, name: str, out: str, doc: str, shape: tuple,
-                 results: list, *, check_positive: bool = False, inline_max_chars: int = INLINE_MAX_CHARS
-                 ) -> Routine:
+                 results: list, *, check_positive: bool = False, inline_max_chars: int = INLINE_MAX_CHARS,
+                 counts: dict | None = None) -> Routine:
     """Slice `tape` for `results` ((k, expr) or (k, int j)) and print it: each needed temporary becomes a step,
-    except one read once whose text is short, which is substituted into its reader (so constants fold)."""
+    except one read once whose text is short, which is substituted into its reader (so constants fold).  `counts`:
+    the read counts of a larger routine this one is a slice of (read_counts), so that each temporary and output is
+    printed as that routine prints it (the same operations: compiler/ccode.py mbs_event_indicator); None: its own."""
     exprs = [sp.sympify(e) for _, e in results if not isinstance(e, int)]
     entries = tape.entries_for(exprs)
-    counts = read_counts(tape, entries, exprs)
+    if counts is None:
+        counts = read_counts(tape, entries, exprs)
     inlined: dict = {}
     steps = []
     written = []  # every expression as printed: substitution may cancel a symbol (a = v - w; b = a + w)

@@ -96,6 +96,7 @@ GLUE_DECLARATIONS = {
         "mbs_loop_terms", "mbs_state_rates", "mbs_loop_partials", "mbs_closed_form", "mbs_closed_form_at",
         "mbs_closed_form_rhs", "mbs_closed_form_project")},
     "mbs_cf_angle_near": "double mbs_cf_angle_near(double, double);",
+    "mbs_event_indicator": "int mbs_event_indicator(int, double, const double *, const double *, double *, double *);",
     **{name: _NAMES.format(name) for name in (
         "mbs_state_name", "mbs_parameter_name", "mbs_output_name", "mbs_constraint_name", "mbs_frame_name")},
 }

@@ -145,6 +145,11 @@ static mbs_model_info MBS_INFO = {
     NULL, NULL, NULL,
 #endif
     MBS_ROWS_PROJECT,
+#ifdef MBS_EVENT_INDICATOR
+    mbs_event_indicator,
+#else
+    NULL,
+#endif
 };
 
 /* The module under `name` (a string that lives as long as the process): what PyInit_<name> returns. */

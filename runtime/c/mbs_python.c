@@ -530,6 +530,8 @@ static PyObject *solver_set_events(SolverObject *self, PyObject *args)
         Py_DECREF(dir_tmp);
         return PyErr_NoMemory();
     }
+    if (strcmp(fn->entry->name, "events") == 0)  /* the model's own: its indicators one at a time for the root finding */
+        self->ode.indicator = mbs_model->event_indicator;
     Py_DECREF(dir_tmp);
     Py_INCREF(fn_obj);
     self->events = fn_obj;

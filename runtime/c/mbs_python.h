@@ -29,6 +29,7 @@ typedef struct {
     mbs_fn rhs_direct;          /* x' at the state itself, DOPRI5's right-hand side in place of rhs */
     mbs_fn project_step;        /* the projection that reuses rhs_direct's factors of the last stage */
     mbs_fn rows_project;        /* the projection before the outputs of a row (Function.rows `projected`) */
+    mbs_indicator_fn event_indicator;  /* mbs_event_indicator: one of mbs_events' indicators alone, or NULL */
 } mbs_model_info;
 
 /* The extension module `name` of the model `info` (a PyObject *, or NULL with a Python exception set): what the

@@ -17,6 +17,8 @@
 /* The one signature of every generated model function: out = f(t, x, p); work is caller memory of
  * MBS_NWORK doubles.  Returns MBS_OK or a model status below. */
 typedef int (*mbs_fn)(double t, const double *x, const double *p, double *out, double *work);
+/* One event indicator alone: out[k] of the model's mbs_events (the rest of out as it was): mbs_event_indicator. */
+typedef int (*mbs_indicator_fn)(int k, double t, const double *x, const double *p, double *out, double *work);
 
 /* Model status codes (returned by generated functions). */
 #define MBS_OK 0
@@ -75,6 +77,8 @@ struct mbs_ode {
     /* events (optional, nev = 0 without): indicators g = events(t, y) checked after every accepted step; the
      * earliest crossing is located on the dense output and the run stops there with MBS_ODE_EVENT */
     mbs_fn events;          /* the model's mbs_events, or NULL */
+    mbs_indicator_fn indicator;  /* its indicators one at a time (mbs_event_indicator), or NULL: the root finding
+                                  * then evaluates all of them at its trial points */
     int nev;                /* number of indicators */
     int *directions;        /* [nev], owned: +1 rising, -1 falling, 0 either */
     double *g_old, *g_new, *g_try;  /* [nev] each, owned: at the step's start, end, and a trial time */

@@ -70,6 +70,9 @@ typedef struct mbs_ode_trials {
     int g_old_exact;        /* g_old holds the indicators evaluated at t_old (not departing values: see
                              * mbs_ode_depart; external callers may write departing values after set_events) */
     int event_ready;        /* g_event holds the indicators at the located event t_event, parameters unchanged */
+    int nsearch;            /* > 0: the trial points evaluate the indicators search[0 .. nsearch) alone (the ones
+                             * that crossed in the step: mbs_ode_search), the rest of their rows is stale; 0: all */
+    int *search;            /* [nev] */
     double t_event;
     double *g_event;        /* [nev] */
 } mbs_ode_trials;
@@ -77,7 +80,7 @@ typedef struct mbs_ode_trials {
 static void mbs_ode_free_trials(mbs_ode_trials *tr)
 {
     if (!tr) return;
-    free(tr->g); free(tr->g_event);
+    free(tr->g); free(tr->g_event); free(tr->search);
     free(tr);
 }
 
@@ -284,7 +287,8 @@ static int mbs_ode_set_events(mbs_ode *o, mbs_fn events, int nev, const int *dir
     if (!o->directions || !o->g_old || !o->g_new || !o->g_try || !o->t_located || !o->y_try || !o->trials) return -1;
     o->trials->g = calloc((size_t)MBS_ODE_TRIALS * (size_t)nev + 1, sizeof(double));
     o->trials->g_event = calloc((size_t)nev + 1, sizeof(double));
-    if (!o->trials->g || !o->trials->g_event) return -1;
+    o->trials->search = calloc((size_t)nev + 1, sizeof(int));
+    if (!o->trials->g || !o->trials->g_event || !o->trials->search) return -1;
     for (k = 0; k < nev; k++) o->directions[k] = directions[k];
     s = events(o->t, o->y, o->p, o->g_old, o->work);
     if (s != MBS_OK) { o->model_status = s; o->status = MBS_ODE_MODEL_FAILED; }
@@ -318,12 +322,54 @@ static const double *mbs_ode_kept_trial(const mbs_ode *o, double t)
     return NULL;
 }
 
-/* g_k on the dense output at t (the trial state is left in y_try, every indicator in g_try and kept among the
- * trials); a model failure returns NaN. */
+/* The root finding evaluates at its trial points only the indicators that crossed in the step (twin wheels: those
+ * of both), each alone (o->indicator, the model's mbs_event_indicator: each indicator's own slice of mbs_events,
+ * printed as mbs_events prints it, the same bits): on the Iltis over the bump at 10 m/s a damper's rate limit costs
+ * about 150 instructions, a tyre's indicator about 550, where all 30 cost 2,900.  The indicators at the event itself
+ * are then evaluated afresh, all of them, by the restart there.  -DMBS_ODE_SINGLE_FORMER=1 builds the former
+ * search (every indicator at every trial point): the same-run baseline of bench/event_instructions.py --machinery
+ * --former single. */
+#ifdef MBS_ODE_SINGLE_FORMER
+#define MBS_ODE_SINGLE 0
+#else
+#define MBS_ODE_SINGLE 1
+#endif
+
+/* The indicators the trial points of a search evaluate: those that crossed from g_a to g_b alone when the model
+ * evaluates them one at a time, else all. */
+static void mbs_ode_search(mbs_ode *o, const double *g_a, const double *g_b)
+{
+    mbs_ode_trials *tr = o->trials;
+    int k;
+    tr->nsearch = 0;
+    if (!MBS_ODE_SINGLE || !o->indicator) return;
+    for (k = 0; k < o->nev; k++)
+        if (mbs_ode_crossed(o, k, g_a[k], g_b[k])) tr->search[tr->nsearch++] = k;
+}
+
+/* The indicators at (t, y) into g that the current search evaluates (mbs_ode_search); returns the status. */
+static int mbs_ode_trial_indicators(mbs_ode *o, double t, const double *y, double *g)
+{
+    const mbs_ode_trials *tr = o->trials;
+    int i, s;
+    if (!tr->nsearch) return o->events(t, y, o->p, g, o->work);
+    for (i = 0; i < tr->nsearch; i++)
+        if ((s = o->indicator(tr->search[i], t, y, o->p, g, o->work)) != MBS_OK) return s;
+    return MBS_OK;
+}
+
+/* The indicators kept at trial point t when the search evaluated all of them there, or NULL. */
+static const double *mbs_ode_kept_all(const mbs_ode *o, double t)
+{
+    return o->trials->nsearch ? NULL : mbs_ode_kept_trial(o, t);
+}
+
+/* g_k on the dense output at t (the trial state is left in y_try, the search's indicators in g_try and kept among
+ * the trials); a model failure returns NaN. */
 static double mbs_ode_g_at(mbs_ode *o, int k, double t)
 {
     o->dense(o, t, o->y_try);
-    if (o->events(t, o->y_try, o->p, o->g_try, o->work) != MBS_OK) return NAN;
+    if (mbs_ode_trial_indicators(o, t, o->y_try, o->g_try) != MBS_OK) return NAN;
     mbs_ode_keep_trial(o, t, o->g_try);
     return o->g_try[k];
 }
@@ -501,6 +547,7 @@ static void mbs_ode_find_event(mbs_ode *o)
         mbs_ode_no_event(o);
         return;
     }
+    mbs_ode_search(o, o->g_old, o->g_new);
     mbs_ode_keep_trial(o, o->t, o->g_new);
     for (k = 0; k < o->nev; k++) {
         located[k] = NAN;
@@ -523,7 +570,7 @@ static void mbs_ode_find_event(mbs_ode *o)
         return;
     }
     if (r) { r->h_cut = o->t - o->t_old; r->t_next = t_next; }
-    mbs_ode_keep_event(o, t_event, mbs_ode_kept_trial(o, t_event));
+    mbs_ode_keep_event(o, t_event, t_event == o->t ? o->g_new : mbs_ode_kept_all(o, t_event));
     o->dense(o, t_event, o->y);
     o->t = t_event;
     o->status = MBS_ODE_EVENT;
@@ -703,6 +750,7 @@ static int mbs_ode_bridge(mbs_ode *o)
     o->dense = mbs_ode_euler_dense;
     o->dense(o, b, o->y_try);
     if (o->events(b, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
+    mbs_ode_search(o, o->g_old, o->g_new);
     for (k = 0; k < o->nev; k++) {
         if (mbs_ode_crossed(o, k, o->g_old[k], o->g_new[k])) {
             double tk = mbs_ode_locate(o, k, t1, b, o->g_old[k], o->g_new[k]);
@@ -711,7 +759,7 @@ static int mbs_ode_bridge(mbs_ode *o)
     }
     if (!(t2 < HUGE_VAL && t2 > t1)) goto done;
     o->dense(o, t2, o->y_try);
-    kept = mbs_ode_kept_trial(o, t2);  /* the located end of a bracket: evaluated there already */
+    kept = mbs_ode_kept_all(o, t2);  /* the located end of a bracket: evaluated there already */
     if (kept) memcpy(o->g_new, kept, (size_t)o->nev * sizeof(double));
     else if (o->events(t2, o->y_try, o->p, o->g_new, o->work) != MBS_OK) goto done;
     for (k = 0; k < o->nev; k++)

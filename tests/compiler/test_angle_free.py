@@ -201,3 +201,29 @@ def test_the_floor_profile_is_looked_up_only_where_it_is_scaled_and_the_runs_are
         assert len(current.events) > 10
         assert current.events == before.events
         assert np.array_equal(np.asarray(current.data), np.asarray(before.data))
+
+
+# ---- one indicator alone (mbs_event_indicator, compiler/ccode.py) ----
+
+def test_each_indicator_alone_is_printed_as_mbs_events_prints_it():
+    """mbs_event_indicator's case k holds the statements of mbs_events that g[k] needs, each line as mbs_events has
+    it (the same inlining: the same operations, the same bits; c/ode.c's root finding relies on it), and writes g[k]
+    alone; the quarter car's damper limits need neither the tyre's lookups nor its contact geometry."""
+    import re
+
+    import mbs
+    system = mbs.load(ROOT / "library" / "iltis" / "quarter_car.mbs")
+    source = system.generate("bump_10").c_source
+    whole = set(function_text(source, "mbs_events").splitlines())
+    alone = function_text(source, "mbs_event_indicator")
+    cases = re.split(r"\n    case (\d+): \{\n", alone)[1:]
+    nev = int(re.search(r"#define MBS_NEV (\d+)", source).group(1))
+    assert [int(k) for k in cases[::2]] == list(range(nev))
+    for k, body in zip(cases[::2], cases[1::2]):
+        lines = body.split("\n    }")[0].splitlines()
+        assert lines[-1] == f"        return mbs_all_finite(g + {k}, 1) ? 0 : 2;"
+        statements = [line[4:] for line in lines[:-1] if not line.strip().startswith("(void)")]
+        assert [line for line in statements if line not in whole] == []
+        assert {int(i) for i in re.findall(r"\bg\[(\d+)\] =", body)} == {int(k)}
+    sizes = [len(body.splitlines()) for body in cases[1::2]]
+    assert min(sizes) < len(whole) / 3  # a switch's indicator needs a small part of mbs_events

@@ -58,18 +58,28 @@ def test_twin_contacts_are_located_as_the_former_root_finder_did_to_the_bit(twin
         assert closing["drop_left.contact)"] == closing["drop_right.contact)"]
 
 
+#: c/ode.c's former test for a crossing at a step's end, and its former search evaluating every indicator at its
+#: trial points
+SCAN_FORMER, SINGLE_FORMER = "-DMBS_ODE_SCAN_FORMER=1", "-DMBS_ODE_SINGLE_FORMER=1"
+ILTIS_QUARTER_CAR = Path(__file__).resolve().parents[2] / "library" / "iltis" / "quarter_car.mbs"
+
+
+@pytest.mark.parametrize("flag", [SCAN_FORMER, SINGLE_FORMER])
 @pytest.mark.parametrize("model, scene, integrator", [("handback_stop.mbs", "swings", "dopri5"),
                                                        ("handback_stop.mbs", "swings", "adams"),
                                                        ("adams_switches.mbs", "run", None),
-                                                       ("twin_drops.mbs", "drops", None)])
-def test_the_crossing_test_at_a_step_end_runs_as_the_former_to_the_bit(model, scene, integrator):
+                                                       ("twin_drops.mbs", "drops", None),
+                                                       (ILTIS_QUARTER_CAR, "bump_10", None)])
+def test_the_crossing_test_and_the_search_run_as_the_former_to_the_bit(model, scene, integrator, flag):
     """The indicators at a step's end tested for a crossing all at once (c/ode.c mbs_ode_any_crossed), the root
-    finding set up only after one: the run of the former test (-DMBS_ODE_SCAN_FORMER=1) to the bit, its events and
-    counters the same."""
+    finding set up only after one; its trial points evaluating the indicators that crossed alone
+    (mbs_event_indicator, each printed as mbs_events prints it), the ones at the event evaluated afresh: the run of
+    the former build (-DMBS_ODE_SCAN_FORMER=1, -DMBS_ODE_SINGLE_FORMER=1) to the bit, its events and counters the
+    same."""
     system = mbs.load(Path(__file__).parent / "models" / model)
     options = {"integrator": integrator} if integrator else {}
     now = system.simulate(scene, **options)
-    was = simulate_with(system, scene, flagged_build(system, scene, ("-DMBS_ODE_SCAN_FORMER=1",)), **options)
+    was = simulate_with(system, scene, flagged_build(system, scene, (flag,)), **options)
     assert now.success and len(now.events) > 1
     assert now.events == was.events
     assert now.metadata["stats"] == was.metadata["stats"]
