@@ -1,6 +1,6 @@
 """A prescribed motion's switch on a model with loops restarted in C, against the former hand-back to Python.
 
-    python bench/prescribed_restart.py [--scenes bump_10] [--repeat 9] [--instructions]
+    python bench/prescribed_restart.py [--scenes bump_10] [--repeat 9] [--instructions] [--all]
 
 The Iltis bump scenes' steering rack has two prescribed-motion switches (the start and the end of its ramp: switch.1,
 switch.2).  Its speed may step there, and the loops' speeds with it: the state after the event is projected onto the
@@ -8,7 +8,9 @@ constraints.  That used to be Python's work: the event went back to runtime/even
 and started a new solver that took over what the old one had learned (c/ode.c mbs_ode_take_over).  Now c/ode.c
 mbs_ode_restart applies it, projects the state with the model's projection and restarts from there (events marked
 MBS_ODE_HANDLED_PROJECT by runtime/event_loop.py _restart_tables).  The baseline is the same model built with
--DMBS_ODE_PRESCRIBED_FORMER=1 (such an event goes back to Python, as before), measured in the same run.
+-DMBS_ODE_PRESCRIBED_FORMER=1 (such an event goes back to Python, as before), measured in the same run.  --all: the
+baseline built with c/ode.c's other former event machinery as well (-DMBS_ODE_SCAN_FORMER=1: each indicator tested in
+turn at a step's end; -DMBS_ODE_SINGLE_FORMER=1: every indicator evaluated at the root finding's trial points).
 
 Printed per scene: whether the two runs give the same event log (names, directions, changes, times) and the largest
 difference of their rows (0 when the run is the same to the bit), the run's counters; the CPU time of the whole
@@ -56,6 +58,10 @@ def run():
 run(); run()
 functools.reduce(lambda _, __: run(), range(1), None)
 """
+
+
+#: --all: the baseline with the former crossing test and search as well
+ALL_FORMER = FORMER + ("-DMBS_ODE_SCAN_FORMER=1", "-DMBS_ODE_SINGLE_FORMER=1")
 
 
 def instructions(scene: str, flags: tuple[str, ...], workdir: Path) -> int:
@@ -108,11 +114,13 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", nargs="+", default=["bump_10"])
     ap.add_argument("--repeat", type=int, default=9)
     ap.add_argument("--instructions", action="store_true", help="callgrind counts of one whole simulate per build")
+    ap.add_argument("--all", action="store_true", help="the baseline with the former crossing test and search too")
     args = ap.parse_args(argv)
+    flags = ALL_FORMER if args.all else FORMER
     system = mbs.load(MODEL)
     for scene in args.scenes:
-        former = flagged_build(system, scene, FORMER)
-        print(f"{scene}: restarted in C (current) against handed back to Python ({' '.join(FORMER)})")
+        former = flagged_build(system, scene, flags)
+        print(f"{scene}: restarted in C (current) against handed back to Python ({' '.join(flags)})")
         same_run(system, scene, former)
         for _ in range(2):  # warm both
             system.simulate(scene)
@@ -120,7 +128,7 @@ def main(argv=None) -> int:
         timed(system, scene, former, args.repeat)
         if args.instructions:
             with tempfile.TemporaryDirectory() as tmp:
-                now, was = (instructions(scene, flags, Path(tmp)) for flags in ((), FORMER))
+                now, was = (instructions(scene, build, Path(tmp)) for build in ((), flags))
             print(f"  whole simulate, instructions (callgrind): {now / 1e6:.2f} M against {was / 1e6:.2f} M "
                   f"(ratio {now / was:.4f}, {(was - now) / 1e6:.2f} M fewer)")
     return 0
