@@ -57,12 +57,13 @@
 #define MBS_ODE_SHARE_TRIALS 1
 #endif
 
-/* Every evaluation of the indicators evaluates all of them: the trial points of one step's root finding (each
- * crossing indicator's, in turn) bracket the others' crossings too.  The mirror-image wheels of the symmetric Iltis
- * cross within 1e-14 to 1e-9 s of each other in nearly every step with a crossing: the second one's search starts
- * from the tightest bracket the first one's trial points give (a few doubles wide) instead of the whole step.  The
- * indicators at the located event are kept for the restart there, evaluated at the same time and state with the
- * same parameters: the same bits. */
+/* Every trial point of one step's root finding evaluates all the indicators that crossed in the step (each
+ * crossing indicator's search, in turn): its trial points bracket the others' crossings too.  The mirror-image
+ * wheels of the symmetric Iltis cross within 1e-14 to 1e-9 s of each other in nearly every step with a crossing: the
+ * second one's search starts from the tightest bracket the first one's trial points give (a few doubles wide) instead
+ * of the whole step.  When the trial points evaluated every indicator (a model without mbs_event_indicator: see
+ * mbs_ode_search), the indicators at the located event are kept for the restart there, evaluated at the same time
+ * and state with the same parameters: the same bits. */
 typedef struct mbs_ode_trials {
     int count;              /* trial points kept from the current search (at most MBS_ODE_TRIALS) */
     double t[MBS_ODE_TRIALS];
