@@ -149,20 +149,28 @@
 #define MBS_LOOP_STEP_DRIFT 1e-9
 #endif
 /* ... and one that drifted by at most this keeps its positions (its velocities are made consistent with them): the
- * polish took a residual of 1e-16 to 1e-13, one accepted step's drift, down to the round-off floor for some 6,000
- * instructions a step, where the next steps' projections hold the state within MBS_LOOP_TOL either way (the drift
- * of the steps after is polished once it adds up past this).  -DMBS_MACHINERY_FORMER=1: every accepted step
- * polished. */
+ * polish took a residual of 1e-16 to 1e-12, one accepted step's drift, down to the round-off floor for some 4,500
+ * instructions a step, where the state is within MBS_LOOP_TOL either way (the drift of the steps after is polished
+ * once it adds up past this).  -DMBS_MACHINERY_FORMER=1: every accepted step polished; -DMBS_LOOP_KEPT_FORMER=1: kept
+ * up to 1e-13 only (bench/loop_work.py --former kept). */
 #ifdef MBS_MACHINERY_FORMER
 #define MBS_LOOP_STEP_KEPT 0.0
-#else
+#elif defined(MBS_LOOP_KEPT_FORMER) && MBS_LOOP_KEPT_FORMER
 #define MBS_LOOP_STEP_KEPT 1e-13
+#else
+#define MBS_LOOP_STEP_KEPT MBS_LOOP_TOL
 #endif
-/* A row of the results (mbs_loop_project_row) within MBS_LOOP_STEP_KEPT of the position constraints keeps its positions
- * as an accepted step does (its velocities and accelerations are solved at them), where the polish took them to the
+/* A row of the results (mbs_loop_project_row) within this of the position constraints keeps its positions as an
+ * accepted step does (its velocities and accelerations are solved at them), where the polish took them to the
  * round-off floor with the previous row's factors: the Iltis over the bump at 10 m/s, two rows in three of those
- * polished, for 6,400 instructions each.  The rows feed nothing back into the run.  -DMBS_LOOP_ROW_POLISH_FORMER=1:
- * every row polished (bench/loop_work.py). */
+ * polished, for 6,400 instructions each.  The rows feed nothing back into the run; they are mbs_project's to
+ * round-off, which holds for a residual of 1e-13 (an accepted step's MBS_LOOP_STEP_KEPT is larger: the next steps
+ * hold the state within MBS_LOOP_TOL).  -DMBS_LOOP_ROW_POLISH_FORMER=1: every row polished (bench/loop_work.py). */
+#ifdef MBS_MACHINERY_FORMER
+#define MBS_LOOP_ROW_KEPT 0.0
+#else
+#define MBS_LOOP_ROW_KEPT 1e-13
+#endif
 #ifndef MBS_LOOP_ROW_POLISH_FORMER
 #define MBS_LOOP_ROW_POLISH_FORMER 0
 #endif
@@ -2045,7 +2053,7 @@ static int mbs_loop_project_from_row(double t, const double *x, const double *p,
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res <= MBS_LOOP_SLOW * before)) return -1;
     }
-    if ((res > MBS_LOOP_STEP_KEPT || MBS_LOOP_ROW_POLISH_FORMER) && mbs_loop_polish(t, q, p, w, r, res, NULL) != 0)
+    if ((res > MBS_LOOP_ROW_KEPT || MBS_LOOP_ROW_POLISH_FORMER) && mbs_loop_polish(t, q, p, w, r, res, NULL) != 0)
         return -1;
     if (mbs_loop_jacobian_at(t, w->xc, p, w, 1) != 0) return -1;
     if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
