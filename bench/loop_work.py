@@ -23,8 +23,10 @@ run's own (the same for both builds).
 --former NAME: the former build of one change only (FORMERS; all: every switch of FORMER_FLAGS, the default).
 --simulate: also one whole simulate of the scene per build under callgrind (Python and C, after two uncounted runs),
 with its rhs calls, and the ratio.  --accuracy: also both builds' results against a tight reference of the scene
-(REFERENCE: DOPRI5 at rtol 1e-11), the largest difference of a column relative to its largest magnitude (absolute
-below 1), for a change that alters the trajectory.
+(REFERENCE: DOPRI5 at rtol 1e-11), for a change that alters the trajectory: the largest difference of each column
+relative to its largest magnitude (absolute below 1), the largest and the median over the columns, at the scene's
+tolerances and at tolerances 1e-4 apart (TOLERANCE_SCALES), whose spread is what any change of the step sequence
+does to the errors.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -54,9 +56,15 @@ from output_rows import callgrind as rows_callgrind  # noqa: E402
 FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1", "-DMBS_LOOP_BLOCK_FORMER=1")
 #: --former: one change's switch alone, or all of them.
 FORMERS = {"all": FORMER_FLAGS,
-           "kept": ("-DMBS_LOOP_KEPT_FORMER=1",)}
+           "kept": ("-DMBS_LOOP_KEPT_FORMER=1",),
+           "rates": ("-DMBS_LOOP_RATES_FORMER=1",)}
+#: --former project: the projection's changes of this revision together (an accepted step kept within the tolerance,
+#: the residuals' rate from the pass that evaluates them)
+FORMERS["project"] = FORMERS["kept"] + FORMERS["rates"]
 #: The reference of --accuracy: DOPRI5 (the bump scenes' own integrator is adams) at a tight tolerance.
 REFERENCE = {"integrator": "dopri5", "rtol": 1e-11, "atol": 1e-13}
+#: --accuracy: the scene's tolerances times these, each run with both builds.
+TOLERANCE_SCALES = (1.0, 1.0001, 0.9999, 1.0003)
 
 #: The child: one simulate of the scene with the model built with the flags given; callgrind collects inside
 #: Solver.sample only.  Prints the accepted steps and rhs calls.
@@ -108,29 +116,38 @@ def simulate_instructions(scene: str, flags: tuple[str, ...], workdir: Path) -> 
     return int(total.group(1)), int(stats.group(1))
 
 
-def largest_error(run, reference) -> tuple[float, str]:
-    """The largest difference of a column of `run` from `reference` relative to the column's largest magnitude
-    (absolute below 1), and the column."""
-    worst, column = 0.0, ""
+def column_errors(run, reference) -> np.ndarray:
+    """The largest difference of each column of `run` from `reference` relative to the column's largest magnitude
+    (absolute below 1)."""
+    gaps = []
     for name in reference.names:
         if name == "t":
             continue
         a, b = np.asarray(run[name]), np.asarray(reference[name])
-        if a.shape != b.shape:
-            return float("inf"), f"{name} (rows differ)"
-        gap = float(np.max(np.abs(a - b))) / max(1.0, float(np.max(np.abs(b))))
-        if gap > worst:
-            worst, column = gap, name
-    return worst, column
+        gaps.append(float(np.max(np.abs(a - b))) / max(1.0, float(np.max(np.abs(b)))) if a.shape == b.shape
+                    else float("inf"))
+    return np.array(gaps)
 
 
 def print_accuracy(system, scene: str, former) -> None:
-    """--accuracy: both builds' simulate against the reference."""
+    """--accuracy: both builds' simulate against the reference, at the scene's tolerances and at tolerances a hair
+    apart (TOLERANCE_SCALES): any change of the step sequence moves the errors about as much as such a hair does, so
+    the spread of those runs is the yardstick of a difference between the builds."""
     reference = system.simulate(scene, **REFERENCE)
-    now, was = largest_error(system.simulate(scene), reference), largest_error(
-        simulate_with(system, scene, former), reference)
-    print(f"  against the scene with {REFERENCE}: current {now[0]:.3e} ({now[1]}), former {was[0]:.3e} ({was[1]}), "
-          f"ratio {now[0] / was[0]:.3f}")
+    own = system.simulate(scene).metadata
+    found = {"current": [], "former": []}
+    for scale in TOLERANCE_SCALES:
+        tolerances = {"rtol": own["rtol"] * scale, "atol": own["atol"] * scale}
+        found["current"].append(column_errors(system.simulate(scene, **tolerances), reference))
+        found["former"].append(column_errors(simulate_with(system, scene, former, **tolerances), reference))
+    print(f"  against the scene with {REFERENCE}, at the scene's tolerances times {', '.join(map(str, TOLERANCE_SCALES))}"
+          " (the largest error of a column, relative; over the columns, its largest and its median):")
+    for label, runs in found.items():
+        print(f"    {label:<8} largest " + " ".join(f"{np.max(e):.3e}" for e in runs)
+              + f"; median " + " ".join(f"{np.median(e):.3e}" for e in runs)
+              + f"; mean of the medians {np.mean([np.median(e) for e in runs]):.3e}")
+    now, was = (np.mean([np.median(e) for e in found[label]]) for label in ("current", "former"))
+    print(f"    ratio of the means of the medians current / former {now / was:.3f}")
 
 
 def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tuple[int, int]]:
