@@ -78,6 +78,7 @@
  * constraints unchanged and pulls the drift back.
  */
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK) \
@@ -1826,10 +1827,10 @@ static int mbs_loop_stamp_p_holds(const mbs_loop_work *w, const double *p)
 
 static int mbs_loop_stamp_q_near(const double *stamp_q, const double *x)
 {
-    int i, far = 0;
-    for (i = 0; i < MBS_NQ; i++)  /* no branch per coordinate: the stamp of an accepted step is near */
-        far |= !(fabs(stamp_q[i] - x[i]) <= MBS_LOOP_STAMP_NEAR * (1.0 + fabs(x[i])));
-    return !far;
+    int i;
+    for (i = 0; i < MBS_NQ; i++)
+        if (!(fabs(stamp_q[i] - x[i]) <= MBS_LOOP_STAMP_NEAR * (1.0 + fabs(x[i])))) return 0;
+    return 1;
 }
 
 /* Remember that w->G holds the factors of G at (t, q of x, p) with the kept partition of rank r. */
@@ -1897,13 +1898,15 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
 int mbs_loop_project_step(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout_keeping(work);
+    const uintptr_t from = (uintptr_t)x, to = (uintptr_t)out, size = MBS_NX * sizeof(double);
     int s = -1;
     if (mbs_loop_stamp_holds(t, x, p, &w)) {
+        if (to + size <= from || from + size <= to) w.xc = out;  /* projected in out itself, x left alone: no copy */
         s = mbs_loop_project_stamped(t, x, p, &w);
     }
     w.stamp[0] = 0.0;
     if (s != 0) return mbs_project(t, x, p, out, work);
-    memcpy(out, w.xc, MBS_NX * sizeof(double));
+    if (w.xc != out) memcpy(out, w.xc, MBS_NX * sizeof(double));
     return 0;
 }
 
