@@ -1,7 +1,7 @@
 """The run-time loop work of the Iltis over the bump (c/loops.c), current against former, in instructions.
 
     python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR] [--former all|kept|...]
-                              [--simulate] [--accuracy]
+                              [--simulate] [--accuracy [--scales S ...] [--dopri5]]
 
 Two builds of the scene's model: the current one and the former (FORMER_FLAGS, each a compile-time switch of
 c/loops.c that brings back the former arithmetic of one change; with --baseline DIR instead the run-time C files of
@@ -25,8 +25,9 @@ run's own (the same for both builds).
 with its rhs calls, and the ratio.  --accuracy: also both builds' results against a tight reference of the scene
 (REFERENCE: DOPRI5 at rtol 1e-11), for a change that alters the trajectory: the largest difference of each column
 relative to its largest magnitude (absolute below 1), the largest and the median over the columns, at the scene's
-tolerances and at tolerances 1e-4 apart (TOLERANCE_SCALES), whose spread is what any change of the step sequence
-does to the errors.
+tolerances and at tolerances 1e-4 apart (TOLERANCE_SCALES, or --scales), whose spread is what any change of the step
+sequence does to the errors; --dopri5: the runs with DOPRI5 at the bump scenes' former settings (bench/dopri5_former.py)
+instead of the scene's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -48,6 +49,7 @@ import mbs
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "runtime"))
 from bump_cost import MODEL, saved_rows  # noqa: E402
+from dopri5_former import DOPRI5_FORMER, described  # noqa: E402
 from event_instructions import sample_under_callgrind  # noqa: E402
 from former_builds import flagged_build, simulate_with  # noqa: E402
 from output_rows import callgrind as rows_callgrind  # noqa: E402
@@ -129,19 +131,22 @@ def column_errors(run, reference) -> np.ndarray:
     return np.array(gaps)
 
 
-def print_accuracy(system, scene: str, former) -> None:
+def print_accuracy(system, scene: str, former, scales=TOLERANCE_SCALES, settings=None) -> None:
     """--accuracy: both builds' simulate against the reference, at the scene's tolerances and at tolerances a hair
     apart (TOLERANCE_SCALES): any change of the step sequence moves the errors about as much as such a hair does, so
     the spread of those runs is the yardstick of a difference between the builds."""
     reference = system.simulate(scene, **REFERENCE)
-    own = system.simulate(scene).metadata
+    own = dict(settings) if settings else system.simulate(scene).metadata
     found = {"current": [], "former": []}
-    for scale in TOLERANCE_SCALES:
+    for scale in scales:
         tolerances = {"rtol": own["rtol"] * scale, "atol": own["atol"] * scale}
+        if settings:
+            tolerances["integrator"] = settings["integrator"]
         found["current"].append(column_errors(system.simulate(scene, **tolerances), reference))
         found["former"].append(column_errors(simulate_with(system, scene, former, **tolerances), reference))
-    print(f"  against the scene with {REFERENCE}, at the scene's tolerances times {', '.join(map(str, TOLERANCE_SCALES))}"
-          " (the largest error of a column, relative; over the columns, its largest and its median):")
+    print(f"  against the scene with {REFERENCE}, {described(settings) if settings else 'its own settings'} at "
+          f"tolerances times {', '.join(map(str, scales))} (the largest error of a column, relative; over the "
+          "columns, its largest and its median):")
     for label, runs in found.items():
         print(f"    {label:<8} largest " + " ".join(f"{np.max(e):.3e}" for e in runs)
               + f"; median " + " ".join(f"{np.median(e):.3e}" for e in runs)
@@ -200,6 +205,10 @@ def main(argv=None) -> int:
     ap.add_argument("--former", choices=sorted(FORMERS), default="all", help="the former switches (FORMERS)")
     ap.add_argument("--simulate", action="store_true", help="also count one whole simulate per build")
     ap.add_argument("--accuracy", action="store_true", help="also both builds against a tight reference")
+    ap.add_argument("--scales", nargs="+", type=float, default=list(TOLERANCE_SCALES),
+                    help="--accuracy: the tolerances times these")
+    ap.add_argument("--dopri5", action="store_true",
+                    help="--accuracy: with DOPRI5 at the bump scenes' former settings (bench/dopri5_former.py)")
     args = ap.parse_args(argv)
     former_flags = (f"-I{Path(args.baseline).resolve()}",) if args.baseline else FORMERS[args.former]
     if shutil.which("valgrind") is None or shutil.which("callgrind_annotate") is None:
@@ -239,7 +248,7 @@ def main(argv=None) -> int:
     former = flagged_build(system, args.scene, former_flags)
     print(f"  simulate({args.scene!r}) current against former: " + compare_results(system, args.scene, former))
     if args.accuracy:
-        print_accuracy(system, args.scene, former)
+        print_accuracy(system, args.scene, former, tuple(args.scales), DOPRI5_FORMER if args.dopri5 else None)
     return 0
 
 
