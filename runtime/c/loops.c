@@ -2017,8 +2017,9 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 }
 
 /* The stamp mbs_project leaves (a marker apart from mbs_loop_stamp_store's): w->xc is the state it returned, G is
- * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors (packed,
- * in the room of q: a model with one position coordinate has no room and always projects). */
+ * factored there with the partition of rank r and h = g_t (gdot after a row's projection with MBS_LOOP_ROW_RATES:
+ * the solve that follows replaces h by gddot0 before reading it), for (t, p); with the flags of those factors
+ * (packed, in the room of q: a model with one position coordinate has no room and always projects). */
 #define MBS_LOOP_PROJECTED_MARK 2791.0
 #define MBS_LOOP_PROJECTED_STAMP (MBS_NQ >= 2)
 
