@@ -1,10 +1,12 @@
 """C code of the loop-closure constraints: the generated part of a model with closed kinematic loops.
 
-The model's constraint rows (`mbs.compiler.constraints`) become three functions of the one fixed signature,
+The model's constraint rows (`mbs.compiler.constraints`) become four functions of the one fixed signature,
 printed by the same planner and printer as the equations of motion (`ccode.CEmitter`):
 
     int mbs_constraints(double t, const double *x, const double *p, double *out, double *work);           g, nc
     int mbs_constraint_velocity(double t, const double *x, const double *p, double *out, double *work);   G v + g_t
+    int mbs_constraints_with_velocity(double t, const double *x, const double *p, double *out, double *work);
+                                                                                       [g; G v + g_t], 2 nc
     int mbs_constraint_acceleration(double t, const double *x, const double *p, double *out, double *work);
                                                                                        gddot with vdot = 0, nc
     const char *mbs_constraint_name(int i);      "<cut joint>.<label>", NULL when out of range
@@ -36,6 +38,9 @@ from .jacobian_colours import constraint_colours
 
 #: The generated constraint Jacobian's function (`constraint_matrix_routine`).
 CONSTRAINT_MATRIX = "mbs_constraint_matrix"
+#: The residuals and their rate in one function (`loop_routines`): the projection of an accepted step and of a row
+#: of the results evaluate both at the same positions, sharing the kinematics (runtime/c/loops.c).
+CONSTRAINTS_WITH_VELOCITY = "mbs_constraints_with_velocity"
 
 #: Doubles of scalar scratch in the loop solver's work area (runtime/c/loops.c, MBS_LOOP_NWORK_NEEDED).
 LOOP_SCALARS = 16
@@ -60,6 +65,9 @@ def loop_routines(constraints: Constraints) -> list:
          list(enumerate(constraints.position)), False),
         ("mbs_constraint_velocity", "out", "gdot = G(q) v + g_t(q, t), affine in v [m/s or 1/s]", (nc,),
          list(enumerate(constraints.velocity)), False),
+        (CONSTRAINTS_WITH_VELOCITY, "out", "[g; gdot]: mbs_constraints and mbs_constraint_velocity from one pass "
+         "(the sines and cosines of the loops' angles once), 2 nc", (2 * nc,),
+         list(enumerate(constraints.position)) + [(nc + i, e) for i, e in enumerate(constraints.velocity)], False),
         ("mbs_constraint_acceleration", "out", "gddot with vdot = 0: G vdot + this = 0 on the constraint "
          "manifold [m/s^2 or 1/s^2]", (nc,), list(enumerate(constraints.acceleration)), False),
     ]
@@ -151,6 +159,8 @@ def loop_definitions(constraints: Constraints, constraint_matrix: bool = False, 
         "/* Columns of the constraint Jacobian G that share no row get one colour: one evaluation of",
         " * mbs_constraint_velocity with all of them set to 1 gives them all (runtime/c/loops.c). */",
         f"#define MBS_NCOLOUR {colours.ncolours}   /* evaluations for G beyond gdot(v = 0) */",
+        f"#define MBS_CONSTRAINTS_WITH_VELOCITY 1   /* {CONSTRAINTS_WITH_VELOCITY} gives [g; gdot] */",
+        f"int {CONSTRAINTS_WITH_VELOCITY}(double t, const double *x, const double *p, double *out, double *work);",
         "/* Colour of each velocity column, -1 when no row depends on it. */",
         f"static const int mbs_column_colour[{tree.nv}] = {{{', '.join(map(str, colours.colour))}}};",
         "/* Row i, colour c: the column of that colour row i depends on, -1 when none. */",

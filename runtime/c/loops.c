@@ -78,6 +78,7 @@
  * constraints unchanged and pulls the drift back.
  */
 #include <math.h>
+#include <stdint.h>
 #include <string.h>
 
 #if !defined(MBS_NC) || !defined(MBS_NQUAT) || !defined(MBS_TREE_NWORK) || !defined(MBS_LOOP_NWORK) \
@@ -149,20 +150,28 @@
 #define MBS_LOOP_STEP_DRIFT 1e-9
 #endif
 /* ... and one that drifted by at most this keeps its positions (its velocities are made consistent with them): the
- * polish took a residual of 1e-16 to 1e-13, one accepted step's drift, down to the round-off floor for some 6,000
- * instructions a step, where the next steps' projections hold the state within MBS_LOOP_TOL either way (the drift
- * of the steps after is polished once it adds up past this).  -DMBS_MACHINERY_FORMER=1: every accepted step
- * polished. */
+ * polish took a residual of 1e-16 to 1e-12, one accepted step's drift, down to the round-off floor for some 4,500
+ * instructions a step, where the state is within MBS_LOOP_TOL either way (the drift of the steps after is polished
+ * once it adds up past this).  -DMBS_MACHINERY_FORMER=1: every accepted step polished; -DMBS_LOOP_KEPT_FORMER=1: kept
+ * up to 1e-13 only (bench/loop_work.py --former kept). */
 #ifdef MBS_MACHINERY_FORMER
 #define MBS_LOOP_STEP_KEPT 0.0
-#else
+#elif defined(MBS_LOOP_KEPT_FORMER) && MBS_LOOP_KEPT_FORMER
 #define MBS_LOOP_STEP_KEPT 1e-13
+#else
+#define MBS_LOOP_STEP_KEPT MBS_LOOP_TOL
 #endif
-/* A row of the results (mbs_loop_project_row) within MBS_LOOP_STEP_KEPT of the position constraints keeps its positions
- * as an accepted step does (its velocities and accelerations are solved at them), where the polish took them to the
+/* A row of the results (mbs_loop_project_row) within this of the position constraints keeps its positions as an
+ * accepted step does (its velocities and accelerations are solved at them), where the polish took them to the
  * round-off floor with the previous row's factors: the Iltis over the bump at 10 m/s, two rows in three of those
- * polished, for 6,400 instructions each.  The rows feed nothing back into the run.  -DMBS_LOOP_ROW_POLISH_FORMER=1:
- * every row polished (bench/loop_work.py). */
+ * polished, for 6,400 instructions each.  The rows feed nothing back into the run; they are mbs_project's to
+ * round-off, which holds for a residual of 1e-13 (an accepted step's MBS_LOOP_STEP_KEPT is larger: the next steps
+ * hold the state within MBS_LOOP_TOL).  -DMBS_LOOP_ROW_POLISH_FORMER=1: every row polished (bench/loop_work.py). */
+#ifdef MBS_MACHINERY_FORMER
+#define MBS_LOOP_ROW_KEPT 0.0
+#else
+#define MBS_LOOP_ROW_KEPT 1e-13
+#endif
 #ifndef MBS_LOOP_ROW_POLISH_FORMER
 #define MBS_LOOP_ROW_POLISH_FORMER 0
 #endif
@@ -170,6 +179,27 @@
  * beyond MBS_LOOP_TOL, where its last Newton step left their residual at those very positions (bench/loop_work.py). */
 #ifndef MBS_LOOP_RECHECK_FORMER
 #define MBS_LOOP_RECHECK_FORMER 0
+#endif
+
+/* The projections of an accepted step and of a row end with the residuals g and their rate gdot = G v + g_t at the
+ * same positions: where the model has mbs_constraints_with_velocity (compiler/ccode_loops.py), the evaluations that
+ * may be the last give both from one pass over the kinematics, the sines and cosines of the loops' angles once
+ * (mbs_loop_residuals).  -DMBS_LOOP_RATES_FORMER=1: g and gdot each from its own function. */
+#ifndef MBS_LOOP_RATES_FORMER
+#define MBS_LOOP_RATES_FORMER 0
+#endif
+#if defined(MBS_CONSTRAINTS_WITH_VELOCITY) && MBS_NV >= 2 && !MBS_LOOP_RATES_FORMER  /* (gdot in the room of K) */
+#define MBS_LOOP_RATES 1
+#else
+#define MBS_LOOP_RATES 0
+#endif
+
+/* ... and a row's too where G comes from mbs_constraint_matrix, which has no g_t: the row then needs no
+ * mbs_constraint_velocity at v = 0 for it (with G from evaluations of gdot, g_t comes with them). */
+#if MBS_LOOP_RATES && defined(MBS_CONSTRAINT_MATRIX)
+#define MBS_LOOP_ROW_RATES 1
+#else
+#define MBS_LOOP_ROW_RATES 0
 #endif
 
 #define MBS_LOOP_SINGULAR 1
@@ -963,10 +993,30 @@ static int mbs_loop_partition(double t, const double *q, const double *p, mbs_lo
     return r;
 }
 
+/* The residuals g at the positions of x into w->g; with `rates` (where the model has mbs_constraints_with_velocity)
+ * also their rate gdot = G v + g_t at x, from the same pass over the kinematics, into mbs_loop_rates_of(w). */
+static inline double *mbs_loop_rates_of(const mbs_loop_work *w)
+{
+    return w->K + MBS_NC;  /* [g; gdot] in the room of K, scratch here (MBS_LOOP_RATES: NV >= 2) */
+}
+
+static int mbs_loop_residuals(double t, const double *x, const double *p, mbs_loop_work *w, int rates)
+{
+#if MBS_LOOP_RATES
+    if (rates) {
+        const int s = mbs_constraints_with_velocity(t, x, p, w->K, w->tree);
+        memcpy(w->g, w->K, MBS_NC * sizeof(double));
+        return s;
+    }
+#endif
+    (void)rates;
+    return mbs_constraints(t, x, p, w->g, w->tree);
+}
+
 /* One Newton step on g(q) = 0 with the factors at hand: the correction solved in speeds (minimum norm over the
  * kept partition of rank r), mapped to the coordinates by q' = qdot(q, dv), w->dq the step taken; w->g is the
- * residual at the new q. */
-static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_work *w, int r)
+ * residual at the new q (and the rate of the residuals there with `rates`, q then a whole state: mbs_loop_residuals). */
+static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_work *w, int r, int rates)
 {
     int i;
     memset(w->dv, 0, MBS_NV * sizeof(double));
@@ -976,21 +1026,23 @@ static int mbs_loop_newton_step(double t, double *q, const double *p, mbs_loop_w
     if ((i = mbs_qdot(t, w->xt, p, w->dq, w->tree)) != 0) return i;
     for (i = 0; i < MBS_NQ; i++) q[i] += w->dq[i];
     mbs_loop_normalize_q(q);
-    return mbs_constraints(t, q, p, w->g, w->tree);
+    return mbs_loop_residuals(t, q, p, w, rates);
 }
 
 /* The polishing Newton steps with the factors at hand after a converged projection from factors kept from before
  * (mbs_loop_project_stamped, mbs_loop_project_from_row): at most MBS_LOOP_POLISH_STEPS while the residual `res` is
  * above MBS_LOOP_POLISH and each halves it; a step that does not reduce it is undone (the round-off floor).
  * *after (when not NULL): max |g| at the positions left, which w->g holds, or -1 when a step was undone (w->g then
- * holds the residual of the positions undone, not of those left). */
-static int mbs_loop_polish(double t, double *q, const double *p, mbs_loop_work *w, int r, double res, double *after)
+ * holds the residual of the positions undone, not of those left).  `rates`: each step's evaluation also gives the rate
+ * of the residuals (mbs_loop_residuals), so the one the polish ends with is at the positions left unless *after < 0. */
+static int mbs_loop_polish(double t, double *q, const double *p, mbs_loop_work *w, int r, double res, double *after,
+                           int rates)
 {
     int i, k, s;
     if (after) *after = res;
     for (k = 0; k < MBS_LOOP_POLISH_STEPS && res > MBS_LOOP_POLISH; k++) {
         const double before = res;
-        if ((s = mbs_loop_newton_step(t, q, p, w, r)) != 0) return s;
+        if ((s = mbs_loop_newton_step(t, q, p, w, r, rates)) != 0) return s;
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (after) *after = res;
         if (!(res < before)) {  /* at the round-off floor: undo this step */
@@ -1022,7 +1074,7 @@ static int mbs_loop_positions_iterate(double t, const double *p, mbs_loop_work *
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) < 0) return MBS_LOOP_NONFINITE;
             if (info->rank == 0) return MBS_LOOP_NOT_ASSEMBLED;
         }
-        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank)) != 0) return s;
+        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank, 0)) != 0) return s;
         res = info->residual = mbs_loop_maxabs(w->g, MBS_NC, &info->worst);
         info->iterations++;
         if (!keep && !(res < 0.5 * previous) && res <= MBS_LOOP_FLOOR) break;  /* round-off floor */
@@ -1038,7 +1090,7 @@ static int mbs_loop_positions_iterate(double t, const double *p, mbs_loop_work *
             info->jacobians++;
             if ((info->rank = mbs_loop_partition(t, q, p, w, adopt, info)) <= 0) return 0;
         }
-        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank)) != 0) return s;
+        if ((s = mbs_loop_newton_step(t, q, p, w, info->rank, 0)) != 0) return s;
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res < before)) {  /* at the round-off floor: undo this step */
             for (i = 0; i < MBS_NQ; i++) q[i] -= w->dq[i];
@@ -1809,30 +1861,35 @@ static int mbs_loop_stamp_holds(double t, const double *x, const double *p, cons
  * residual above MBS_LOOP_STEP_DRIFT, or above MBS_LOOP_TOL after the polish) goes the way of mbs_project. */
 static int mbs_loop_project_stamped(double t, const double *x, const double *p, mbs_loop_work *w)
 {
-    double *q = w->xc, res, after;
+    double *q = w->xc, *gdot = w->c3, res, after;
     const int r = (int)w->stamp[3];
-    int i, s;
+    int i, s, rated;  /* rated: the last evaluation gave gdot at the positions left (mbs_loop_residuals) */
     w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
-    if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+    if ((s = mbs_loop_residuals(t, q, p, w, 1)) != 0) return s;
     after = res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
     if (!(res <= MBS_LOOP_STEP_DRIFT)) return -1;
-    if (res > MBS_LOOP_STEP_KEPT && (s = mbs_loop_polish(t, q, p, w, r, res, &after)) != 0) return s;
+    if (res > MBS_LOOP_STEP_KEPT && (s = mbs_loop_polish(t, q, p, w, r, res, &after, 1)) != 0) return s;
+    rated = after >= 0.0;
     if (res > MBS_LOOP_TOL) {  /* drifted beyond the tolerance: within it after the polish, else projected afresh;
                                 * the polish's last residual is that of the positions it left unless it undid a
                                 * step (the same constraints at the same positions: the same bits) */
         if (after < 0.0 || MBS_LOOP_RECHECK_FORMER) {
-            if ((s = mbs_constraints(t, q, p, w->g, w->tree)) != 0) return s;
+            if ((s = mbs_loop_residuals(t, q, p, w, 1)) != 0) return s;
             after = mbs_loop_maxabs(w->g, MBS_NC, NULL);
+            rated = 1;
         }
         if (!(after <= MBS_LOOP_TOL)) return -1;
     }
     /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, dv_I = 0 */
-    if ((s = mbs_constraint_velocity(t, w->xc, p, w->c3, w->tree)) != 0) return s;
+    if (rated && MBS_LOOP_RATES)
+        gdot = mbs_loop_rates_of(w);
+    else if ((s = mbs_constraint_velocity(t, w->xc, p, gdot, w->tree)) != 0)
+        return s;
     memset(w->dv, 0, MBS_NV * sizeof(double));
-    mbs_loop_solve(w, r, w->c3, w->dv);
+    mbs_loop_solve(w, r, gdot, w->dv);
     for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
-    return isfinite(mbs_loop_maxabs(w->xc, MBS_NX, NULL)) ? 0 : MBS_LOOP_NONFINITE;
+    return mbs_loop_finite(w->xc, MBS_NX) ? 0 : MBS_LOOP_NONFINITE;  /* (where, as mbs_loop_maxabs tells, unused) */
 }
 
 /* mbs_project for the C integrators' accepted steps (ode.c, mbs_ode_accept; the glue sets it with
@@ -1841,13 +1898,15 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
 int mbs_loop_project_step(double t, const double *x, const double *p, double *out, double *work)
 {
     mbs_loop_work w = mbs_loop_layout_keeping(work);
+    const uintptr_t from = (uintptr_t)x, to = (uintptr_t)out, size = MBS_NX * sizeof(double);
     int s = -1;
     if (mbs_loop_stamp_holds(t, x, p, &w)) {
+        if (to + size <= from || from + size <= to) w.xc = out;  /* projected in out itself, x left alone: no copy */
         s = mbs_loop_project_stamped(t, x, p, &w);
     }
     w.stamp[0] = 0.0;
     if (s != 0) return mbs_project(t, x, p, out, work);
-    memcpy(out, w.xc, MBS_NX * sizeof(double));
+    if (w.xc != out) memcpy(out, w.xc, MBS_NX * sizeof(double));
     return 0;
 }
 
@@ -1958,8 +2017,9 @@ int mbs_loop_multipliers(double t, const double *x, const double *p, double *lam
 }
 
 /* The stamp mbs_project leaves (a marker apart from mbs_loop_stamp_store's): w->xc is the state it returned, G is
- * factored there with the partition of rank r and h = g_t, for (t, p); with the flags of those factors (packed,
- * in the room of q: a model with one position coordinate has no room and always projects). */
+ * factored there with the partition of rank r and h = g_t (gdot after a row's projection with MBS_LOOP_ROW_RATES:
+ * the solve that follows replaces h by gddot0 before reading it), for (t, p); with the flags of those factors
+ * (packed, in the room of q: a model with one position coordinate has no room and always projects). */
 #define MBS_LOOP_PROJECTED_MARK 2791.0
 #define MBS_LOOP_PROJECTED_STAMP (MBS_NQ >= 2)
 
@@ -2026,30 +2086,44 @@ static int mbs_loop_row_factors_hold(const mbs_loop_work *w)
  * with the previous row's factors (mbs_loop_row_factors_hold; the kept partition, so the independent coordinates
  * stay as in mbs_project), polished as mbs_loop_positions_iterate does.  Then, as mbs_loop_project_state: G and g_t
  * at the projected positions, factored with the partition (kept while it holds, else chosen afresh and kept), v_I
- * kept and G_D v_D = -(G_I v_I + g_t) solved.  A row 5 ms after the last one needs no G for its Newton steps
+ * kept and G_D v_D = -(G_I v_I + g_t) solved; with MBS_LOOP_ROW_RATES the residuals' last evaluation gave
+ * gdot = G v + g_t there, and v_D += dv_D with G_D dv_D = -gdot instead (the same to round-off, without g_t's
+ * mbs_constraint_velocity: h then holds gdot, which nothing after reads).  A row 5 ms after the last one needs no G for its Newton steps
  * (mbs_project: G and its factors twice a row).  Returns the rank, or -1 when the factors do not converge fast (a
  * large step between rows, a jump at an event) or anything fails: the caller projects afresh. */
 static int mbs_loop_project_from_row(double t, const double *x, const double *p, mbs_loop_work *w)
 {
-    double *q = w->xc, res, before;
-    int k, r = (int)w->stamp[3];
+    double *q = w->xc, res, before, after;
+    int k, r = (int)w->stamp[3], rated;  /* rated: the last evaluation gave gdot at the positions left */
     w->blocked = 1;
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     mbs_loop_normalize_q(q);
-    if (mbs_constraints(t, q, p, w->g, w->tree) != 0) return -1;
+    if (mbs_loop_residuals(t, q, p, w, MBS_LOOP_ROW_RATES) != 0) return -1;
     res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
     for (k = 0; !(res <= MBS_LOOP_TOL); k++) {
         before = res;
         if (k >= MBS_LOOP_ROW_MAXIT || !isfinite(res)) return -1;
-        if (mbs_loop_newton_step(t, q, p, w, r) != 0) return -1;
+        if (mbs_loop_newton_step(t, q, p, w, r, MBS_LOOP_ROW_RATES) != 0) return -1;
         res = mbs_loop_maxabs(w->g, MBS_NC, NULL);
         if (!(res <= MBS_LOOP_SLOW * before)) return -1;
     }
-    if ((res > MBS_LOOP_STEP_KEPT || MBS_LOOP_ROW_POLISH_FORMER) && mbs_loop_polish(t, q, p, w, r, res, NULL) != 0)
+    after = res;
+    if ((res > MBS_LOOP_ROW_KEPT || MBS_LOOP_ROW_POLISH_FORMER)
+        && mbs_loop_polish(t, q, p, w, r, res, &after, MBS_LOOP_ROW_RATES) != 0)
         return -1;
-    if (mbs_loop_jacobian_at(t, w->xc, p, w, 1) != 0) return -1;
+    rated = MBS_LOOP_ROW_RATES && after >= 0.0;
+    if (rated)  /* gdot into h, where a fresh partition's probe (mbs_loop_generic_rank) leaves it: h = g_t is not needed */
+        memcpy(w->h, mbs_loop_rates_of(w), MBS_NC * sizeof(double));
+    if (mbs_loop_jacobian_at(t, w->xc, p, w, !rated) != 0) return -1;
     if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
-    mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
+    if (rated) {  /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, as an accepted step's */
+        int i;
+        memset(w->dv, 0, MBS_NV * sizeof(double));
+        mbs_loop_solve(w, r, w->h, w->dv);
+        for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
+    } else {  /* keep v_I, solve G_D v_D = -(G_I v_I + g_t) */
+        mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
+    }
     return r;
 }
 

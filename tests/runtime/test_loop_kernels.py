@@ -3,7 +3,7 @@ corner's 6 rows, their loops unrolled) and the accepted step's residual read fro
 against the former code (-DMBS_LOOP_BLOCK_FORMER=1: every size a variable; -DMBS_LOOP_RECHECK_FORMER=1: the constraints
 evaluated again after the polish): the same arithmetic in the same order, so the same run to the bit, on the quarter
 car over the bump (one corner: a block of 6 rows, adams with a projection at every step) and on a four-bar pair (blocks
-of another size, the kernels with the size a variable).  The rows' positions kept within MBS_LOOP_STEP_KEPT
+of another size, the kernels with the size a variable).  The rows' positions kept within MBS_LOOP_ROW_KEPT
 (-DMBS_LOOP_ROW_POLISH_FORMER=1: every row polished) change the rows by about the constraints' round-off alone."""
 
 from __future__ import annotations
