@@ -91,9 +91,10 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 4 NC + 3 NV + 2 NC NV ints in
- * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
-#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 3 NV + 2 NC NV ints in
+ * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block). */
+#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 6 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
+#define MBS_LOOP_MASS_CHUNKS 7
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -501,9 +502,10 @@ typedef struct {
     int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
     int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
                   * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
+    int *mchunk; /* NC x (1 + MBS_LOOP_MASS_CHUNKS): block b's chunks of columns of M T_j (mbs_loop_plan_mass_chunks) */
 } mbs_loop_blocks;
 
-static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
+static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
 {
     mbs_loop_blocks b;
     int *s = (int *)(w->plan + 1 + MBS_LOOP_KEEP_SIZE);
@@ -519,7 +521,8 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.nz = s; s += 1;
     b.src = s; s += MBS_NC * MBS_NV;
     b.dst = s; s += MBS_NC * MBS_NV;
-    b.reach = s;
+    b.reach = s; s += MBS_NC;
+    b.mchunk = s;
     return b;
 }
 
@@ -589,6 +592,37 @@ static int mbs_loop_blocks_coupled(const mbs_loop_blocks *bl, int b, int c)
 #endif
 }
 
+/* Block b's columns of M T_j for its columns j of T (mbs_loop_mass_times_block): every column that a row of M at one
+ * of the block's velocities reaches (M's structural nonzeros, the generator's table; without it all), covered by
+ * chunks of 4 columns from left to right, at most MBS_LOOP_MASS_CHUNKS (else none: the block takes
+ * mbs_loop_mass_times_column).  A chunk may reach columns none of these rows does, where M's entries are exact zeros
+ * (its structural zeros), and may overlap the one before it (at the last column): its entries of mt are computed
+ * whole, the same values again.  mchunk[b * (1 + MBS_LOOP_MASS_CHUNKS)]: their number (-1: none), then their
+ * first columns. */
+static void mbs_loop_plan_mass_chunks(const mbs_loop_blocks *bl, int b)
+{
+    int mark[MBS_NV], *chunk = bl->mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * b, x, v, n = 0;
+    memset(mark, 0, sizeof mark);
+    for (x = bl->k0[b]; x < bl->k0[b + 1] + bl->j0[b + 1] - bl->j0[b]; x++) {
+        const int u = bl->col[x < bl->k0[b + 1] ? x : bl->jl[bl->j0[b] + x - bl->k0[b + 1]]];
+#ifdef MBS_MASS_PATTERN
+        int k;
+        for (k = mbs_mass_row[u]; k < mbs_mass_row[u + 1]; k++)
+            for (v = mbs_mass_begin[k]; v < mbs_mass_end[k]; v++) mark[v] = 1;
+#else
+        (void)u;
+        for (v = 0; v < MBS_NV; v++) mark[v] = 1;
+#endif
+    }
+    for (v = 0; v < MBS_NV; v++) {
+        if (!mark[v]) continue;
+        if (n == MBS_LOOP_MASS_CHUNKS || MBS_NV < 4) { n = -1; break; }
+        chunk[1 + n++] = v + 4 <= MBS_NV ? v : MBS_NV - 4;
+        v = chunk[n] + 3;  /* (the loop's v++: the column after the chunk) */
+    }
+    chunk[0] = n;
+}
+
 /* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
  * block by block (the independent columns no pivot row touches last), each in its former order. */
 static void mbs_loop_plan_build(mbs_loop_work *w)
@@ -646,9 +680,11 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
      * from G0), then its structural zeros within the blocks (set to 0: the elimination fills some of them in) */
     *bl.nz = mbs_loop_plan_gather(&bl, 1, 0);
     *bl.ng = mbs_loop_plan_gather(&bl, 0, *bl.nz);
-    for (b = 0; b < *bl.nb; b++)
+    for (b = 0; b < *bl.nb; b++) {
         for (bl.reach[b] = b, c = b + 1; c < *bl.nb; c++)
             if (mbs_loop_blocks_coupled(&bl, b, c)) bl.reach[b] = c;
+        mbs_loop_plan_mass_chunks(&bl, b);
+    }
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -1430,6 +1466,32 @@ static const double *mbs_loop_mass_times_column(const double *restrict M, const 
     return mt;
 }
 
+/* M T_j for a column j of T from block b of the kept plan (mbs_loop_reduced_mass_blocks) by the block's chunks of 4
+ * columns (mbs_loop_plan_mass_chunks): each chunk's 4 sums over T_j's entries in their order, as
+ * mbs_loop_mass_times_column adds them up (the same bits: the chunks' other columns add exact zeros to sums that
+ * start at +0), in a vector register, one load, product and sum a row, where the rows' runs of 1 to 6 columns
+ * took a scalar loop and its control a column (the Iltis: about 650 -> 330 instructions a column). */
+static const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
+                                               const int *ti, int n, const int *chunk, double *restrict mt)
+{
+    int e, k, q;
+    if (chunk[0] < 0) return mbs_loop_mass_times_column(M, tv, ti, n, mt);
+    memset(mt, 0, MBS_NV * sizeof(double));
+    for (q = 1; q <= chunk[0]; q += 2) {  /* two chunks at a time (an odd last one twice: the same values) */
+        const int v0 = chunk[q], v1 = chunk[q + 1 <= chunk[0] ? q + 1 : q];
+        double s0[4] = {0.0, 0.0, 0.0, 0.0}, s1[4] = {0.0, 0.0, 0.0, 0.0};
+        for (e = 0; e < n; e++) {
+            const double *restrict row = M + ti[e] * MBS_NV;
+            const double c = tv[e];
+            for (k = 0; k < 4; k++) s0[k] += row[v0 + k] * c;
+            for (k = 0; k < 4; k++) s1[k] += row[v1 + k] * c;
+        }
+        for (k = 0; k < 4; k++) mt[v0 + k] = s0[k];
+        for (k = 0; k < 4; k++) mt[v1 + k] = s1[k];
+    }
+    return mt;
+}
+
 /* a^T b over NV entries in four independent chains (a single running sum waits for its latency at every entry). */
 static double mbs_loop_dot(const double *a, const double *b)
 {
@@ -1508,8 +1570,8 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
     double *A = w->A, dmax = 0.0;
     int i, j, e;
     for (j = 0; j < na; j++) {
-        const double *mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
-                                                      w->b);
+        const double *mt = mbs_loop_mass_times_block(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
+                                                     bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * bl.block[r + j], w->b);
         const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
         double sum = 0.0;
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
