@@ -1414,10 +1414,10 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
             a[j] = sum;
         }
         for (j = 0; j < dof; j++)
-            for (k = 0; k < j; k++) a[j] -= A[j * MBS_NV + k] * a[k];
+            for (k = 0; k < j; k++) a[j] -= A[k * MBS_NV + j] * a[k];  /* (L by columns: L_jk at A[k NV + j]) */
         for (j = 0; j < dof; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
         for (j = dof - 1; j >= 0; j--)
-            for (k = j + 1; k < dof; k++) a[j] -= A[k * MBS_NV + j] * a[k];
+            for (k = j + 1; k < dof; k++) a[j] -= A[j * MBS_NV + k] * a[k];
         memset(vj, 0, MBS_NV * sizeof(double));
         for (j = 0; j < dof; j++)
             for (e = start[j]; e < start[j + 1]; e++) vj[Ti[e]] += T[e] * a[j];
@@ -1524,7 +1524,7 @@ static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
     return s;
 }
 
-/* The lower triangle of A = T^T M T (m x m, row stride NV) and a = T^T (f - M c0) for any T (packed columns):
+/* The lower triangle of A = T^T M T (m x m) by columns (A_ij at A[j NV + i], i >= j) and a = T^T (f - M c0) for any T (packed columns):
  * per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities, or a
  * row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and a_j = T_j^T f - mt^T c0
  * (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at least). */
@@ -1544,11 +1544,11 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
         for (i = j; i < m; i++) {
             f = start[i];
             if (start[i + 1] == f + 1 && T[f] == 1.0) {  /* a unit column: its velocity's entry (0 + 1 x = x) */
-                A[i * MBS_NV + j] = mt[Ti[f]];
+                A[j * MBS_NV + i] = mt[Ti[f]];
                 continue;
             }
             for (sum = 0.0; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
-            A[i * MBS_NV + j] = sum;  /* lower triangle */
+            A[j * MBS_NV + i] = sum;  /* lower triangle, by columns */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
@@ -1578,19 +1578,71 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
         w->a[j] = sum - mbs_loop_dot(mt, w->c0);
         for (i = j; i < coupled; i++) {
             for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
-            A[i * MBS_NV + j] = sum;
+            A[j * MBS_NV + i] = sum;
         }
-        for (; i < na; i++) A[i * MBS_NV + j] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
-        for (; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        for (; i < na; i++) A[j * MBS_NV + i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
+        for (; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
         const double *mt = M + cpi[r + j] * MBS_NV;
         w->a[j] = (0.0 + w->f[cpi[r + j]]) - mbs_loop_dot(mt, w->c0);
-        for (i = j; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        for (i = j; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     return dmax;
+}
+
+/* y -= x a over entries i0 .. n - 1 (two columns of A = T^T M T, or the solve's right-hand side and a column).  (4 at a
+ * time in vector instructions took more instructions for the Iltis's columns of 1 to 9 entries: 336.9 M against 335.0 M
+ * for a bump_10 simulate.) */
+static inline void mbs_loop_column_update(double *restrict y, const double *restrict x, double a, int i0, int n)
+{
+    int i;
+    for (i = i0; i < n; i++) y[i] -= x[i] * a;
+}
+
+/* A = L D L^T in place (A's lower triangle by columns, as mbs_loop_reduced_mass writes it: L_ij at A[j NV + i] below
+ * the diagonal, D_j on it); a pivot below MBS_LOOP_MASS_TOL times dmax, the largest diagonal entry, is a motion without
+ * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
+ * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
+ * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
+ * instead of a short inner product an entry; a column whose L_jk is zero (another loop's block
+ * that M does not couple) is skipped, where the inner products skipped the zeros left of each row's first nonzero:
+ * the same values (exact zeros subtracted or not; at most the sign of a zero differs). */
+static int mbs_loop_reduced_factor(double *A, int m, double dmax)
+{
+    int j, k;
+    for (k = 0; k < m; k++) {
+        double *ck = A + k * MBS_NV, d = ck[k];
+        if (!isfinite(d)) return MBS_LOOP_NONFINITE;
+        if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
+        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
+            memset(ck + k, 0, (size_t)(m - k) * sizeof(double));
+            continue;
+        }
+        for (j = k + 1; j < m; j++) ck[j] /= d;
+        for (j = k + 1; j < m; j++) {
+            const double ld = ck[j] * d;  /* L_jk D_k */
+            if (ld != 0.0) mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
+        }
+    }
+    return 0;
+}
+
+/* a = (L D L^T)^-1 a with the factors of mbs_loop_reduced_factor (zero pivots: 0): L by columns forward, D, L^T by
+ * rows (L's columns) back. */
+static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
+{
+    int j, k;
+    for (k = 0; k < m; k++) mbs_loop_column_update(a, A + k * MBS_NV, a[k], k + 1, m);
+    for (j = 0; j < m; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
+    for (j = m - 1; j >= 0; j--) {
+        const double *cj = A + j * MBS_NV;
+        double s = a[j];
+        for (k = j + 1; k < m; k++) s -= cj[k] * a[k];
+        a[j] = s;
+    }
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -1599,8 +1651,8 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, dmax;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
-    int i, j, k, s;
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    int j, k, s;
     if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
                     * the same state finds h replaced at a singular position) */
         w->terms = 0;
@@ -1619,41 +1671,8 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
         dmax = mbs_loop_reduced_mass(w, m, start);
-    /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia.  Row i of A is
-     * zero left of first[i] (its envelope: the Iltis's corners couple through the body only, and with the body's
-     * columns last a corner's row of A is its diagonal alone), and so is row i of L: the sums skip those exact
-     * zeros (the same values; the zeros stay in A for the solves that read it whole). */
-    for (i = 0; i < m; i++) {
-        for (k = 0; k < i && A[i * MBS_NV + k] == 0.0; k++) {}
-        first[i] = k;
-    }
-    for (j = 0; j < m; j++) {
-        double *aj = A + j * MBS_NV, d = aj[j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
-        for (k = first[j]; k < j; k++) {
-            ld[k] = aj[k] * A[k * MBS_NV + k];
-            d -= aj[k] * ld[k];
-        }
-        if (!isfinite(d)) return MBS_LOOP_NONFINITE;
-        if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
-        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
-            A[j * MBS_NV + j] = 0.0;
-            for (i = j + 1; i < m; i++) A[i * MBS_NV + j] = 0.0;
-            continue;
-        }
-        A[j * MBS_NV + j] = d;
-        for (i = j + 1; i < m; i++) {
-            double *ai = A + i * MBS_NV, sum = ai[j];
-            if (first[i] > j) continue;  /* L_ij = 0 */
-            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= ai[k] * ld[k];
-            ai[j] = sum / d;
-        }
-    }
-    for (j = 0; j < m; j++)
-        for (k = first[j]; k < j; k++) w->a[j] -= A[j * MBS_NV + k] * w->a[k];
-    for (j = 0; j < m; j++) w->a[j] = A[j * MBS_NV + j] > 0.0 ? w->a[j] / A[j * MBS_NV + j] : 0.0;
-    for (j = m - 1; j >= 0; j--)
-        for (k = j + 1; k < m; k++)
-            if (first[k] <= j) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
+    if ((s = mbs_loop_reduced_factor(A, m, dmax)) != 0) return s;
+    mbs_loop_reduced_solve(A, m, w->a);
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
     for (j = 0; j < m; j++)
