@@ -729,10 +729,11 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     } while (0)
 #endif
 /* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
- * (nj) and, when `forward`, y riding along; returns the smallest relative pivot so far, or -1 when a pivot
+ * (nj) and y riding along (the forward substitution of gddot0 when the caller has it, else of zeros: one more column
+ * either way, no test an entry); returns the smallest relative pivot so far, or -1 when a pivot
  * vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, so that its loops unroll. */
 MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y, const int k0, const int n,
-                                             const int *jl, const int nj, const int forward, const double amax0,
+                                             const int *jl, const int nj, const double amax0,
                                              double minpivot)
 {
     double *B = A + k0 * MBS_NV + k0, tmp;
@@ -755,7 +756,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
             z = A + (k0 + pi) * MBS_NV;
             for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
             tmp = rp[k0 + k]; rp[k0 + k] = rp[k0 + pi]; rp[k0 + pi] = tmp;
-            if (forward) { tmp = y[k0 + k]; y[k0 + k] = y[k0 + pi]; y[k0 + pi] = tmp; }
+            tmp = y[k0 + k]; y[k0 + k] = y[k0 + pi]; y[k0 + pi] = tmp;
         }
         MBS_LOOP_UNROLL
         for (i = k + 1; i < n; i++) {
@@ -769,7 +770,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
                 ai[jl[0]] -= l * ak[jl[0]];
             else
                 for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
-            if (forward) y[k0 + i] -= l * y[k0 + k];  /* the forward substitution's terms, in its order */
+            y[k0 + i] -= l * y[k0 + k];  /* the forward substitution's terms, in its order */
         }
     }
     return minpivot;
@@ -795,6 +796,8 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
     if (forward)
         for (k = 0; k < r; k++) y[k] = -w->h[bl.row[k]];  /* (bl.row: rp as ints, before the row exchanges) */
+    else
+        memset(y, 0, (size_t)r * sizeof(double));
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
@@ -802,13 +805,34 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (e = 0; e < *bl.nz; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
-        const double g = G0[bl.src[e]], a = fabs(g);
-        A[bl.dst[e]] = g;
-        amax0 = a > amax0 ? a : amax0;
-        probe += 0.0 * g;
+    {  /* by the plan's offsets (mbs_loop_plan_build), 2 at a time: two maxima and probes (max and a probe's sum of
+        * zeros do not depend on the order), one loop's control for two entries */
+        const int *restrict src = bl.src, *restrict dst = bl.dst, nz = *bl.nz, ng = *bl.ng;
+        double m0 = 0.0, m1 = 0.0, p0 = 0.0, p1 = 0.0;
+        for (e = 0; e + 4 <= nz; e += 4) {
+            const double g0 = G0[src[e]], g1 = G0[src[e + 1]], a0 = fabs(g0), a1 = fabs(g1);
+            const double g2 = G0[src[e + 2]], g3 = G0[src[e + 3]], a2 = fabs(g2), a3 = fabs(g3);
+            A[dst[e]] = g0;
+            A[dst[e + 1]] = g1;
+            A[dst[e + 2]] = g2;
+            A[dst[e + 3]] = g3;
+            m0 = a0 > m0 ? a0 : m0;
+            m1 = a1 > m1 ? a1 : m1;
+            m0 = a2 > m0 ? a2 : m0;
+            m1 = a3 > m1 ? a3 : m1;
+            p0 += 0.0 * g0 + 0.0 * g2;
+            p1 += 0.0 * g1 + 0.0 * g3;
+        }
+        for (; e < nz; e++) {
+            const double g = G0[src[e]], a = fabs(g);
+            A[dst[e]] = g;
+            m0 = a > m0 ? a : m0;
+            p0 += 0.0 * g;
+        }
+        for (; e < ng; e++) A[dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
+        amax0 = m1 > m0 ? m1 : m0;
+        probe = p0 + p1;
     }
-    for (; e < *bl.ng; e++) A[bl.dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
             for (c = 0; c < MBS_NCOLOUR; c++) {
@@ -824,7 +848,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
 #define MBS_LOOP_ELIMINATE(size) \
-        minpivot = mbs_loop_eliminate_block(A, w->rp, y, k0, size, jl, nj, forward, amax0, minpivot)
+        minpivot = mbs_loop_eliminate_block(A, w->rp, y, k0, size, jl, nj, amax0, minpivot)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_ELIMINATE);
 #undef MBS_LOOP_ELIMINATE
         if (minpivot < 0.0) return 0.0;
