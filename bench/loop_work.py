@@ -1,6 +1,6 @@
 """The run-time loop work of the Iltis over the bump (c/loops.c), current against former, in instructions.
 
-    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR]
+    python bench/loop_work.py [--scene bump_10] [--no-rows] [--no-simulate] [--baseline DIR]
 
 Two builds of the scene's model: the current one and the former (FORMER_FLAGS, each a compile-time switch of
 c/loops.c that brings back the former arithmetic of one change; with --baseline DIR instead the run-time C files of
@@ -9,15 +9,18 @@ integration (`Solver.sample`, the scene's own integrator and tolerances) under v
 (load-independent), per call or step:
 
 * the loop algebra of an rhs call (`mbs_loop_solve_accelerations` inside `mbs_loop_rhs_direct`: the kept partition's
-  factors, T^T M T, its factors, the solve; the generated loop terms apart) and the whole rhs call;
+  factors, T^T M T, its factors, the solve; the generated loop terms apart), its two parts (the kept partition's
+  factors of G, `mbs_loop_partition`; the rest, `mbs_loop_accelerations`: T and c0, T^T M T and T^T (f - M c0), its
+  L D L^T and the solve, vdot) and the whole rhs call;
 * the projection of an accepted step (`mbs_loop_project_step` from `mbs_ode_accept`);
 * the integration's total, per accepted step;
 
 and the rows of the results (one `Function.rows` over the run's rows with `projected`, as simulate calls it, the
-arguments saved from a run: bench/output_rows.py), per row.  Printed with the ratios current / former.  Then, outside
-valgrind, one simulate with each build: whether the results (every column, every row) and the run's statistics are
-the same to the bit, or how far apart.  valgrind's libm rounds a little differently, so its step counts may differ by a few from a
-run's own (the same for both builds).
+arguments saved from a run: bench/output_rows.py), per row; and (unless --no-simulate) one whole simulate of the scene
+(equilibrium, integration, rows, Python), counted after two uncounted ones as bench/bump_cost.py counts one.  Printed
+with the ratios current / former.  Then, outside valgrind, one simulate with each build: whether the results (every
+column, every row) and the run's statistics are the same to the bit, or how far apart.  valgrind's libm rounds a
+little differently, so its step counts may differ by a few from a run's own (the same for both builds).
 
 Nothing is asserted: figures are printed for a reader to compare.
 """
@@ -25,7 +28,9 @@ Nothing is asserted: figures are printed for a reader to compare.
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -60,6 +65,38 @@ print("STATS", stats["nsteps"] - stats["nreject"], stats["nfev"])
 """
 
 
+#: The child of the whole simulate: the model built with the flags given, two runs uncounted, then one counted inside
+#: functools.reduce (--toggle-collect), as bench/bump_cost.py's SIMULATE_CHILD.
+SIMULATE_CHILD = f"TESTS_RUNTIME = {str(Path(__file__).resolve().parent.parent / 'tests' / 'runtime')!r}\n" + """
+import functools, os, subprocess, sys
+from pathlib import Path
+import mbs
+sys.path.insert(0, TESTS_RUNTIME)
+from former_builds import install_flagged_build
+path, scene, flags = Path(sys.argv[1]), sys.argv[2], tuple(sys.argv[3:])
+system = mbs.load(path)
+install_flagged_build(system, scene, flags)
+def run():
+    system.forget_starts()
+    system.simulate(scene)
+run(); run()
+subprocess.run(["callgrind_control", "-i", "on", str(os.getpid())], check=True, capture_output=True)
+functools.reduce(lambda _, __: run(), range(1), None)
+"""
+
+
+def simulate_instructions(scene: str, flags: tuple[str, ...], workdir: Path) -> int:
+    """Instructions callgrind counts in one whole simulate of the scene with the build of `flags`."""
+    out = workdir / "callgrind.simulate"
+    done = subprocess.run(["valgrind", "--tool=callgrind", "--instr-atstart=no", "--collect-atstart=no",
+                           "--toggle-collect=functools_reduce", f"--callgrind-out-file={out}", sys.executable, "-c",
+                           SIMULATE_CHILD, str(MODEL), scene, *flags], capture_output=True, text=True)
+    found = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
+    if done.returncode != 0 or not found:
+        raise SystemExit(f"valgrind run failed:\n{done.stderr[-2000:]}")
+    return int(found.group(1))
+
+
 def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tuple[int, int]]:
     """{part: (calls, inclusive instructions)} of one run's integration with the build of `flags`, and
     "integration": (accepted steps, total), "rhs calls": (rhs calls, 0)."""
@@ -72,6 +109,8 @@ def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tu
     rhs_callers = {a for (a, b) in pairs if b == "mbs_loop_rhs_direct" and a != "mbs_loop_rhs_direct"}
     return {"rhs": calls(rhs_callers, "mbs_loop_rhs_direct"),
             "loop algebra": calls(("mbs_loop_rhs_direct",), "mbs_loop_solve_accelerations"),
+            "  kept factors of G": calls(("mbs_loop_solve_accelerations",), "mbs_loop_partition"),
+            "  T, T^T M T, L D L^T, vdot": calls(("mbs_loop_solve_accelerations",), "mbs_loop_accelerations"),
             "projection": calls(("mbs_ode_accept",), "mbs_loop_project_step"),
             "integration": (accepted, total)}
 
@@ -105,6 +144,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scene", default="bump_10")
     ap.add_argument("--no-rows", action="store_true", help="skip the rows of the results")
+    ap.add_argument("--no-simulate", action="store_true", help="skip the whole simulates under callgrind")
     ap.add_argument("--baseline", metavar="DIR", default="",
                     help="the former: the run-time C files of DIR (another revision's runtime/c) instead of the flags")
     args = ap.parse_args(argv)
@@ -121,7 +161,8 @@ def main(argv=None) -> int:
         print("  " + f"{'':<34}" + "".join(f"{label:>14}" for label in builds) + f"{'ratio':>8}")
         counts = {label: f"{steps[label]} {parts[label]['rhs'][0]}" for label in builds}
         print("  " + f"{'accepted steps, rhs calls':<34}" + "".join(f"{counts[label]:>14}" for label in builds))
-        for key, per in (("loop algebra", "a call"), ("rhs", "a call"), ("projection", "a step"),
+        for key, per in (("loop algebra", "a call"), ("  kept factors of G", "a call"),
+                         ("  T, T^T M T, L D L^T, vdot", "a call"), ("rhs", "a call"), ("projection", "a step"),
                          ("integration", "a step")):
             cells = {}
             for label in builds:
@@ -138,6 +179,10 @@ def main(argv=None) -> int:
                        for label, path in libraries.items()}
             print("  " + f"{f'rows ({rows}), a row':<34}" + "".join(f"{per_row[label]:>14,.0f}" for label in builds)
                   + f"{per_row['current'] / per_row['former']:>8.3f}")
+        if not args.no_simulate:
+            whole = {label: simulate_instructions(args.scene, flags, tmp) for label, flags in builds.items()}
+            print("  " + f"{'a whole simulate':<34}" + "".join(f"{whole[label]:>14,}" for label in builds)
+                  + f"{whole['current'] / whole['former']:>8.3f}")
     print(f"  simulate({args.scene!r}) current against former: "
           + compare_results(system, args.scene, flagged_build(system, args.scene, former_flags)))
     return 0
