@@ -794,9 +794,16 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     w->forward = 0;
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
-    if (forward)
-        for (k = 0; k < r; k++) y[k] = -w->h[bl.row[k]];  /* (bl.row: rp as ints, before the row exchanges) */
-    else
+    if (forward) {  /* (bl.row: rp as ints, before the row exchanges; 4 a loop) */
+        const double *restrict h = w->h;
+        for (k = 0; k + 4 <= r; k += 4) {
+            y[k] = -h[bl.row[k]];
+            y[k + 1] = -h[bl.row[k + 1]];
+            y[k + 2] = -h[bl.row[k + 2]];
+            y[k + 3] = -h[bl.row[k + 3]];
+        }
+        for (; k < r; k++) y[k] = -h[bl.row[k]];
+    } else
         memset(y, 0, (size_t)r * sizeof(double));
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
@@ -829,7 +836,13 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
             m0 = a > m0 ? a : m0;
             p0 += 0.0 * g;
         }
-        for (; e < ng; e++) A[dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
+        for (; e + 4 <= ng; e += 4) {  /* G's structural zeros (exact zeros in G0) */
+            A[dst[e]] = 0.0;
+            A[dst[e + 1]] = 0.0;
+            A[dst[e + 2]] = 0.0;
+            A[dst[e + 3]] = 0.0;
+        }
+        for (; e < ng; e++) A[dst[e]] = 0.0;
         amax0 = m1 > m0 ? m1 : m0;
         probe = p0 + p1;
     }
