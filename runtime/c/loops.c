@@ -1329,8 +1329,9 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns. */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
- * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops
- * not unrolled (see MBS_LOOP_UNROLL). */
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops of
+ * arithmetic not unrolled (see MBS_LOOP_UNROLL), its copies into T and c0 unrolled (the Iltis: 100 instructions fewer
+ * a call). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
                                              const int *jl, int *start, const int *cpi, int *e)
 {
@@ -1365,6 +1366,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
             }
             yt[k] = sum / g[k];
         }
+        MBS_LOOP_UNROLL
         for (k = 0; k < n; k++) {
             T[*e] = yt[k];
             Ti[(*e)++] = cpi[k0 + k];
@@ -1377,6 +1379,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
             y[k] = sum / B[k * MBS_NV + k];
         }
     }
+    MBS_LOOP_UNROLL
     for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
 }
 
