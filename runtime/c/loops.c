@@ -67,7 +67,11 @@
  * --baseline with the former runtime/c).  Each block's kernels (its elimination, the solves and multipliers) are
  * inlined with the block's size a constant for 6 rows, the Iltis corner's (MBS_LOOP_BY_SIZE), their loops unrolled:
  * the same arithmetic again, the loop algebra of a bump_10 rhs 17,023 -> 15,868 instructions and the projection of
- * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).
+ * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).  Then M T_j of a block's column of T by the
+ * plan's chunks of 4 columns (mbs_loop_plan_mass_chunks) in vector registers, T^T M T's L D L^T by columns
+ * (mbs_loop_reduced_factor), the gather of G and the copies into T and c0 with less control: the same bits again
+ * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 12,371 instructions (the kept factors of G
+ * 4,184 -> 3,716, the rest 9,132 -> 7,477), a whole simulate 344.7 M -> 331.2 M (bench/loop_work.py --baseline).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -1510,7 +1514,7 @@ static const double *mbs_loop_mass_times_column(const double *restrict M, const 
  * columns (mbs_loop_plan_mass_chunks): each chunk's 4 sums over T_j's entries in their order, as
  * mbs_loop_mass_times_column adds them up (the same bits: the chunks' other columns add exact zeros to sums that
  * start at +0), in a vector register, one load, product and sum a row, where the rows' runs of 1 to 6 columns
- * took a scalar loop and its control a column (the Iltis: about 650 -> 330 instructions a column). */
+ * took a scalar loop and its control a column (the Iltis: about 710 -> 360 instructions a column of T). */
 static const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
                                                const int *ti, int n, const int *chunk, double *restrict mt)
 {
@@ -1647,7 +1651,7 @@ static inline void mbs_loop_column_update(double *restrict y, const double *rest
  * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
  * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
  * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
- * instead of a short inner product an entry; a column whose L_jk is zero (another loop's block
+ * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero (another loop's block
  * that M does not couple) is skipped, where the inner products skipped the zeros left of each row's first nonzero:
  * the same values (exact zeros subtracted or not; at most the sign of a zero differs). */
 static int mbs_loop_reduced_factor(double *A, int m, double dmax)
@@ -1668,7 +1672,21 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax)
         for (; j < m; j++) ck[j] /= d;
         for (j = k + 1; j < m; j++) {
             const double ld = ck[j] * d;  /* L_jk D_k */
-            if (ld != 0.0) mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
+            if (ld == 0.0) continue;
+            if (j + 1 < m && ck[j + 1] * d != 0.0) {  /* columns j and j + 1 in one pass over column k */
+                double *restrict y0 = A + j * MBS_NV, *restrict y1 = A + (j + 1) * MBS_NV;
+                const double *restrict x = ck;
+                const double l1 = ck[j + 1] * d;
+                int i;
+                y0[j] -= x[j] * ld;
+                for (i = j + 1; i < m; i++) {
+                    y0[i] -= x[i] * ld;
+                    y1[i] -= x[i] * l1;
+                }
+                j++;
+            } else {
+                mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
+            }
         }
     }
     return 0;
