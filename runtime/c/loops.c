@@ -816,8 +816,8 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    {  /* by the plan's offsets (mbs_loop_plan_build), 2 at a time: two maxima and probes (max and a probe's sum of
-        * zeros do not depend on the order), one loop's control for two entries */
+    {  /* by the plan's offsets (mbs_loop_plan_build), 4 a loop into two maxima and probes (neither max nor a probe's
+        * sum of zeros depends on the order) */
         const int *restrict src = bl.src, *restrict dst = bl.dst, nz = *bl.nz, ng = *bl.ng;
         double m0 = 0.0, m1 = 0.0, p0 = 0.0, p1 = 0.0;
         for (e = 0; e + 4 <= nz; e += 4) {
@@ -1568,10 +1568,11 @@ static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
     return s;
 }
 
-/* The lower triangle of A = T^T M T (m x m) by columns (A_ij at A[j NV + i], i >= j) and a = T^T (f - M c0) for any T (packed columns):
- * per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities, or a
- * row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and a_j = T_j^T f - mt^T c0
- * (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at least). */
+/* The lower triangle of A = T^T M T (m x m) by columns (A_ij at A[j NV + i], i >= j) and a = T^T (f - M c0) for
+ * any T (packed columns): per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at
+ * T_j's few velocities, or a row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i,
+ * and a_j = T_j^T f - mt^T c0 (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at
+ * least). */
 static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
 {
     const double *T = w->T, *M = w->M;
@@ -1651,9 +1652,9 @@ static inline void mbs_loop_column_update(double *restrict y, const double *rest
  * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
  * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
  * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
- * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero (another loop's block
- * that M does not couple) is skipped, where the inner products skipped the zeros left of each row's first nonzero:
- * the same values (exact zeros subtracted or not; at most the sign of a zero differs). */
+ * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
+ * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
+ * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs). */
 static int mbs_loop_reduced_factor(double *A, int m, double dmax)
 {
     int j, k;
