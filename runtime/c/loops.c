@@ -1654,8 +1654,9 @@ static inline void mbs_loop_column_update(double *restrict y, const double *rest
  * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
  * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
  * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
- * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs). */
-static int mbs_loop_reduced_factor(double *A, int m, double dmax)
+ * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs).  The
+ * forward substitution L y = a rides along, column k of L once it is done (a_k final then), as the solve took it. */
+static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restrict a)
 {
     int j, k;
     for (k = 0; k < m; k++) {
@@ -1671,6 +1672,7 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax)
             for (q = 0; q < 4; q++) ck[j + q] /= d;
         }
         for (; j < m; j++) ck[j] /= d;
+        mbs_loop_column_update(a, ck, a[k], k + 1, m);  /* the forward substitution's column k (a_k is final) */
         for (j = k + 1; j < m; j++) {
             const double ld = ck[j] * d;  /* L_jk D_k */
             if (ld == 0.0) continue;
@@ -1693,12 +1695,11 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax)
     return 0;
 }
 
-/* a = (L D L^T)^-1 a with the factors of mbs_loop_reduced_factor (zero pivots: 0): L by columns forward, D, L^T by
- * rows (L's columns) back. */
+/* a = (D L^T)^-1 a with the factors of mbs_loop_reduced_factor, which took a through L^-1 already (zero pivots: 0): D,
+ * then L^T by rows (L's columns) back. */
 static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
 {
     int j, k;
-    for (k = 0; k < m; k++) mbs_loop_column_update(a, A + k * MBS_NV, a[k], k + 1, m);
     for (j = 0; j < m; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
     for (j = m - 1; j >= 0; j--) {
         const double *cj = A + j * MBS_NV;
@@ -1734,7 +1735,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
         dmax = mbs_loop_reduced_mass(w, m, start);
-    if ((s = mbs_loop_reduced_factor(A, m, dmax)) != 0) return s;
+    if ((s = mbs_loop_reduced_factor(A, m, dmax, w->a)) != 0) return s;
     mbs_loop_reduced_solve(A, m, w->a);
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
