@@ -1655,7 +1655,8 @@ static inline void mbs_loop_column_update(double *restrict y, const double *rest
  * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
  * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
  * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs).  The
- * forward substitution L y = a rides along, column k of L once it is done (a_k final then), as the solve took it. */
+ * forward substitution L y = a and the division by D ride along, column k of L once it is done (a_k final then), as
+ * the solve took them. */
 static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restrict a)
 {
     int j, k;
@@ -1663,8 +1664,9 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restri
         double *ck = A + k * MBS_NV, d = ck[k];
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
-        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
+        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {  /* (and its acceleration 0) */
             memset(ck + k, 0, (size_t)(m - k) * sizeof(double));
+            a[k] = 0.0;
             continue;
         }
         for (j = k + 1; j + 4 <= m; j += 4) {  /* L's column: 4 quotients at a time (vector instructions) */
@@ -1673,6 +1675,7 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restri
         }
         for (; j < m; j++) ck[j] /= d;
         mbs_loop_column_update(a, ck, a[k], k + 1, m);  /* the forward substitution's column k (a_k is final) */
+        a[k] /= d;
         for (j = k + 1; j < m; j++) {
             const double ld = ck[j] * d;  /* L_jk D_k */
             if (ld == 0.0) continue;
@@ -1695,12 +1698,11 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restri
     return 0;
 }
 
-/* a = (D L^T)^-1 a with the factors of mbs_loop_reduced_factor, which took a through L^-1 already (zero pivots: 0): D,
- * then L^T by rows (L's columns) back. */
+/* a = L^-T a with the factors of mbs_loop_reduced_factor, which took a through L^-1 and D^-1 already (zero pivots: 0),
+ * by rows of L^T (L's columns), back. */
 static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
 {
     int j, k;
-    for (j = 0; j < m; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
     for (j = m - 1; j >= 0; j--) {
         const double *cj = A + j * MBS_NV;
         double s = a[j];
