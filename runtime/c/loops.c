@@ -70,8 +70,8 @@
  * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).  Then M T_j of a block's column of T by the
  * plan's chunks of 4 columns (mbs_loop_plan_mass_chunks) in vector registers, T^T M T's L D L^T by columns
  * (mbs_loop_reduced_factor), the gather of G and the copies into T and c0 with less control: the same bits again
- * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 12,167 instructions (the kept factors of G
- * 4,184 -> 3,716, the rest 9,132 -> 7,300), a whole simulate 344.6 M -> 330.2 M (bench/loop_work.py --baseline).
+ * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 11,981 instructions (the kept factors of G
+ * 4,184 -> 3,716, the rest 9,132 -> 7,139), a whole simulate 344.5 M -> 328.9 M (bench/loop_work.py --baseline).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
