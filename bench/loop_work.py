@@ -10,7 +10,9 @@ integration (`Solver.sample`, the scene's own integrator and tolerances) under v
 (load-independent), per call or step:
 
 * the loop algebra of an rhs call (`mbs_loop_solve_accelerations` inside `mbs_loop_rhs_direct`: the kept partition's
-  factors, T^T M T, its factors, the solve; the generated loop terms apart) and the whole rhs call;
+  factors, T^T M T, its factors, the solve; the generated loop terms apart), its two parts (the kept partition's
+  factors of G, `mbs_loop_partition`; the rest, `mbs_loop_accelerations`: T and c0, T^T M T and T^T (f - M c0), its
+  L D L^T and the solve, vdot) and the whole rhs call;
 * the projection of an accepted step (`mbs_loop_project_step` from `mbs_ode_accept`);
 * the integration's total, per accepted step;
 
@@ -167,6 +169,8 @@ def run_parts(scene: str, flags: tuple[str, ...], workdir: Path) -> dict[str, tu
     rhs_callers = {a for (a, b) in pairs if b == "mbs_loop_rhs_direct" and a != "mbs_loop_rhs_direct"}
     return {"rhs": calls(rhs_callers, "mbs_loop_rhs_direct"),
             "loop algebra": calls(("mbs_loop_rhs_direct",), "mbs_loop_solve_accelerations"),
+            "  kept factors of G": calls(("mbs_loop_solve_accelerations",), "mbs_loop_partition"),
+            "  T, T^T M T, L D L^T, vdot": calls(("mbs_loop_solve_accelerations",), "mbs_loop_accelerations"),
             "projection": calls(("mbs_ode_accept",), "mbs_loop_project_step"),
             "integration": (accepted, total)}
 
@@ -223,7 +227,8 @@ def main(argv=None) -> int:
         print("  " + f"{'':<34}" + "".join(f"{label:>14}" for label in builds) + f"{'ratio':>8}")
         counts = {label: f"{steps[label]} {parts[label]['rhs'][0]}" for label in builds}
         print("  " + f"{'accepted steps, rhs calls':<34}" + "".join(f"{counts[label]:>14}" for label in builds))
-        for key, per in (("loop algebra", "a call"), ("rhs", "a call"), ("projection", "a step"),
+        for key, per in (("loop algebra", "a call"), ("  kept factors of G", "a call"),
+                         ("  T, T^T M T, L D L^T, vdot", "a call"), ("rhs", "a call"), ("projection", "a step"),
                          ("integration", "a step")):
             cells = {}
             for label in builds:

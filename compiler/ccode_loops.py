@@ -52,7 +52,7 @@ def loop_work_size(nq: int, nv: int, nc: int, nz: int = 0, np: int = 0) -> int:
     in its two state copies, np parameters in its stamp."""
     nx = nq + nv + nz
     stamp = nq + np + 4  # the state and parameters whose factors the solver keeps for an accepted step's projection
-    plan = 1 + (4 + nv + nc) + 3 + 2 * nc + 2 * nv + nc * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
+    plan = 1 + (4 + nv + nc) + 3 + 6 * nc + 2 * nv + nc * nv  # the blocks of the kept partition (MBS_LOOP_PLAN_SIZE)
     return 4 * nv * nv + 3 * nc * nv + 7 * nc + 2 * nx + 10 * nv + nq + 4 + LOOP_SCALARS + stamp + plan
 
 

@@ -67,7 +67,11 @@
  * --baseline with the former runtime/c).  Each block's kernels (its elimination, the solves and multipliers) are
  * inlined with the block's size a constant for 6 rows, the Iltis corner's (MBS_LOOP_BY_SIZE), their loops unrolled:
  * the same arithmetic again, the loop algebra of a bump_10 rhs 17,023 -> 15,868 instructions and the projection of
- * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).
+ * an accepted step 15,706 -> 13,873 (bench/loop_work.py --baseline).  Then M T_j of a block's column of T by the
+ * plan's chunks of 4 columns (mbs_loop_plan_mass_chunks) in vector registers, T^T M T's L D L^T by columns
+ * (mbs_loop_reduced_factor), the gather of G and the copies into T and c0 with less control: the same bits again
+ * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 11,981 instructions (the kept factors of G
+ * 4,184 -> 3,716, the rest 9,132 -> 7,139), a whole simulate 344.5 M -> 328.9 M (bench/loop_work.py --baseline).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -92,9 +96,10 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 4 NC + 3 NV + 2 NC NV ints in
- * the room of 3 + 2 NC + 2 NV + NC NV doubles (mbs_loop_blocks). */
-#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 2 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 3 NV + 2 NC NV ints in
+ * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block). */
+#define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 6 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
+#define MBS_LOOP_MASS_CHUNKS 7
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
 #error "MBS_NWORK is too small for the loop solver"
 #endif
@@ -531,9 +536,10 @@ typedef struct {
     int *dst;    /* ng: and in the factors (w->G), block by block, row by row, as mbs_loop_factor_blocks reads them */
     int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
                   * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
+    int *mchunk; /* NC x (1 + MBS_LOOP_MASS_CHUNKS): block b's chunks of columns of M T_j (mbs_loop_plan_mass_chunks) */
 } mbs_loop_blocks;
 
-static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
+static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
 {
     mbs_loop_blocks b;
     int *s = (int *)(w->plan + 1 + MBS_LOOP_KEEP_SIZE);
@@ -549,7 +555,8 @@ static mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.nz = s; s += 1;
     b.src = s; s += MBS_NC * MBS_NV;
     b.dst = s; s += MBS_NC * MBS_NV;
-    b.reach = s;
+    b.reach = s; s += MBS_NC;
+    b.mchunk = s;
     return b;
 }
 
@@ -619,6 +626,37 @@ static int mbs_loop_blocks_coupled(const mbs_loop_blocks *bl, int b, int c)
 #endif
 }
 
+/* Block b's columns of M T_j for its columns j of T (mbs_loop_mass_times_block): every column that a row of M at one
+ * of the block's velocities reaches (M's structural nonzeros, the generator's table; without it all), covered by
+ * chunks of 4 columns from left to right, at most MBS_LOOP_MASS_CHUNKS (else none: the block takes
+ * mbs_loop_mass_times_column).  A chunk may reach columns none of these rows does, where M's entries are exact zeros
+ * (its structural zeros), and may overlap the one before it (at the last column): its entries of mt are computed
+ * whole, the same values again.  mchunk[b * (1 + MBS_LOOP_MASS_CHUNKS)]: their number (-1: none), then their
+ * first columns. */
+static void mbs_loop_plan_mass_chunks(const mbs_loop_blocks *bl, int b)
+{
+    int mark[MBS_NV], *chunk = bl->mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * b, x, v, n = 0;
+    memset(mark, 0, sizeof mark);
+    for (x = bl->k0[b]; x < bl->k0[b + 1] + bl->j0[b + 1] - bl->j0[b]; x++) {
+        const int u = bl->col[x < bl->k0[b + 1] ? x : bl->jl[bl->j0[b] + x - bl->k0[b + 1]]];
+#ifdef MBS_MASS_PATTERN
+        int k;
+        for (k = mbs_mass_row[u]; k < mbs_mass_row[u + 1]; k++)
+            for (v = mbs_mass_begin[k]; v < mbs_mass_end[k]; v++) mark[v] = 1;
+#else
+        (void)u;
+        for (v = 0; v < MBS_NV; v++) mark[v] = 1;
+#endif
+    }
+    for (v = 0; v < MBS_NV; v++) {
+        if (!mark[v]) continue;
+        if (n == MBS_LOOP_MASS_CHUNKS || MBS_NV < 4) { n = -1; break; }
+        chunk[1 + n++] = v + 4 <= MBS_NV ? v : MBS_NV - 4;
+        v = chunk[n] + 3;  /* (the loop's v++: the column after the chunk) */
+    }
+    chunk[0] = n;
+}
+
 /* The plan of the kept partition (valid, rank r): its blocks, the kept pivots and independent columns reordered
  * block by block (the independent columns no pivot row touches last), each in its former order. */
 static void mbs_loop_plan_build(mbs_loop_work *w)
@@ -676,9 +714,11 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
      * from G0), then its structural zeros within the blocks (set to 0: the elimination fills some of them in) */
     *bl.nz = mbs_loop_plan_gather(&bl, 1, 0);
     *bl.ng = mbs_loop_plan_gather(&bl, 0, *bl.nz);
-    for (b = 0; b < *bl.nb; b++)
+    for (b = 0; b < *bl.nb; b++) {
         for (bl.reach[b] = b, c = b + 1; c < *bl.nb; c++)
             if (mbs_loop_blocks_coupled(&bl, b, c)) bl.reach[b] = c;
+        mbs_loop_plan_mass_chunks(&bl, b);
+    }
     memcpy(w->plan + 1, kp, MBS_LOOP_KEEP_SIZE * sizeof(double));
     w->plan[0] = MBS_LOOP_KEEP_MARK;
     *bl.clean = 0;
@@ -723,10 +763,11 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
     } while (0)
 #endif
 /* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
- * (nj) and, when `forward`, y riding along; returns the smallest relative pivot so far, or -1 when a pivot
+ * (nj) and y riding along (the forward substitution of gddot0 when the caller has it, else of zeros: one more column
+ * either way, no test an entry); returns the smallest relative pivot so far, or -1 when a pivot
  * vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, so that its loops unroll. */
 MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y, const int k0, const int n,
-                                             const int *jl, const int nj, const int forward, const double amax0,
+                                             const int *jl, const int nj, const double amax0,
                                              double minpivot)
 {
     double *B = A + k0 * MBS_NV + k0, tmp;
@@ -749,7 +790,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
             z = A + (k0 + pi) * MBS_NV;
             for (e = 0; e < nj; e++) { tmp = x[jl[e]]; x[jl[e]] = z[jl[e]]; z[jl[e]] = tmp; }
             tmp = rp[k0 + k]; rp[k0 + k] = rp[k0 + pi]; rp[k0 + pi] = tmp;
-            if (forward) { tmp = y[k0 + k]; y[k0 + k] = y[k0 + pi]; y[k0 + pi] = tmp; }
+            tmp = y[k0 + k]; y[k0 + k] = y[k0 + pi]; y[k0 + pi] = tmp;
         }
         MBS_LOOP_UNROLL
         for (i = k + 1; i < n; i++) {
@@ -763,7 +804,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
                 ai[jl[0]] -= l * ak[jl[0]];
             else
                 for (e = 0; e < nj; e++) ai[jl[e]] -= l * ak[jl[e]];
-            if (forward) y[k0 + i] -= l * y[k0 + k];  /* the forward substitution's terms, in its order */
+            y[k0 + i] -= l * y[k0 + k];  /* the forward substitution's terms, in its order */
         }
     }
     return minpivot;
@@ -787,8 +828,17 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     w->forward = 0;
     memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
-    if (forward)
-        for (k = 0; k < r; k++) y[k] = -w->h[bl.row[k]];  /* (bl.row: rp as ints, before the row exchanges) */
+    if (forward) {  /* (bl.row: rp as ints, before the row exchanges; 4 a loop) */
+        const double *restrict h = w->h;
+        for (k = 0; k + 4 <= r; k += 4) {
+            y[k] = -h[bl.row[k]];
+            y[k + 1] = -h[bl.row[k + 1]];
+            y[k + 2] = -h[bl.row[k + 2]];
+            y[k + 3] = -h[bl.row[k + 3]];
+        }
+        for (; k < r; k++) y[k] = -h[bl.row[k]];
+    } else
+        memset(y, 0, (size_t)r * sizeof(double));
     if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         *bl.clean = 1;
@@ -796,13 +846,40 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
      * row (r = NC) these entries hold all the structural nonzeros of G (a block holds every column its rows
      * touch), so max |G| comes with them; otherwise the dropped rows are read as well. */
-    for (e = 0; e < *bl.nz; e++) {  /* by the plan's offsets (mbs_loop_plan_build) */
-        const double g = G0[bl.src[e]], a = fabs(g);
-        A[bl.dst[e]] = g;
-        amax0 = a > amax0 ? a : amax0;
-        probe += 0.0 * g;
+    {  /* by the plan's offsets (mbs_loop_plan_build), 4 a loop into two maxima and probes (neither max nor a probe's
+        * sum of zeros depends on the order) */
+        const int *restrict src = bl.src, *restrict dst = bl.dst, nz = *bl.nz, ng = *bl.ng;
+        double m0 = 0.0, m1 = 0.0, p0 = 0.0, p1 = 0.0;
+        for (e = 0; e + 4 <= nz; e += 4) {
+            const double g0 = G0[src[e]], g1 = G0[src[e + 1]], a0 = fabs(g0), a1 = fabs(g1);
+            const double g2 = G0[src[e + 2]], g3 = G0[src[e + 3]], a2 = fabs(g2), a3 = fabs(g3);
+            A[dst[e]] = g0;
+            A[dst[e + 1]] = g1;
+            A[dst[e + 2]] = g2;
+            A[dst[e + 3]] = g3;
+            m0 = a0 > m0 ? a0 : m0;
+            m1 = a1 > m1 ? a1 : m1;
+            m0 = a2 > m0 ? a2 : m0;
+            m1 = a3 > m1 ? a3 : m1;
+            p0 += 0.0 * g0 + 0.0 * g2;
+            p1 += 0.0 * g1 + 0.0 * g3;
+        }
+        for (; e < nz; e++) {
+            const double g = G0[src[e]], a = fabs(g);
+            A[dst[e]] = g;
+            m0 = a > m0 ? a : m0;
+            p0 += 0.0 * g;
+        }
+        for (; e + 4 <= ng; e += 4) {  /* G's structural zeros (exact zeros in G0) */
+            A[dst[e]] = 0.0;
+            A[dst[e + 1]] = 0.0;
+            A[dst[e + 2]] = 0.0;
+            A[dst[e + 3]] = 0.0;
+        }
+        for (; e < ng; e++) A[dst[e]] = 0.0;
+        amax0 = m1 > m0 ? m1 : m0;
+        probe = p0 + p1;
     }
-    for (; e < *bl.ng; e++) A[bl.dst[e]] = 0.0;  /* G's structural zeros (exact zeros in G0) */
     if (r < MBS_NC)
         for (i = 0; i < MBS_NC; i++)
             for (c = 0; c < MBS_NCOLOUR; c++) {
@@ -818,7 +895,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
 #define MBS_LOOP_ELIMINATE(size) \
-        minpivot = mbs_loop_eliminate_block(A, w->rp, y, k0, size, jl, nj, forward, amax0, minpivot)
+        minpivot = mbs_loop_eliminate_block(A, w->rp, y, k0, size, jl, nj, amax0, minpivot)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_ELIMINATE);
 #undef MBS_LOOP_ELIMINATE
         if (minpivot < 0.0) return 0.0;
@@ -1308,8 +1385,9 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns. */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
- * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops
- * not unrolled (see MBS_LOOP_UNROLL). */
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops of
+ * arithmetic not unrolled (see MBS_LOOP_UNROLL), its copies into T and c0 unrolled (the Iltis: 100 instructions fewer
+ * a call). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
                                              const int *jl, int *start, const int *cpi, int *e)
 {
@@ -1344,6 +1422,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
             }
             yt[k] = sum / g[k];
         }
+        MBS_LOOP_UNROLL
         for (k = 0; k < n; k++) {
             T[*e] = yt[k];
             Ti[(*e)++] = cpi[k0 + k];
@@ -1356,6 +1435,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
             y[k] = sum / B[k * MBS_NV + k];
         }
     }
+    MBS_LOOP_UNROLL
     for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
 }
 
@@ -1430,10 +1510,10 @@ static int mbs_loop_bearing_friction(double t, const double *p, mbs_loop_work *w
             a[j] = sum;
         }
         for (j = 0; j < dof; j++)
-            for (k = 0; k < j; k++) a[j] -= A[j * MBS_NV + k] * a[k];
+            for (k = 0; k < j; k++) a[j] -= A[k * MBS_NV + j] * a[k];  /* (L by columns: L_jk at A[k NV + j]) */
         for (j = 0; j < dof; j++) a[j] = A[j * MBS_NV + j] > 0.0 ? a[j] / A[j * MBS_NV + j] : 0.0;
         for (j = dof - 1; j >= 0; j--)
-            for (k = j + 1; k < dof; k++) a[j] -= A[k * MBS_NV + j] * a[k];
+            for (k = j + 1; k < dof; k++) a[j] -= A[j * MBS_NV + k] * a[k];
         memset(vj, 0, MBS_NV * sizeof(double));
         for (j = 0; j < dof; j++)
             for (e = start[j]; e < start[j + 1]; e++) vj[Ti[e]] += T[e] * a[j];
@@ -1482,6 +1562,32 @@ static const double *mbs_loop_mass_times_column(const double *restrict M, const 
     return mt;
 }
 
+/* M T_j for a column j of T from block b of the kept plan (mbs_loop_reduced_mass_blocks) by the block's chunks of 4
+ * columns (mbs_loop_plan_mass_chunks): each chunk's 4 sums over T_j's entries in their order, as
+ * mbs_loop_mass_times_column adds them up (the same bits: the chunks' other columns add exact zeros to sums that
+ * start at +0), in a vector register, one load, product and sum a row, where the rows' runs of 1 to 6 columns
+ * took a scalar loop and its control a column (the Iltis: about 710 -> 360 instructions a column of T). */
+static const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
+                                               const int *ti, int n, const int *chunk, double *restrict mt)
+{
+    int e, k, q;
+    if (chunk[0] < 0) return mbs_loop_mass_times_column(M, tv, ti, n, mt);
+    memset(mt, 0, MBS_NV * sizeof(double));
+    for (q = 1; q <= chunk[0]; q += 2) {  /* two chunks at a time (an odd last one twice: the same values) */
+        const int v0 = chunk[q], v1 = chunk[q + 1 <= chunk[0] ? q + 1 : q];
+        double s0[4] = {0.0, 0.0, 0.0, 0.0}, s1[4] = {0.0, 0.0, 0.0, 0.0};
+        for (e = 0; e < n; e++) {
+            const double *restrict row = M + ti[e] * MBS_NV;
+            const double c = tv[e];
+            for (k = 0; k < 4; k++) s0[k] += row[v0 + k] * c;
+            for (k = 0; k < 4; k++) s1[k] += row[v1 + k] * c;
+        }
+        for (k = 0; k < 4; k++) mt[v0 + k] = s0[k];
+        for (k = 0; k < 4; k++) mt[v1 + k] = s1[k];
+    }
+    return mt;
+}
+
 /* a^T b over NV entries in four independent chains (a single running sum waits for its latency at every entry). */
 static double mbs_loop_dot(const double *a, const double *b)
 {
@@ -1514,10 +1620,11 @@ static int mbs_loop_terms_at(double t, const double *p, mbs_loop_work *w)
     return s;
 }
 
-/* The lower triangle of A = T^T M T (m x m, row stride NV) and a = T^T (f - M c0) for any T (packed columns):
- * per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at T_j's few velocities, or a
- * row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i, and a_j = T_j^T f - mt^T c0
- * (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at least). */
+/* The lower triangle of A = T^T M T (m x m) by columns (A_ij at A[j NV + i], i >= j) and a = T^T (f - M c0) for
+ * any T (packed columns): per column j of T, mt = M T_j (mbs_loop_mass_times_column: M's structural nonzeros at
+ * T_j's few velocities, or a row of M for a unit column), then A_ij = T_i^T mt (i >= j) from the nonzeros of T_i,
+ * and a_j = T_j^T f - mt^T c0 (c0 zero on the independent velocities).  Returns the largest diagonal entry of A (0 at
+ * least). */
 static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
 {
     const double *T = w->T, *M = w->M;
@@ -1534,11 +1641,11 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
         for (i = j; i < m; i++) {
             f = start[i];
             if (start[i + 1] == f + 1 && T[f] == 1.0) {  /* a unit column: its velocity's entry (0 + 1 x = x) */
-                A[i * MBS_NV + j] = mt[Ti[f]];
+                A[j * MBS_NV + i] = mt[Ti[f]];
                 continue;
             }
             for (sum = 0.0; f < start[i + 1]; f++) sum += T[f] * mt[Ti[f]];
-            A[i * MBS_NV + j] = sum;  /* lower triangle */
+            A[j * MBS_NV + i] = sum;  /* lower triangle, by columns */
         }
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
@@ -1560,27 +1667,100 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
     double *A = w->A, dmax = 0.0;
     int i, j, e;
     for (j = 0; j < na; j++) {
-        const double *mt = mbs_loop_mass_times_column(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
-                                                      w->b);
+        const double *mt = mbs_loop_mass_times_block(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
+                                                     bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * bl.block[r + j], w->b);
         const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
         double sum = 0.0;
         for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
         w->a[j] = sum - mbs_loop_dot(mt, w->c0);
         for (i = j; i < coupled; i++) {
             for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
-            A[i * MBS_NV + j] = sum;
+            A[j * MBS_NV + i] = sum;
         }
-        for (; i < na; i++) A[i * MBS_NV + j] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
-        for (; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        for (; i < na; i++) A[j * MBS_NV + i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
+        for (; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
         const double *mt = M + cpi[r + j] * MBS_NV;
         w->a[j] = (0.0 + w->f[cpi[r + j]]) - mbs_loop_dot(mt, w->c0);
-        for (i = j; i < m; i++) A[i * MBS_NV + j] = mt[cpi[r + i]];
+        for (i = j; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
         dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
     }
     return dmax;
+}
+
+/* y -= x a over entries i0 .. n - 1 (two columns of A = T^T M T, or the solve's right-hand side and a column).  (4 at a
+ * time in vector instructions took more instructions for the Iltis's columns of 1 to 9 entries: 336.9 M against 335.0 M
+ * for a bump_10 simulate.) */
+static inline void mbs_loop_column_update(double *restrict y, const double *restrict x, double a, int i0, int n)
+{
+    int i;
+    for (i = i0; i < n; i++) y[i] -= x[i] * a;
+}
+
+/* A = L D L^T in place (A's lower triangle by columns, as mbs_loop_reduced_mass writes it: L_ij at A[j NV + i] below
+ * the diagonal, D_j on it); a pivot below MBS_LOOP_MASS_TOL times dmax, the largest diagonal entry, is a motion without
+ * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
+ * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
+ * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
+ * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
+ * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
+ * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs).  The
+ * forward substitution L y = a and the division by D ride along, column k of L once it is done (a_k final then), as
+ * the solve took them. */
+static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restrict a)
+{
+    int j, k;
+    for (k = 0; k < m; k++) {
+        double *ck = A + k * MBS_NV, d = ck[k];
+        if (!isfinite(d)) return MBS_LOOP_NONFINITE;
+        if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
+        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {  /* (and its acceleration 0) */
+            memset(ck + k, 0, (size_t)(m - k) * sizeof(double));
+            a[k] = 0.0;
+            continue;
+        }
+        for (j = k + 1; j + 4 <= m; j += 4) {  /* L's column: 4 quotients at a time (vector instructions) */
+            int q;
+            for (q = 0; q < 4; q++) ck[j + q] /= d;
+        }
+        for (; j < m; j++) ck[j] /= d;
+        mbs_loop_column_update(a, ck, a[k], k + 1, m);  /* the forward substitution's column k (a_k is final) */
+        a[k] /= d;
+        for (j = k + 1; j < m; j++) {
+            const double ld = ck[j] * d;  /* L_jk D_k */
+            if (ld == 0.0) continue;
+            if (j + 1 < m && ck[j + 1] * d != 0.0) {  /* columns j and j + 1 in one pass over column k */
+                double *restrict y0 = A + j * MBS_NV, *restrict y1 = A + (j + 1) * MBS_NV;
+                const double *restrict x = ck;
+                const double l1 = ck[j + 1] * d;
+                int i;
+                y0[j] -= x[j] * ld;
+                for (i = j + 1; i < m; i++) {
+                    y0[i] -= x[i] * ld;
+                    y1[i] -= x[i] * l1;
+                }
+                j++;
+            } else {
+                mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
+            }
+        }
+    }
+    return 0;
+}
+
+/* a = L^-T a with the factors of mbs_loop_reduced_factor, which took a through L^-1 and D^-1 already (zero pivots: 0),
+ * by rows of L^T (L's columns), back. */
+static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
+{
+    int j, k;
+    for (j = m - 1; j >= 0; j--) {
+        const double *cj = A + j * MBS_NV;
+        double s = a[j];
+        for (k = j + 1; k < m; k++) s -= cj[k] * a[k];
+        a[j] = s;
+    }
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -1589,8 +1769,8 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, dmax;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV], first[MBS_NV];
-    int i, j, k, s;
+    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    int j, k, s;
     if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
                     * the same state finds h replaced at a singular position) */
         w->terms = 0;
@@ -1609,45 +1789,15 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
         dmax = mbs_loop_reduced_mass(w, m, start);
-    /* A = L D L^T in place (L below the diagonal, D on it); zero pivots: motions without inertia.  Row i of A is
-     * zero left of first[i] (its envelope: the Iltis's corners couple through the body only, and with the body's
-     * columns last a corner's row of A is its diagonal alone), and so is row i of L: the sums skip those exact
-     * zeros (the same values; the zeros stay in A for the solves that read it whole). */
-    for (i = 0; i < m; i++) {
-        for (k = 0; k < i && A[i * MBS_NV + k] == 0.0; k++) {}
-        first[i] = k;
-    }
-    for (j = 0; j < m; j++) {
-        double *aj = A + j * MBS_NV, d = aj[j], *ld = w->dv;  /* ld_k = L_jk D_k, once per row j */
-        for (k = first[j]; k < j; k++) {
-            ld[k] = aj[k] * A[k * MBS_NV + k];
-            d -= aj[k] * ld[k];
-        }
-        if (!isfinite(d)) return MBS_LOOP_NONFINITE;
-        if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
-        if (!(d > MBS_LOOP_MASS_TOL * dmax)) {
-            A[j * MBS_NV + j] = 0.0;
-            for (i = j + 1; i < m; i++) A[i * MBS_NV + j] = 0.0;
-            continue;
-        }
-        A[j * MBS_NV + j] = d;
-        for (i = j + 1; i < m; i++) {
-            double *ai = A + i * MBS_NV, sum = ai[j];
-            if (first[i] > j) continue;  /* L_ij = 0 */
-            for (k = first[i] > first[j] ? first[i] : first[j]; k < j; k++) sum -= ai[k] * ld[k];
-            ai[j] = sum / d;
-        }
-    }
-    for (j = 0; j < m; j++)
-        for (k = first[j]; k < j; k++) w->a[j] -= A[j * MBS_NV + k] * w->a[k];
-    for (j = 0; j < m; j++) w->a[j] = A[j * MBS_NV + j] > 0.0 ? w->a[j] / A[j * MBS_NV + j] : 0.0;
-    for (j = m - 1; j >= 0; j--)
-        for (k = j + 1; k < m; k++)
-            if (first[k] <= j) w->a[j] -= A[k * MBS_NV + j] * w->a[k];
+    if ((s = mbs_loop_reduced_factor(A, m, dmax, w->a)) != 0) return s;
+    mbs_loop_reduced_solve(A, m, w->a);
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
-    for (j = 0; j < m; j++)
-        for (k = start[j]; k < start[j + 1]; k++) w->vd[Ti[k]] += T[k] * w->a[j];
+    for (j = 0; j < m; j++) {
+        double *restrict vd = w->vd;
+        const double aj = w->a[j];  /* (once: vd's entries are doubles too) */
+        for (k = start[j]; k < start[j + 1]; k++) vd[Ti[k]] += T[k] * aj;
+    }
 #ifdef MBS_NLOADED
     if (mbs_loop_finite(w->vd, MBS_NV)) return mbs_loop_bearing_friction(t, p, w, r, m, start);
 #endif
