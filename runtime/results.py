@@ -83,12 +83,46 @@ class Results:
             raise UsageError(f"data of shape {data.shape} does not match {len(self.names)} column names")
         index = known[1] if known is not None else _column_index(self.names)
         data.flags.writeable = False
-        self.data = data
+        self._data = data
+        self._blocks = None  # (Results.of_blocks: the table's columns in blocks, joined when data is first read)
         self.metadata = dict(metadata or {})
         # the event log (the property events): a list, or what makes it when first read (an object with rows(): the
         # simulation driver's log, runtime/event_loop.py EventLog, whose dict per entry is made only if it is read)
         self._events = events if hasattr(events, "rows") else list(events or [])
         self._index = index  # (shared between results with the same columns: only read)
+
+    @classmethod
+    def of_blocks(cls, names: tuple, blocks, metadata: Mapping | None = None, events=None) -> "Results":
+        """Results whose table is ``blocks`` side by side: 2-D float64 arrays of as many rows (the simulation driver's
+        time, states and outputs, fresh and its own: made read-only in place, kept without a copy). A column is read
+        from its block; the joined table (``data``) is made when it is first read: a caller that reads columns by name
+        never pays for it (bump_10's 858 rows of 117 columns: 0.8 MB written, 0.9 M instructions, a tenth of the
+        Python of its run). ``names``: a tuple, as for the constructor."""
+        blocks = tuple(blocks)
+        rows = blocks[0].shape[0]
+        if any(b.ndim != 2 or b.dtype != np.float64 or b.shape[0] != rows for b in blocks):
+            raise UsageError("blocks of columns: 2-D float64 arrays of as many rows")
+        width = sum(b.shape[1] for b in blocks)
+        results = cls(names, np.empty((0, width)), metadata, events, copy=False)
+        if width != len(results.names):
+            raise UsageError(f"blocks of {width} columns do not match {len(results.names)} column names")
+        for b in blocks:
+            b.flags.writeable = False
+        results._blocks, results._data = blocks, None
+        return results
+
+    @property
+    def data(self) -> np.ndarray:
+        """(n, ncols) every column, read-only."""
+        if self._data is None:
+            data = np.concatenate(self._blocks, axis=1)
+            data.flags.writeable = False
+            self._data, self._blocks = data, None
+        return self._data
+
+    @data.setter
+    def data(self, value) -> None:
+        self._data, self._blocks = value, None
 
     @property
     def events(self) -> list[dict]:
@@ -105,15 +139,21 @@ class Results:
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
-            return self.data[:, self._index[name]]
+            column = self._index[name]
         except KeyError:
             raise KeyError(f"no column '{name}' (columns: {', '.join(self.names)})") from None
+        if self._blocks is None:
+            return self._data[:, column]
+        for block in self._blocks:  # (a view of its block, read-only as the table's)
+            if column < block.shape[1]:
+                return block[:, column]
+            column -= block.shape[1]
 
     def __contains__(self, name: str) -> bool:
         return name in self._index
 
     def __len__(self) -> int:
-        return self.data.shape[0]
+        return (self._data if self._blocks is None else self._blocks[0]).shape[0]
 
     @property
     def t(self) -> np.ndarray:

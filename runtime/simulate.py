@@ -159,7 +159,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
         "notes": [note] if note else [],
         "warnings": warnings,
     }
-    return Results(tuple(names), np.hstack(columns), metadata)
+    return Results.of_blocks(tuple(names), columns, metadata)  # (the run's own arrays: joined only if read)
 
 
 #: Step of the central differences that stand in for the generated Jacobian where it fails [relative, at least
@@ -245,7 +245,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
             fused = (done, error) if stage == "outputs" else None
         else:
             projected, _ = project_rows(data, ps, ts, unprojected, which, xs)
-        del unprojected  # (as the segments above: its memory serves the results' table)
+        del unprojected  # (as the segments above)
         if projected < rows:  # the failing row's time, as the path without events says (and no row may be left)
             failed_at, ts = float(ts[projected]), ts[:projected]
             status, message = FAILED, f"the closed loops cannot be closed at t = {failed_at:.6g} s (see loop_report)"
@@ -262,19 +262,16 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
             message = (f"output evaluation failed at t = {failed_at:.6g} s: the model returned "
                        f"{status_text(error.status)}" if isinstance(error, EvaluationError) else str(error))
         names += model.y_names
-    del ps  # (the run-time values' copies: done with, their memory serves the table)
-    table = np.empty((len(ts), len(names)))  # the results' table, filled in place (no joined copies)
-    table[:, 0] = ts
-    table[:, 1:1 + model.nx] = xs[:len(ts)]
-    if with_outputs:
-        table[:, 1 + model.nx:] = ys[:len(ts)]
+    del ps  # (the run-time values' copies: done with)
+    # the results' columns in the blocks they were computed in (Results.of_blocks: joined only if the table is read)
+    blocks = (ts[:, None], xs[:len(ts)], *((ys[:len(ts)],) if with_outputs else ()))
     data.stats = stats
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
         "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
     }
-    return Results(tuple(names), table, metadata, events=records, copy=False)  # (its rows when read)
+    return Results.of_blocks(tuple(names), blocks, metadata, events=records)  # (the log's rows made when read)
 
 
 def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> None:
