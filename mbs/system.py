@@ -162,12 +162,13 @@ class System:
             self._compiled[key] = cardan_joints(self.model)
         return self._compiled[key]
 
-    def _owners(self, compiled: CompiledModel) -> dict[str, str]:
-        """coordinate_owners, worked out once per model's coordinates (a copy: the caller may change it)."""
+    def _owners(self, compiled: CompiledModel) -> Mapping[str, str]:
+        """coordinate_owners, worked out once per model's coordinates: a read-only view (the run only reads it; no
+        copy per run)."""
         key = ("owners", compiled.q_names)
         if key not in self._compiled:
-            self._compiled[key] = self.coordinate_owners(compiled)
-        return dict(self._compiled[key])
+            self._compiled[key] = MappingProxyType(self.coordinate_owners(compiled))
+        return self._compiled[key]
 
     def _parameter_values(self, sc: M.Scene | None, params: Mapping[str, float | str] | None) -> dict[str, float]:
         """Every parameter's value of a scene with the caller's overrides (pipeline.parameter_values: checked),
