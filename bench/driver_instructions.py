@@ -52,10 +52,12 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from: the replay's blocks written once, the event
-#: log's rows made when read, the crossings' masks per model, a kept start's work memory copied once; c5d63d1 before
-#: the solvers' set-up and a run's memory, 0af93aa before the driver's cuts, 1abfa02 before the first ones).
-BASELINE = "d455a0e"
+#: The driver before the latest cuts (the commit that work started from: the signal handlers set by _signal.signal,
+#: the results' table joined when read, the gimbal check and the coordinate owners kept per System; d455a0e before the
+#: replay's blocks written once, the event log's rows made when read, the crossings' masks per model, a kept start's
+#: work memory copied once; c5d63d1 before the solvers' set-up and a run's memory, 0af93aa before the driver's cuts,
+#: 1abfa02 before the first ones).
+BASELINE = "8441331"
 #: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
 REPEATS = {"calls": 5, "faults": 20, "cpu": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
