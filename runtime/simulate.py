@@ -18,6 +18,7 @@ import numpy as np
 from mbs.language.catalog import DEFAULT_ATOL, DEFAULT_RTOL
 
 from .errors import EvaluationError, UsageError, status_text
+from .derived import derived
 from .diagnose import explain_failure
 from .fallback import runnable_integrator
 from .guard import STALL_TIME, RunGuard
@@ -155,7 +156,7 @@ def simulate(model: CompiledModel, data: Workspace, t_end: float, *, t_eval=None
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": rtol,
         "atol": atol, "t0": t0, "t_end": t_end, "status": status, "message": message,
-        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": units_of(model),
         "notes": [note] if note else [],
         "warnings": warnings,
     }
@@ -269,7 +270,7 @@ def _simulate_events(model, data, cls, times, t_end, options, outputs, guard, st
     metadata = {
         "model": model.name, "backend": model.backend.kind, "integrator": cls.name, "rtol": options["rtol"],
         "atol": options["atol"], "t0": t0, "t_end": t_end, "status": status, "message": message,
-        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": dict(model.units),
+        "stats": data.stats, "wall_time": time.perf_counter() - started, "units": units_of(model),
     }
     return Results.of_blocks(tuple(names), blocks, metadata, events=records)  # (the log's rows made when read)
 
@@ -285,6 +286,13 @@ def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> Non
         computed = np.flatnonzero(~twin)
         of = computed[np.cumsum(~twin)[twins] - 1]
         xs[twins], which[twins] = xs[of], which[of]
+
+
+def units_of(model: CompiledModel) -> dict:
+    """A fresh dict of the model's units (the results' metadata), a copy of one made once per model: dict() of the
+    model's read-only view reads it key by key (the Iltis' 295 units: 16 us warm, about 45 us after a run's C),
+    a dict's copy() copies its table (0.5 us).  The kept dict is never handed out."""
+    return derived(model, "units_dict", lambda: dict(model.units)).copy()
 
 
 def _run(solver, times: np.ndarray, states: np.ndarray, progress: Progress | None, t_end: float,

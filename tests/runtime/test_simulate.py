@@ -53,3 +53,15 @@ def test_the_rows_at_a_continuous_event_of_a_closed_loop_are_computed_once():
         assert np.array_equal(res.data[before], res.data[after])
         assert abs(res["gap"][before]) < 1e-9  # the row is at the kink (the sensor reads its distance)
     assert outputs.calls == len(res.t) - len(pairs)  # each twin copied, every other row computed once
+
+
+def test_each_run_s_results_carry_a_fresh_dict_of_the_model_s_units_in_its_order():
+    """The units in the results' metadata (a copy of a dict made once per model, runtime/simulate.py units_of): the
+    model's units in their order, a dict of the run's own that a caller may change without touching the next run's."""
+    system = mbs.load(str(SPRING_CRANK))
+    first, second = system.simulate(t_end=0.05), system.simulate(t_end=0.05)
+    units = system.compile().units
+    assert type(first.metadata["units"]) is dict and list(first.metadata["units"].items()) == list(units.items())
+    first.metadata["units"]["guide.s"] = "furlong"
+    assert second.metadata["units"]["guide.s"] == units["guide.s"] == "m"
+    assert system.simulate(t_end=0.05).unit("guide.s") == "m"
