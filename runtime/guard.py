@@ -17,6 +17,7 @@ every second or so, not every 2000 steps. The scipy methods are checked between 
 
 from __future__ import annotations
 
+import functools
 import signal
 import threading
 import time
@@ -170,7 +171,10 @@ class RunGuard:
         solver.sample = sample
 
 
+@functools.lru_cache(maxsize=None)
 def _too_many_status() -> int:
+    """The C integrators' status of a paused budget (imported when first asked for: an import statement per watched
+    solver cost more than the rest of watch)."""
     from .integrators import native
     return native._C_TOO_MANY
 
