@@ -1,8 +1,8 @@
 """What Python does around the C integration of a warm Iltis bump run, counted in instructions (load-independent),
 against a baseline checkout in the same run.
 
-    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--repeat 2] [--jobs 2] [--faults]
-                                        [--cpu ROUNDS]
+    python bench/driver_instructions.py [--scenes bump_5 bump_10] [--baseline REF] [--current REF] [--repeat 2]
+                                        [--jobs 2] [--faults] [--cpu ROUNDS]
 
 A warm `System.simulate(scene)` of library/iltis/vehicle.mbs spends most of its time inside the model's C: the
 integration (`Solver.sample`), the results' rows (`Function.rows`: the equilibrium's difference columns, the
@@ -21,7 +21,8 @@ call: all instructions, those inside the model's C (the inclusive counts of `sol
 `function_vectorcall` of the compiled model), and the rest: Python's own (the interpreter, NumPy, LAPACK); and the
 Python function calls per simulate (cProfile, outside valgrind).  The baseline is the checkout of --baseline (a
 git revision, default the commit before the driver's latest cuts), exported with `git archive` into a temporary
-directory and imported from there; the ratio is current over baseline.  Takes a minute or two.  Callgrind counts
+directory and imported from there; the ratio is current over baseline (--current: a revision exported the same way
+instead of the working tree, so that the tree may change while it runs).  Takes a minute or two.  Callgrind counts
 a bulk copy or fill (the rows' tables, the work memory: memcpy, memset) as about one instruction a byte (a copy of
 1 MB: 1.05 M), more than such a copy costs beside as many instructions of the interpreter.
 
@@ -51,10 +52,12 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
-#: The driver before the latest cuts (the commit that work started from: the replay's blocks written once, the event
-#: log's rows made when read, the crossings' masks per model, a kept start's work memory copied once; c5d63d1 before
-#: the solvers' set-up and a run's memory, 0af93aa before the driver's cuts, 1abfa02 before the first ones).
-BASELINE = "d455a0e"
+#: The driver before the latest cuts (the commit that work started from: the signal handlers set by _signal.signal,
+#: the results' table joined when read, the gimbal check and the coordinate owners kept per System; d455a0e before the
+#: replay's blocks written once, the event log's rows made when read, the crossings' masks per model, a kept start's
+#: work memory copied once; c5d63d1 before the solvers' set-up and a run's memory, 0af93aa before the driver's cuts,
+#: 1abfa02 before the first ones).
+BASELINE = "8441331"
 #: Calls per child of the parts that are not counted under callgrind (cProfile's calls, the page faults).
 REPEATS = {"calls": 5, "faults": 20, "cpu": 20}
 #: The functions of the compiled model's glue whose inclusive counts are the model's C (c/mbs_python.c).
@@ -148,6 +151,8 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", nargs="+", default=["bump_5", "bump_10"])
     ap.add_argument("--baseline", default=BASELINE, help="git revision of the baseline checkout")
+    ap.add_argument("--current", default=None, metavar="REV",
+                    help="git revision to count as the current checkout (default: the working tree, as installed)")
     ap.add_argument("--repeat", type=int, default=2, help="calls counted per child")
     ap.add_argument("--jobs", type=int, default=2, help="children at once")
     ap.add_argument("--faults", action="store_true", help="also the minor page faults and system CPU per simulate "
@@ -163,7 +168,10 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="mbs-bench-driver-") as tmp:
         tmp = Path(tmp)
         (tmp / "baseline").mkdir()
-        trees = {"current": "-", "baseline": str(export(args.baseline, tmp / "baseline"))}
+        if args.current is not None:
+            (tmp / "current").mkdir()
+        trees = {"current": "-" if args.current is None else str(export(args.current, tmp / "current")),
+                 "baseline": str(export(args.baseline, tmp / "baseline"))}
         jobs = [(label, scene, part, how) for scene in args.scenes for part in ("simulate", "start")
                 for label in trees for how in ("callgrind",)]
         jobs += [(label, scene, "simulate", "calls") for scene in args.scenes for label in trees]
@@ -179,7 +187,8 @@ def main(argv=None) -> int:
             for scene in args.scenes:
                 for label in trees:
                     cpu[(label, scene)].append(child(trees[label], scene, "simulate", REPEATS["cpu"], "cpu", tmp))
-    print(f"Python around the C of a warm Iltis run, instructions per call (callgrind), current checkout against "
+    current = "current checkout" if args.current is None else args.current
+    print(f"Python around the C of a warm Iltis run, instructions per call (callgrind), {current} against "
           f"{args.baseline} in the same run; Python's own: all but the model's C ({', '.join(MODEL_C)})")
     for scene in args.scenes:
         print(f"\n{scene}:")

@@ -24,14 +24,19 @@ class GimbalWarning(RuntimeWarning):
     """A joint in Cardan angles came near its gimbal singularity."""
 
 
-def gimbal_warnings(model: M.Model, results) -> list[str]:
-    """One message per Cardan joint whose beta came within GIMBAL_MARGIN of +-90 deg in the sampled results."""
+def cardan_joints(model: M.Model) -> tuple[str, ...]:
+    """The names of the interactions whose joint is spherical or free in Cardan angles (those gimbal_warnings
+    looks at)."""
+    return tuple(inter.name for inter in model.interactions if inter.joint is not None
+                 and inter.joint.kind in ("spherical", "free") and inter.joint.rotation == "cardan")
+
+
+def gimbal_warnings(model: M.Model, results, joints: tuple[str, ...] | None = None) -> list[str]:
+    """One message per Cardan joint whose beta came within GIMBAL_MARGIN of +-90 deg in the sampled results;
+    joints: cardan_joints(model), when the caller keeps them."""
     messages = []
-    for inter in model.interactions:
-        joint = inter.joint
-        if joint is None or joint.kind not in ("spherical", "free") or joint.rotation != "cardan":
-            continue
-        name = f"{inter.name}.beta"
+    for joint_name in cardan_joints(model) if joints is None else joints:
+        name = f"{joint_name}.beta"
         if name not in results:
             continue
         beta = np.asarray(results[name])
@@ -41,17 +46,18 @@ def gimbal_warnings(model: M.Model, results) -> list[str]:
             continue
         k = int(near[0])
         closest = math.degrees(math.asin(min(1.0, float(distance.min()))))  # over the whole run
-        messages.append(f"joint '{inter.name}' (rotation = cardan) comes within {closest:.3g} deg of its gimbal "
+        messages.append(f"joint '{joint_name}' (rotation = cardan) comes within {closest:.3g} deg of its gimbal "
                         f"singularity (beta = +-90 deg), first at t = {float(results.t[k]):.6g} s: the angle rates "
                         "grow without bound there; use rotation = quaternion for this motion")
     return messages
 
 
-def warn_gimbal(model: M.Model, results) -> None:
-    """Add the messages to results.metadata["warnings"] and issue them as GimbalWarning."""
-    for text in gimbal_warnings(model, results):
+def warn_gimbal(model: M.Model, results, joints: tuple[str, ...] | None = None) -> None:
+    """Add the messages to results.metadata["warnings"] and issue them as GimbalWarning (joints: as for
+    gimbal_warnings)."""
+    for text in gimbal_warnings(model, results, joints):
         results.metadata.setdefault("warnings", []).append(text)
         warnings.warn(text, GimbalWarning, stacklevel=3)
 
 
-__all__ = ["GIMBAL_MARGIN", "GimbalWarning", "gimbal_warnings", "warn_gimbal"]
+__all__ = ["GIMBAL_MARGIN", "GimbalWarning", "cardan_joints", "gimbal_warnings", "warn_gimbal"]

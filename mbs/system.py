@@ -30,7 +30,7 @@ from mbs.runtime.workspace import Workspace
 
 from . import derivation_cache, model_cache, pipeline
 from .quantities import parameter_overrides
-from .gimbal import warn_gimbal
+from .gimbal import cardan_joints, warn_gimbal
 
 #: Parameter bindings a System keeps, the last ones asked for (System._binding): a scene run again with
 #: the same overrides binds and checks its parameters once; a sweep over many values keeps no more than these.
@@ -150,15 +150,25 @@ class System:
                             **settings, **options)
         if binding is not None:
             _hooks.report(binding, compiled, results)
-        warn_gimbal(self.model, results)
+        joints = self._cardan_joints()
+        if joints:  # (a model without Cardan joints has nothing to check: no walk over its interactions per run)
+            warn_gimbal(self.model, results, joints)
         return results
 
-    def _owners(self, compiled: CompiledModel) -> dict[str, str]:
-        """coordinate_owners, worked out once per model's coordinates (a copy: the caller may change it)."""
+    def _cardan_joints(self) -> tuple[str, ...]:
+        """gimbal.cardan_joints of the model, worked out once (the model is immutable)."""
+        key = ("cardan_joints",)
+        if key not in self._compiled:
+            self._compiled[key] = cardan_joints(self.model)
+        return self._compiled[key]
+
+    def _owners(self, compiled: CompiledModel) -> Mapping[str, str]:
+        """coordinate_owners, worked out once per model's coordinates: a read-only view (the run only reads it; no
+        copy per run)."""
         key = ("owners", compiled.q_names)
         if key not in self._compiled:
-            self._compiled[key] = self.coordinate_owners(compiled)
-        return dict(self._compiled[key])
+            self._compiled[key] = MappingProxyType(self.coordinate_owners(compiled))
+        return self._compiled[key]
 
     def _parameter_values(self, sc: M.Scene | None, params: Mapping[str, float | str] | None) -> dict[str, float]:
         """Every parameter's value of a scene with the caller's overrides (pipeline.parameter_values: checked),

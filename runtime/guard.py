@@ -17,11 +17,16 @@ every second or so, not every 2000 steps. The scipy methods are checked between 
 
 from __future__ import annotations
 
+import functools
 import signal
 import threading
 import time
 import weakref
 from typing import Callable
+
+import _signal  # signal's C functions, which signal.signal wraps (see RunGuard.__enter__)
+
+import numpy as np
 
 #: Most steps a C integrator takes before control comes back to check the guards ...
 SLICE_STEPS = 2000
@@ -35,6 +40,8 @@ STALL_FRACTION = 1e-6
 STALL_TIME = 60.0
 
 Progress = Callable[[float, float], "bool | None"]
+#: The signals a run catches (their numbers: _signal.signal takes no enums).
+_SIGNALS = (int(signal.SIGINT), int(signal.SIGTERM))
 
 
 class RunGuard:
@@ -64,19 +71,21 @@ class RunGuard:
         samples in one call unless the user asked for progress reports."""
         return 1 if (self.watched and self.user_progress is None) else None
 
-    # -- signals
+    # -- signals: installed and restored by _signal.signal, the C function signal.signal wraps: the wrapper turns
+    #    numbers into enums and back, and for a handler that is a function (Python's Ctrl-C handler, ours) finds
+    #    none by raising and catching a ValueError: 110 k of the 113 k instructions of a run's four calls
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
+            for sig in _SIGNALS:
                 try:
-                    self._previous[sig] = signal.signal(sig, self._on_signal)
+                    self._previous[sig] = _signal.signal(sig, self._on_signal)
                 except (ValueError, OSError):  # not allowed here (an embedding host): keep the default
                     pass
         return self
 
     def __exit__(self, *exc):
         for sig, handler in self._previous.items():
-            signal.signal(sig, handler)
+            _signal.signal(sig, handler)
         self._previous.clear()
         return False
 
@@ -139,7 +148,6 @@ class RunGuard:
         owner = weakref.ref(solver)
 
         def sample(t_eval, out, start=0):
-            import numpy as np
             t_eval = np.ascontiguousarray(t_eval, dtype=float)
             index, budget = start, FIRST_SLICE
             taken = c.stats["nsteps"]  # (a dict built per read: once per budget, the last one's count carried on)
@@ -163,7 +171,10 @@ class RunGuard:
         solver.sample = sample
 
 
+@functools.lru_cache(maxsize=None)
 def _too_many_status() -> int:
+    """The C integrators' status of a paused budget (imported when first asked for: an import statement per watched
+    solver cost more than the rest of watch)."""
     from .integrators import native
     return native._C_TOO_MANY
 

@@ -152,3 +152,29 @@ def test_an_event_log_given_as_an_object_is_made_into_its_rows_when_first_read(t
     assert pickle.loads(pickle.dumps(res)).events == expected
     res.events = expected[:1]
     assert res.events == expected[:1]
+
+
+def test_results_of_blocks_read_columns_from_their_blocks_and_join_the_table_when_it_is_read():
+    """Results.of_blocks (the simulation driver's time, states and outputs) give the same columns, length, table,
+    files and pickles as the joined table given to the constructor; the blocks and the table read-only."""
+    import pickle
+    t, x, y = np.arange(4.0), np.arange(8.0).reshape(4, 2) + 0.5, np.arange(4.0).reshape(4, 1) - 3.0
+    names = ("time", "a", "b", "y")
+    joined = Results(names, np.hstack([t[:, None], x, y]), {"status": "finished"})
+    res = Results.of_blocks(names, (t[:, None], x, y), {"status": "finished"})
+    assert len(res) == 4 and res._data is None
+    for name in names:
+        np.testing.assert_array_equal(res[name], joined[name])
+        assert not res[name].flags.writeable
+    again = pickle.loads(pickle.dumps(res))
+    np.testing.assert_array_equal(again["b"], joined["b"])
+    assert res.data is res.data and not res.data.flags.writeable and res._blocks is None
+    np.testing.assert_array_equal(res.data, joined.data)
+    np.testing.assert_array_equal(again.data, joined.data)
+    assert not x.flags.writeable  # (kept without a copy)
+    empty = Results.of_blocks(names, (t[:0, None], x[:0], y[:0]))
+    assert len(empty) == 0 and empty.data.shape == (0, 4)
+    with pytest.raises(UsageError):
+        Results.of_blocks(names, (t[:, None], x[:3], y))
+    with pytest.raises(UsageError):
+        Results.of_blocks(("time", "a"), (t[:, None], x, y))

@@ -34,6 +34,26 @@ def test_each_twin_takes_the_state_and_values_of_the_last_row_before_it_that_is_
     assert alone.tolist() == [[0, 1], [2, 3]]
 
 
+def test_a_few_twins_walked_back_to_take_what_the_index_arithmetic_gives_them(monkeypatch):
+    """_as_predecessors: a few twins each walk back to their predecessor (FEW_TWINS) as numpy's index arithmetic
+    finds it over all rows: the same states and values for random masks, with runs of twins."""
+    import importlib
+    simulate_module = importlib.import_module("mbs.runtime.simulate")  # (the package's simulate is the function)
+    rng = np.random.default_rng(11)
+    for trial in range(300):
+        rows = int(rng.integers(1, 40))
+        twin = rng.random(rows) < rng.choice([0.05, 0.2, 0.5])
+        twin[0] = False  # (as in a run: its first row is a sample or the row before an event)
+        xs, which = rng.random((rows, 3)), rng.integers(0, 5, rows).astype(np.intp)
+        done = []
+        for few in (simulate_module.FEW_TWINS, 0):
+            monkeypatch.setattr(simulate_module, "FEW_TWINS", few)
+            x, w = xs.copy(), which.copy()
+            _as_predecessors(x, w, twin)
+            done.append((x, w))
+        assert np.array_equal(done[0][0], done[1][0]) and np.array_equal(done[0][1], done[1][1]), trial
+
+
 def test_the_rows_at_a_continuous_event_of_a_closed_loop_are_computed_once():
     text = SPRING_CRANK.read_text()
     guide = text.index("joint prismatic(axis = x)")
@@ -53,3 +73,15 @@ def test_the_rows_at_a_continuous_event_of_a_closed_loop_are_computed_once():
         assert np.array_equal(res.data[before], res.data[after])
         assert abs(res["gap"][before]) < 1e-9  # the row is at the kink (the sensor reads its distance)
     assert outputs.calls == len(res.t) - len(pairs)  # each twin copied, every other row computed once
+
+
+def test_each_run_s_results_carry_a_fresh_dict_of_the_model_s_units_in_its_order():
+    """The units in the results' metadata (a copy of a dict made once per model, runtime/simulate.py units_of): the
+    model's units in their order, a dict of the run's own that a caller may change without touching the next run's."""
+    system = mbs.load(str(SPRING_CRANK))
+    first, second = system.simulate(t_end=0.05), system.simulate(t_end=0.05)
+    units = system.compile().units
+    assert type(first.metadata["units"]) is dict and list(first.metadata["units"].items()) == list(units.items())
+    first.metadata["units"]["guide.s"] = "furlong"
+    assert second.metadata["units"]["guide.s"] == units["guide.s"] == "m"
+    assert system.simulate(t_end=0.05).unit("guide.s") == "m"
