@@ -1,7 +1,7 @@
 """What the inline sin and cos of the generated C (compiler/ccode_trig.py) cost against the C library's, per call and
 in a whole simulate of the Iltis bump, and where their coefficients come from.
 
-    python bench/trig.py [--scene bump_10] [--repeat 7] [--no-simulate] [--coefficients]
+    python bench/trig.py [--scene bump_10] [--repeat 7] [--no-simulate] [--accuracy] [--coefficients]
 
 1. Per call, over 100,000 arguments of a range (small: |x| < 0.5, a suspension's angles; large: [-100, 100], a
    wheel's spin): the instructions of a sin, a cos and the sin-cos pair of one argument (callgrind, the loop's
@@ -10,6 +10,9 @@ in a whole simulate of the Iltis bump, and where their coefficients come from.
 2. The whole System.simulate(scene) from a first start: its instructions (callgrind, one run after two uncounted
    ones, like bench/bump_cost.py --instructions) and CPU-time medians of --repeat runs interleaved, current build
    against the same model built with -DMBS_TRIG_FORMER=1, and whether the results agree to round-off.
+   The results differ by round-off, which moves the step sequence of the adaptive integrator: --accuracy measures
+   both builds against a tight reference (bench/bump_accuracy.py's: DOPRI5 at rtol 1e-10, the figure-18
+   quantities heave, pitch and the tyre loads), at the scene's tolerance and two others.
 3. --coefficients: the minimax polynomials (a Remez exchange in mpmath, relative error of sin and cos weighted)
    and the three parts of pi/2, with the reduction's hardest argument below 1e5, as compiler/ccode_trig.py has them.
 """
@@ -200,12 +203,43 @@ def whole_simulate(scene: str, repeat: int) -> None:
     print(f"  CPU time, medians of {repeat} interleaved: inline {a * 1e3:.1f} ms, C library {b * 1e3:.1f} ms "
           f"(ratio {a / b:.3f})")
     cur, old = results["current"], results["former"]
-    if cur.names == old.names and cur.data.shape == old.data.shape:
-        scale = np.maximum(np.abs(old.data).max(axis=0), 1e-300)
-        print(f"  results: {cur.data.shape[0]} rows each, largest difference {np.max(np.abs(cur.data - old.data) / scale):.2e}"
-              f" of a column's largest value; events {len(cur.events)} and {len(old.events)}")
-    else:
-        print(f"  results: {cur.data.shape[0]} rows and {old.data.shape[0]} rows (a different step sequence)")
+    scale = np.abs(old.data).max(axis=0)
+    real = scale > 1e-6  # (columns zero but for round-off, a symmetric car's roll moments, differ wholly)
+    stats = [r.metadata["stats"] for r in (cur, old)]
+    print(f"  results: {cur.data.shape[0]} and {old.data.shape[0]} rows, {len(cur.events)} and {len(old.events)} "
+          f"events, steps {stats[0]['nsteps']} and {stats[1]['nsteps']}, rhs {stats[0]['nfev']} and {stats[1]['nfev']}"
+          + (f"; largest difference {np.max(np.abs(cur.data - old.data)[:, real] / scale[real]):.1e} of a column's "
+             f"largest value (columns above 1e-6)" if cur.data.shape == old.data.shape else ""))
+
+
+def accuracy(scene: str) -> None:
+    """Both builds' errors against a tight reference, at the scene's tolerance and two others."""
+    import mbs
+    from bump_accuracy import ATOL_RATIO, QUANTITIES, REFERENCE_RTOL, errors, sample_rows
+    from bump_cost import former_model, using
+    from mbs.runtime.simulate import output_times
+    system = mbs.load(MODEL)
+    former = former_model(system, scene, FORMER)
+    sc = system.scene(scene)
+    ref = system.simulate(scene, integrator="dopri5", rtol=REFERENCE_RTOL, atol=ATOL_RATIO * REFERENCE_RTOL)
+    times = output_times(float(ref["time"][0]), sc.t_end, sample=sc.sample)
+    span = {q: float(np.ptp(ref[q][sample_rows(ref, times)])) for q in QUANTITIES}
+    short = {q: q.replace(".radial.load", "").replace("tyre_", "F_") for q in QUANTITIES}
+    print(f"{scene} ({sc.integrator}) against dopri5 at rtol {REFERENCE_RTOL:g}: largest error of each quantity, "
+          "as a fraction of its range")
+    print(f"  {'rtol':>7s} {'build':>9s} {'steps':>5s} {'rhs':>5s}  " + " ".join(f"{short[q]:>7s}" for q in QUANTITIES)
+          + "    worst")
+    for rtol in sorted({sc.rtol, 1e-6, 1e-8}):
+        for label, model in (("inline", None), ("C library", former)):
+            system.forget_starts()
+            with using(system, scene, model):
+                res = system.simulate(scene, rtol=rtol, atol=ATOL_RATIO * rtol)
+            err = errors(res, ref, times)
+            share = [err[q] / span[q] for q in QUANTITIES]
+            stats = res.metadata["stats"]
+            print(f"{'*' if rtol == sc.rtol else ' '} {rtol:7.0e} {label:>9s} {stats['nsteps']:5d} {stats['nfev']:5d}  "
+                  + " ".join(f"{x:7.1e}" for x in share) + f"  {max(share):7.1e}")
+    print("  (* the scene's own tolerance)")
 
 
 def remez(f, weight, n: int, a, b, iterations: int = 30):
@@ -260,10 +294,14 @@ def main(argv=None) -> int:
     ap.add_argument("--scene", default="bump_10")
     ap.add_argument("--repeat", type=int, default=7)
     ap.add_argument("--no-simulate", action="store_true", help="per call only")
+    ap.add_argument("--accuracy", action="store_true", help="both builds against a tight reference, and stop")
     ap.add_argument("--coefficients", action="store_true", help="derive the coefficients and stop")
     args = ap.parse_args(argv)
     if args.coefficients:
         coefficients()
+        return 0
+    if args.accuracy:
+        accuracy(args.scene)
         return 0
     per_call(args.repeat)
     if not args.no_simulate:
