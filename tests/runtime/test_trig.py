@@ -10,13 +10,19 @@ from __future__ import annotations
 import ctypes
 import platform
 import subprocess
+from pathlib import Path
 
 import mpmath
 import numpy as np
 import pytest
 
+import mbs
+from former_builds import flagged_build
 from mbs.compiler.ccode_trig import INLINE_DEFINITION, TRIG_HELPERS
 from mbs.runtime import build
+from mbs.runtime.workspace import Workspace
+
+DOUBLE_PENDULUM = Path(__file__).resolve().parents[2] / "library" / "examples" / "double_pendulum.mbs"
 
 #: The bound the tests hold (the measured largest error is about 0.79 ulp: bench/trig.py prints it).
 MAX_ULPS = 1.0
@@ -137,3 +143,18 @@ def test_the_same_bits_with_the_cpu_flags(trig, tmp_path):
     for x in RANGES.values():
         for function in ("sin", "cos"):
             assert np.array_equal(flagged(function, x), trig(function, x))
+
+
+def test_a_model_calls_them_and_agrees_with_the_c_library_to_round_off():
+    """The double pendulum's generated C calls the helpers; its right-hand side at states with angles small and
+    large agrees with the same file built with -DMBS_TRIG_FORMER=1 (the C library's sin and cos) to round-off."""
+    system = mbs.load(DOUBLE_PENDULUM)
+    source = system.generate("chaos").c_source
+    assert "= mbs_sin(" in source and "= mbs_cos(" in source
+    now, was = Workspace(system.compile("chaos")), Workspace(flagged_build(system, "chaos", ("-DMBS_TRIG_FORMER=1",)))
+    rng = np.random.default_rng(7)
+    for scale in (0.5, 3.0, 60.0, 3000.0):
+        x = np.asarray(now.x, dtype=float).copy()
+        x[:] = rng.uniform(-scale, scale, x.size)
+        a, b = np.asarray(now.rhs(0.0, x)), np.asarray(was.rhs(0.0, x))
+        assert np.allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
