@@ -6,7 +6,8 @@ in a whole simulate of the Iltis bump, and where their coefficients come from.
 1. Per call, over 100,000 arguments of a range (small: |x| < 0.5, a suspension's angles; large: [-100, 100], a
    wheel's spin): the instructions of a sin, a cos and the sin-cos pair of one argument (callgrind, the loop's
    share included), the helpers against the C library's sin, cos and the sincos GCC fuses them into
-   (-DMBS_TRIG_FORMER=1, the same source), and the time per call (medians of interleaved rounds, this process's CPU).
+   (-DMBS_TRIG_FORMER=1, the same source), and the time per call (medians of interleaved rounds, this process's CPU;
+   the calls of a loop are independent: throughput, not latency).
 2. The whole System.simulate(scene) from a first start: its instructions (callgrind, one run after two uncounted
    ones, like bench/bump_cost.py --instructions) and CPU-time medians of --repeat runs interleaved, current build
    against the same model built with -DMBS_TRIG_FORMER=1, and whether the results agree to round-off.

@@ -1,29 +1,31 @@
 """Sine and cosine for the generated C: inline, without the C library's call below |x| = 1e5.
 
 The C library's sin/cos (glibc's __sincos_fma, GCC fuses the sin and cos of one argument into one call) costs about
-110 instructions a call with its rounding-mode save and restore, and the Iltis bump scene calls it 373,000 times in
+100 instructions a call with its rounding-mode save and restore, and the Iltis bump scene calls it 373,000 times in
 one simulate: 12 % of its instructions. The arguments are joint angles: mostly small (a suspension's), a wheel's spin
 growing to tens or thousands of radians. `mbs_sin` and `mbs_cos` (the printer's sin and cos, compiler/ccode.py
-CPrinter) are static inline helpers of the generated file; the sin and cos of one angle, inlined into one function,
-share one argument reduction and both kernels (the compiler merges the same arithmetic on the same argument), only
-the pick of the result differs.
+CPrinter) are static helpers of the generated file, always inlined (MBS_TRIG_INLINE: in a large function GCC's
+inliner otherwise stops at its growth limits); the sin and cos of one angle, inlined into one function, share all
+their arithmetic (the compiler merges the same operations on the same argument) but the pick of the result.
 
-    x = n pi/2 + r, |r| <= pi/4 (n = x 2/pi rounded to an integer by adding 1.5 * 2^52 and taking it away),
-    r = x - n P1 - n P2 - n P3 (Cody and Waite): pi/2 = P1 + P2 + P3 to 2^-130, P1 and P2 of 37 bits so that their
-    products with n < 2^16 are exact (|x| < 1e5), x - n P1 exact (Sterbenz), the rounding of (x - n P1) - n P2
+    |x| < pi/4: sin x = x + x z S(z), cos x = (1 - z/2) + [the rounding of 1 - z/2, exact] + z^2 C(z), z = x^2
+    (a branch each call site takes the same way, a suspension's angle always: the reduction skipped);
+    else x = n pi/2 + r, |r| <= pi/4 (n = |x| 2/pi rounded to an integer by adding 1.5 * 2^52 and taking it away),
+    r = |x| - n P1 - n P2 - n P3 (Cody and Waite): pi/2 = P1 + P2 + P3 to 2^-130, P1 and P2 of 37 bits so that their
+    products with n < 2^16 are exact (|x| < 1e5), |x| - n P1 exact (Sterbenz), the rounding of (|x| - n P1) - n P2
     recovered exactly (Knuth's two-sum): r = hi + lo. Its relative error is below 2^-61 even for the double
     nearest to a multiple of pi/2 (|r| down to 2^-60.5 at x = 45.553...: bench/trig.py --coefficients).
-    sin r = hi + (hi z S(z) + lo (1 - z/2)),  z = hi^2
-    cos r = (1 - z/2) + [the rounding of 1 - z/2, exact] + (z^2 C(z) - hi lo)
+    sin r = hi + (hi z S(z) + lo (1 - z/2)),  cos r = (1 - z/2) + [its rounding] + (z^2 C(z) - hi lo),  z = hi^2;
+    sin |x| = +-sin r or +-cos r by (n mod 4), picked from a two-element array and signed by a product with +-1.0
+    (both exact, no branch), the sign of x put back for the sine.
     S, C: minimax polynomials of degree 5 in z on [0, (pi/4)^2] (relative errors 2^-58 and 2^-64 of sin and cos),
     derived by bench/trig.py --coefficients (a Remez exchange in mpmath).
-    sin x = +-sin r or +-cos r by (n mod 4), picked from a two-element array and signed by a product with +-1.0
-    (both exact, no branch); computed on |x|, the sign of x put back for the sine (sin(-0) = -0).
 
-Beyond 1e5, inf and NaN: the C library (a branch always taken the same way in practice). No fused multiply-add
-(-std=c99 contracts nothing): the same bits with and without -mavx2. Within 1 ulp of the exact values
-(tests/runtime/test_trig.py measures the largest error against mpmath). -DMBS_TRIG_FORMER=1 makes both the C
-library's again: the same-run baseline of bench/trig.py.
+Beyond 1e5, inf and NaN: the C library. No fused multiply-add (-std=c99 contracts nothing): the same bits with and
+without -mavx2. The largest error found is 0.79 ulp (tests/runtime/test_trig.py holds 1 ulp against long double,
+checked against mpmath; glibc's is 0.52). Per call in bench/trig.py's loops (GCC 12, -mavx2, the loop's share
+included): a sin 25 instructions for |x| < 0.5 (the C library's 73), a sin-cos pair 46 (120), a pair for |x| < 100
+86 (155). -DMBS_TRIG_FORMER=1 makes both the C library's again: the same-run baseline of bench/trig.py.
 """
 
 from __future__ import annotations
