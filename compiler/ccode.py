@@ -79,7 +79,7 @@ class CPrinter(ExprPrinter):
 
     LANGUAGE = "C"
     AND, OR, TRUE, FALSE, NAN = "&&", "||", "1", "0", "NAN"
-    #: sin and cos inline (compiler/ccode_trig.py: about a third of the C library's instructions).
+    #: sin and cos inline (compiler/ccode_trig.py: 0.4 to 0.75 of the C library's instructions a call).
     FUNCTIONS = {**ExprPrinter.FUNCTIONS, "sin": "mbs_sin", "cos": "mbs_cos"}
 
     def _conditional(self, cond, then, otherwise):
@@ -701,7 +701,8 @@ def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], eq
     Raises NotSeparable when the outputs cannot stand apart (then generate the file whole). No outputs: ''."""
     if not outputs:
         return ""
-    defined = set(re.findall(r"^static (?:inline |MBS_TRIG_INLINE )?(?:int|double|void) (mbs_\w+)\(", equations_source, re.MULTILINE))
+    defined = set(re.findall(r"^static (?:inline |MBS_TRIG_INLINE )?(?:int|double|void) (mbs_\w+)\(", equations_source,
+                             re.MULTILINE))
     return CEmitter(equations, parameters, outputs=outputs, tables=tables, constraints=constraints,
                     run_time_inputs=run_time_inputs, friction=friction, inline_max_chars=inline_max_chars,
                     separate_outputs=True).outputs_source(defined, first_table)

@@ -83,10 +83,10 @@ def _polynomials() -> dict[str, list[str]]:
 def _circular() -> list[str]:
     p1, p2, p3 = PIO2
     return [
-        "/* sin(x) (quarter 0) or cos(x) = sin(x + pi/2) (quarter 1) within 1 ulp, without the C library below |x| = 1e5:",
-        " * below pi/4 the polynomials of x, else x = n pi/2 + hi + lo (Cody-Waite in three parts, a two-sum) and the",
-        " * polynomials of hi + lo, the quadrant picked without a branch; compiler/ccode_trig.py explains it. Inlined,",
-        " * the sin and cos of one angle share all but the pick. */",
+        "/* sin(x) (quarter 0) or cos(x) = sin(x + pi/2) (quarter 1) within 1 ulp, without the C library below",
+        " * |x| = 1e5: below pi/4 the polynomials of x, else x = n pi/2 + hi + lo (Cody-Waite in three parts, a",
+        " * two-sum) and the polynomials of hi + lo, the quadrant picked without a branch; compiler/ccode_trig.py",
+        " * explains it. Inlined, the sin and cos of one angle share all but the pick. */",
         f"static {INLINE} double mbs_circular(double x, unsigned quarter)",
         "{",
         "    const double ax = fabs(x);",
@@ -130,8 +130,8 @@ def _wrapper(name: str, quarter: int, doc: str) -> list[str]:
 TRIG_HELPERS = {
     **_polynomials(),
     "mbs_circular": _circular(),
-    "mbs_sin": _wrapper("mbs_sin", 0, "/* sin(x), mbs_circular's (-DMBS_TRIG_FORMER=1: the C library's, the baseline of "
-                                      "bench/trig.py). */"),
+    "mbs_sin": _wrapper("mbs_sin", 0, "/* sin(x), mbs_circular's (-DMBS_TRIG_FORMER=1: the C library's, the baseline "
+                                      "of bench/trig.py). */"),
     "mbs_cos": _wrapper("mbs_cos", 1, "/* cos(x), mbs_circular's (-DMBS_TRIG_FORMER=1: the C library's). */"),
 }
 TRIG_NEEDS = {"mbs_circular": ("mbs_sin_poly", "mbs_cos_poly"), "mbs_sin": ("mbs_circular",),
