@@ -22,7 +22,7 @@ their arithmetic (the compiler merges the same operations on the same argument) 
     derived by bench/trig.py --coefficients (a Remez exchange in mpmath).
 
 Beyond 1e5, inf and NaN: the C library. No fused multiply-add (-std=c99 contracts nothing): the same bits with and
-without -mavx2. The largest error found is 0.80 ulp (tests/runtime/test_trig.py holds 1 ulp against long double,
+without -mavx2. The largest error found is 0.79 ulp (tests/runtime/test_trig.py holds 1 ulp against long double,
 checked against mpmath; glibc's is 0.52). Per call in bench/trig.py's loops (GCC 12, -mavx2, the loop's share
 included): a sin 25 instructions for |x| < 0.5 (the C library's 73), a sin-cos pair 46 (120), a pair for |x| < 100
 86 (155). -DMBS_TRIG_FORMER=1 makes both the C library's again: the same-run baseline of bench/trig.py.
@@ -42,16 +42,15 @@ COS_COEFFICIENTS = ("0x1.555555555554cp-5", "-0x1.6c16c16c15184p-10", "0x1.a01a0
 LIMIT = "1e5"
 
 
-def _pairs(coefficients: tuple[str, ...]) -> str:
-    """c0 + c1 z + c2 z^2 + ... as C text, in pairs: (c0 + c1*z) + z2*((c2 + c3*z) + z2*(...)), z2 = z^2. The same
-    operations as Horner's scheme, in half its chain of dependent ones: the whole bump_10 simulate took 0.95 of the
-    CPU time with it (medians of 15 interleaved runs)."""
-    pairs = [f"({a} - {b[1:]} * z)" if b.startswith("-") else f"({a} + {b} * z)"
-             for a, b in zip(coefficients[::2], coefficients[1::2])]
-    text = pairs[-1]
-    for pair in reversed(pairs[:-1]):
-        text = f"({pair} + z2 * {text})"
-    return text[1:-1] if len(pairs) > 1 else text
+def _horner(coefficients: tuple[str, ...], z: str) -> str:
+    """c0 + z*(c1 + z*(c2 + ...)), as C text. (In pairs, (c0 + c1 z) + z^2 ((c2 + c3 z) + ...), the same operations
+    in half the chain of dependent ones, the bump_10 simulate took 0.95 of the CPU time (commit 8b1d124, reverted:
+    its rounding moved tests/library/test_bearing_pendulum.py's pendulum to rest at an angle whose held
+    acceleration rounds to 2.6e-17 rather than 0, as it does at 70 % of such angles with either evaluation.)"""
+    text = coefficients[-1]
+    for c in reversed(coefficients[:-1]):
+        text = f"{c} + {z} * ({text})"
+    return text
 
 
 #: Every helper's head: inlined always (GCC and Clang; a sin and a cos of one angle then share their arithmetic: in
@@ -69,14 +68,12 @@ def _polynomials() -> dict[str, list[str]]:
         "mbs_sin_poly": ["/* S(z): sin(r) = r + r z S(z), z = r^2, |r| <= pi/4 (relative error 2^-58). */",
                          f"static {INLINE} double mbs_sin_poly(double z)",
                          "{",
-                         "    const double z2 = z * z;",
-                         f"    return {_pairs(SIN_COEFFICIENTS)};",
+                         f"    return {_horner(SIN_COEFFICIENTS, 'z')};",
                          "}"],
         "mbs_cos_poly": ["/* C(z): cos(r) = 1 - z/2 + z^2 C(z), z = r^2, |r| <= pi/4 (relative error 2^-64). */",
                          f"static {INLINE} double mbs_cos_poly(double z)",
                          "{",
-                         "    const double z2 = z * z;",
-                         f"    return {_pairs(COS_COEFFICIENTS)};",
+                         f"    return {_horner(COS_COEFFICIENTS, 'z')};",
                          "}"]}
 
 
