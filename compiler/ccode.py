@@ -39,6 +39,7 @@ from .ccode_closed_form import CLOSED_FORM, closed_form_definitions, closed_form
 from .ccode_loop_terms import (LOOP_TERMS, LOOP_TERMS_READ, loop_terms_checks, loop_terms_readers, loop_terms_routine,
                                loop_terms_size)
 from .ccode_parts import names_in, part_order, plan_parts
+from .ccode_trig import INLINE_DEFINITION as TRIG_INLINE_DEFINITION, TRIG_HELPERS, TRIG_NEEDS
 from .constraints import Constraints
 from .emit_common import (  # noqa: F401
     INLINE_MAX_CHARS,
@@ -79,6 +80,8 @@ class CPrinter(ExprPrinter):
 
     LANGUAGE = "C"
     AND, OR, TRUE, FALSE, NAN = "&&", "||", "1", "0", "NAN"
+    #: sin and cos inline (compiler/ccode_trig.py: 0.4 to 0.75 of the C library's instructions a call).
+    FUNCTIONS = {**ExprPrinter.FUNCTIONS, "sin": "mbs_sin", "cos": "mbs_cos"}
 
     def _conditional(self, cond, then, otherwise):
         return f"({cond} ? {then} : {otherwise})"
@@ -150,7 +153,31 @@ HELPERS = {
                    "    return (2.0 * s3 - 3.0 * s2 + 1.0) * ys[lo] + (s3 - 2.0 * s2 + s) * h * ms[lo]",
                    "           + (-2.0 * s3 + 3.0 * s2) * ys[hi] + (s3 - s2) * h * ms[hi];",
                    "}"],
+    **TRIG_HELPERS,
 }
+#: The helpers a helper calls (_in_order defines them before it).
+HELPER_NEEDS = TRIG_NEEDS
+
+
+def _with_needs(used) -> set[str]:
+    """The helpers `used` names and those they call, in turn."""
+    found, todo = set(), list(used)
+    while todo:
+        name = todo.pop()
+        if name not in found:
+            found.add(name)
+            todo += HELPER_NEEDS.get(name, ())
+    return found
+
+
+def _depth(name: str) -> int:
+    """0 for a helper that calls none, else one more than the deepest it calls."""
+    return 1 + max(map(_depth, HELPER_NEEDS[name])) if name in HELPER_NEEDS else 0
+
+
+def _in_order(names) -> list[str]:
+    """The helpers `names`, each after those it calls, else by name."""
+    return sorted(names, key=lambda name: (_depth(name), name))
 
 
 class CEmitter:
@@ -342,6 +369,7 @@ class CEmitter:
                  "#include <stddef.h>",
                  *(["#include <string.h>   /* memcpy: the functions read off the loop terms */"]
                    if self._loop_terms() else []),
+                 *TRIG_INLINE_DEFINITION,
                  "",
                  f"#define MBS_NQ {nq}   /* free position coordinates */",
                  f"#define MBS_NV {nv}   /* free velocity coordinates */",
@@ -387,7 +415,8 @@ class CEmitter:
 
     def _helpers(self, used: set, hook_calls: dict | None = None) -> list[str]:
         """The static helpers the functions call, then one array group and one function per lookup table."""
-        parts = ["\n".join(HELPERS[name]) + "\n" for name in sorted(HELPERS) if name in used
+        used = _with_needs(used)
+        parts = ["\n".join(HELPERS[name]) + "\n" for name in _in_order(HELPERS) if name in used
                  or (name == "mbs_lookup" and self.tables)]
         parts += hook_helpers(hook_calls or {})
         return parts + [_table_text(k, table) for k, table in enumerate(self.tables)]
@@ -405,8 +434,9 @@ class CEmitter:
         if printer.hook_calls:
             raise NotSeparable("the outputs call a user hook")
         new_tables = self.tables[first_table:]
-        helpers = ["\n".join(HELPERS[name]) + "\n" for name in sorted(HELPERS) if name not in defined
-                   and (name in printer.used or (name == "mbs_lookup" and new_tables))]
+        used = _with_needs(printer.used)
+        helpers = ["\n".join(HELPERS[name]) + "\n" for name in _in_order(HELPERS) if name not in defined
+                   and (name in used or (name == "mbs_lookup" and new_tables))]
         helpers += [_table_text(first_table + k, table) for k, table in enumerate(new_tables)]
         names = [_comment(f"  y[{k}]  {name}") for k, (name, _) in enumerate(self.outputs)]
         return "\n".join([OUTPUTS_MARKER, "/* Outputs y:", *[" *" + n[1:] for n in names], " */",
@@ -710,7 +740,8 @@ def generate_c_outputs(equations: Equations, parameters: Sequence[sp.Symbol], eq
     Raises NotSeparable when the outputs cannot stand apart (then generate the file whole). No outputs: ''."""
     if not outputs:
         return ""
-    defined = set(re.findall(r"^static (?:inline )?(?:int|double|void) (mbs_\w+)\(", equations_source, re.MULTILINE))
+    defined = set(re.findall(r"^static (?:inline |MBS_TRIG_INLINE )?(?:int|double|void) (mbs_\w+)\(", equations_source,
+                             re.MULTILINE))
     return CEmitter(equations, parameters, outputs=outputs, tables=tables, constraints=constraints,
                     run_time_inputs=run_time_inputs, friction=friction, inline_max_chars=inline_max_chars,
                     separate_outputs=True).outputs_source(defined, first_table)

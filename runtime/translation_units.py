@@ -108,7 +108,7 @@ _PROTOTYPE = re.compile(r"^((?:int|double|void|const char \*)\s*)(mbs_\w+)\(([^;
 PART_SUFFIX = "_part"
 _PART_NAME = re.compile(rf"^(mbs_\w+?){PART_SUFFIX}\d+$")
 _DEFINITION = re.compile(r"^(?:int|double|void|const char \*)\s*(mbs_\w+)\(([^;{}]*)\)$")
-_STATIC_FUNCTION = re.compile(r"^static (?:inline )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
+_STATIC_FUNCTION = re.compile(r"^static (?:inline |MBS_TRIG_INLINE )?(?:int|double|void)\s+(mbs_\w+)\(([^;{}]*)\)$")
 #: A static const array on one line (compiler/ccode.py _array): a lookup table's points.
 _STATIC_ARRAY = re.compile(r"^static const (?:double|int) (mbs_\w+)\[\d+\] = \{[^;]*\};$")
 _STATIC_ARRAY_LINE = re.compile(_STATIC_ARRAY.pattern, re.M)

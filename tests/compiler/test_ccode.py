@@ -43,7 +43,7 @@ PRINTER = CPrinter({a: "a", b: "b", c: "c_1", t: "t"})
     (sp.Rational(1, 3) * a, "0.3333333333333333*a"),
     (sp.Float(0.1) + a, "0.1 + a"),
     (a - sp.pi, "a - 3.141592653589793"),
-    (sp.sin(a) * sp.cos(t), "cos(t)*sin(a)"),
+    (sp.sin(a) * sp.cos(t), "mbs_cos(t)*mbs_sin(a)"),  # compiler/ccode_trig.py
     (sp.Abs(a - b), "fabs(a - b)"),
     (sp.atan2(a, b), "atan2(a, b)"),
     (sp.Max(a, b, c), "fmax(fmax(a, b), c_1)"),

@@ -53,7 +53,8 @@ def test_the_generated_layout_is_read_back_whole(generated):
         assert layout is not None
         names = [b.name for b in layout.functions]
         assert {"mbs_rhs", "mbs_mass_matrix", "mbs_forces", "mbs_qdot", "mbs_state_name"} <= set(names)
-        assert all(h.name in ("mbs_all_finite", "mbs_positive_definite", "mbs_sign", "mbs_lookup")
+        assert all(h.name in ("mbs_all_finite", "mbs_positive_definite", "mbs_sign", "mbs_lookup", "mbs_sin", "mbs_cos",
+                              "mbs_circular", "mbs_sin_poly", "mbs_cos_poly")
                    or re.fullmatch(r"mbs_table_\d+", h.name) for h in layout.helpers)
         assert "#define MBS_NWORK" in layout.header and "mbs_rhs(" not in layout.header
         # nothing lost, nothing twice: every line of the file (but trailing blank ones) is in the header or in
