@@ -1,6 +1,6 @@
 """The run-time loop work of the Iltis over the bump (c/loops.c), current against former, in instructions.
 
-    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR] [--former all|kept|...]
+    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR] [--former all|rates]
                               [--simulate] [--accuracy [--scales S ...] [--dopri5]]
 
 Two builds of the scene's model: the current one and the former (FORMER_FLAGS, each a compile-time switch of
@@ -60,11 +60,7 @@ from output_rows import callgrind as rows_callgrind  # noqa: E402
 FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1", "-DMBS_LOOP_BLOCK_FORMER=1")
 #: --former: one change's switch alone, or all of them.
 FORMERS = {"all": FORMER_FLAGS,
-           "kept": ("-DMBS_LOOP_KEPT_FORMER=1",),
            "rates": ("-DMBS_LOOP_RATES_FORMER=1",)}
-#: --former project: the projection's changes of this revision together (an accepted step kept within the tolerance,
-#: the residuals' rate from the pass that evaluates them)
-FORMERS["project"] = FORMERS["kept"] + FORMERS["rates"]
 #: The reference of --accuracy: DOPRI5 (the bump scenes' own integrator is adams) at a tight tolerance.
 REFERENCE = {"integrator": "dopri5", "rtol": 1e-11, "atol": 1e-13}
 #: --accuracy: the scene's tolerances times these, each run with both builds.

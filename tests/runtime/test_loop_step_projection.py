@@ -4,8 +4,9 @@ than the Newton tolerance (1e-12) but at most 1e-9 is polished with those factor
 at these very positions) and held to the tolerance, instead of projected afresh; a larger drift goes to
 mbs_project.  Either way the result is mbs_project's to round-off, on the constraints to 1e-12 (Freudenstein's
 four-bar, whose constraints are the loop's closure: test_loops.py).  A drift of at most 1e-13 (one step's, usually)
-keeps its positions as they are, its velocities made consistent with them; so does one that drifted by at most the
-tolerance itself (-DMBS_LOOP_KEPT_FORMER=1: only up to 1e-13, polished above)."""
+keeps its positions as they are, its velocities made consistent with them; one between 1e-13 and the tolerance is
+polished (keeping it raised DOPRI5's round-off floor on the 40 four-bars at rtol 1e-10: c/loops.c
+MBS_LOOP_STEP_KEPT)."""
 
 from __future__ import annotations
 
@@ -55,10 +56,10 @@ def test_a_step_that_drifted_by_round_off_keeps_its_positions(four_bar_data):
     assert np.allclose(projected, data.function("project")(0.0, x), rtol=0.0, atol=1e-13)
 
 
-def test_a_step_that_drifted_within_the_tolerance_keeps_its_positions(four_bar_data):
-    """A residual between 1e-13 and the Newton tolerance 1e-12: the state is on the constraints to the tolerance
-    already, so its positions stay (the former build polished them to the round-off floor), its velocities are made
-    consistent with them, and the result is mbs_project's to the drift."""
+def test_a_step_that_drifted_within_the_tolerance_is_polished(four_bar_data):
+    """A residual between 1e-13 and the Newton tolerance 1e-12: on the constraints to the tolerance already, but
+    polished to the round-off floor all the same (the round-off floor of tight runs through singular positions rose
+    where such drifts were kept), its velocities consistent, the result mbs_project's to round-off."""
     data = four_bar_data
     nx = len(data.x)
     nq = nx // 2
@@ -68,9 +69,8 @@ def test_a_step_that_drifted_within_the_tolerance_keeps_its_positions(four_bar_d
     residual = np.max(np.abs(data.constraints(0.0, x)))
     assert 1e-13 < residual <= 1e-12
     projected = data.function("loop_accept")(0.0, x)[nx:]
-    assert np.array_equal(projected[:nq], x[:nq])  # kept: not polished
+    assert not np.array_equal(projected[:nq], x[:nq])  # polished
+    assert np.max(np.abs(data.constraints(0.0, projected))) < 1e-13
     assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-12
-    fresh = data.function("project")(0.0, x)
-    assert np.max(np.abs(data.constraints(0.0, fresh))) < residual  # project polishes it
-    assert np.allclose(projected, fresh, rtol=0.0, atol=10 * residual)
+    assert np.allclose(projected, data.function("project")(0.0, x), rtol=0.0, atol=1e-13)
 
