@@ -24,7 +24,10 @@ import time
 import weakref
 from typing import Callable
 
-import _signal  # signal's C functions, which signal.signal wraps (see RunGuard.__enter__)
+try:  # signal's C function, which signal.signal wraps (see RunGuard.__enter__); CPython's, so the public one elsewhere
+    from _signal import signal as _install_handler
+except ImportError:  # pragma: no cover - another Python implementation
+    from signal import signal as _install_handler
 
 import numpy as np
 
@@ -71,21 +74,21 @@ class RunGuard:
         samples in one call unless the user asked for progress reports."""
         return 1 if (self.watched and self.user_progress is None) else None
 
-    # -- signals: installed and restored by _signal.signal, the C function signal.signal wraps: the wrapper turns
-    #    numbers into enums and back, and for a handler that is a function (Python's Ctrl-C handler, ours) finds
-    #    none by raising and catching a ValueError: 110 k of the 113 k instructions of a run's four calls
+    # -- signals: installed and restored by _install_handler (_signal.signal, the C function signal.signal wraps: the
+    #    wrapper turns numbers into enums and back, and for a handler that is a function (Python's Ctrl-C handler,
+    #    ours) finds none by raising and catching a ValueError: 110 k of the 113 k instructions of a run's four calls)
     def __enter__(self):
         if threading.current_thread() is threading.main_thread():
             for sig in _SIGNALS:
                 try:
-                    self._previous[sig] = _signal.signal(sig, self._on_signal)
+                    self._previous[sig] = _install_handler(sig, self._on_signal)
                 except (ValueError, OSError):  # not allowed here (an embedding host): keep the default
                     pass
         return self
 
     def __exit__(self, *exc):
         for sig, handler in self._previous.items():
-            _signal.signal(sig, handler)
+            _install_handler(sig, handler)
         self._previous.clear()
         return False
 

@@ -59,6 +59,19 @@ def _str_columns(names: tuple) -> tuple[tuple[str, ...], dict[str, int]] | None:
     return names, _column_index(names)
 
 
+def _names_and_index(names) -> tuple[tuple[str, ...], dict]:
+    """(the column names as a tuple of str, their index): a tuple of str worked out once (_str_columns), anything
+    else str() name by name."""
+    try:
+        known = _str_columns(names) if type(names) is tuple else None
+    except TypeError:  # an unhashable name
+        known = None
+    if known is not None:
+        return known
+    names = tuple(map(str, names))
+    return names, _column_index(names)
+
+
 class Results:
     """A table of samples: ``names`` (ncols,) column names, ``data`` (n, ncols) values in SI units.
 
@@ -72,21 +85,15 @@ class Results:
         (for the simulation driver, whose table is fresh and its own: no copy of every sample).  ``events``: the
         event log's rows, or an object whose rows() gives them, called when ``events`` is first read (the driver's
         log: bump_10's 392 dicts cost 0.66 M instructions, a tenth of its Python after the integration)."""
-        try:
-            known = _str_columns(names) if type(names) is tuple else None
-        except TypeError:  # an unhashable name
-            known = None
-        self.names = known[0] if known is not None else tuple(map(str, names))
+        self.names, self._index = _names_and_index(names)  # (the index shared by results of the same columns)
         data = np.array(data, dtype=float, ndmin=2, copy=True if copy else None)
         if data.size == 0:
             data = data.reshape(0, len(self.names))
         if data.ndim != 2 or data.shape[1] != len(self.names):
             raise UsageError(f"data of shape {data.shape} does not match {len(self.names)} column names")
-        index = known[1] if known is not None else _column_index(self.names)
         data.flags.writeable = False
         self._data = data
         self._blocks = None  # (Results.of_blocks: the table's columns in blocks, joined when data is first read)
-        self._index = index  # (shared between results with the same columns: only read)
         self._keep(metadata, events)
 
     def _keep(self, metadata: Mapping | None, events) -> None:
@@ -102,11 +109,7 @@ class Results:
         from its block; the joined table (``data``) is made when it is first read: a caller that reads columns by name
         never pays for it (bump_10's 858 rows of 117 columns: 0.8 MB of fresh memory written, 0.23 M instructions).
         ``names``: a tuple, as for the constructor."""
-        try:
-            known = _str_columns(names) if type(names) is tuple else None
-        except TypeError:  # an unhashable name
-            known = None
-        names = known[0] if known is not None else tuple(map(str, names))
+        names, index = _names_and_index(names)
         blocks = tuple(blocks)
         rows = blocks[0].shape[0]
         for b in blocks:
@@ -115,10 +118,9 @@ class Results:
         width = sum(b.shape[1] for b in blocks)
         if width != len(names):
             raise UsageError(f"blocks of {width} columns do not match {len(names)} column names")
-        index = known[1] if known is not None else _column_index(names)
         for b in blocks:
             b.flags.writeable = False
-        results = cls.__new__(cls)  # (no table to check or copy: the constructor's checks of names, as it makes them)
+        results = cls.__new__(cls)  # (no table to check or copy)
         results.names, results._index = names, index
         results._data, results._blocks = None, blocks
         results._keep(metadata, events)

@@ -36,9 +36,6 @@ DEFAULT_SAMPLES = 501
 PROGRESS_CHUNKS = 100
 #: More output samples than this would not fit in memory (states and outputs of a large model).
 MAX_SAMPLES = 10_000_000
-#: Twins (_as_predecessors) up to which each is matched to its predecessor by a walk back in Python instead of numpy's
-#: index arithmetic over all rows.
-FEW_TWINS = 8
 
 Progress = Callable[[float, float], "bool | None"]
 
@@ -285,14 +282,7 @@ def _as_predecessors(xs: np.ndarray, which: np.ndarray, twin: np.ndarray) -> Non
     (runtime/rows.py: a row that repeats the one before it takes its values) copies that row's instead of computing
     it, in place."""
     twins = np.flatnonzero(twin)
-    if 0 < twins.size <= FEW_TWINS and twins[0] > 0:  # a few, after a row that is none: each walks back to it (no
-        # index arithmetic over every row: bump_5's 3 twins of 510 rows, 97 k -> 32 k instructions, 49 -> 7 us a run)
-        for row in twins.tolist():
-            of = row - 1
-            while twin[of]:
-                of -= 1
-            xs[row], which[row] = xs[of], which[of]
-    elif twins.size:
+    if twins.size:
         computed = np.flatnonzero(~twin)
         of = computed[np.cumsum(~twin)[twins] - 1]
         xs[twins], which[twins] = xs[of], which[of]

@@ -34,24 +34,23 @@ def test_each_twin_takes_the_state_and_values_of_the_last_row_before_it_that_is_
     assert alone.tolist() == [[0, 1], [2, 3]]
 
 
-def test_a_few_twins_walked_back_to_take_what_the_index_arithmetic_gives_them(monkeypatch):
-    """_as_predecessors: a few twins each walk back to their predecessor (FEW_TWINS) as numpy's index arithmetic
-    finds it over all rows: the same states and values for random masks, with runs of twins."""
-    import importlib
-    simulate_module = importlib.import_module("mbs.runtime.simulate")  # (the package's simulate is the function)
+def test_each_twin_takes_what_a_walk_back_to_its_predecessor_finds():
+    """_as_predecessors' index arithmetic over all rows against a plain walk back from each twin to the last row
+    before it that is no twin: the same states and values for random masks, with runs of twins."""
     rng = np.random.default_rng(11)
     for trial in range(300):
         rows = int(rng.integers(1, 40))
         twin = rng.random(rows) < rng.choice([0.05, 0.2, 0.5])
         twin[0] = False  # (as in a run: its first row is a sample or the row before an event)
         xs, which = rng.random((rows, 3)), rng.integers(0, 5, rows).astype(np.intp)
-        done = []
-        for few in (simulate_module.FEW_TWINS, 0):
-            monkeypatch.setattr(simulate_module, "FEW_TWINS", few)
-            x, w = xs.copy(), which.copy()
-            _as_predecessors(x, w, twin)
-            done.append((x, w))
-        assert np.array_equal(done[0][0], done[1][0]) and np.array_equal(done[0][1], done[1][1]), trial
+        expected_x, expected_w = xs.copy(), which.copy()
+        for row in np.flatnonzero(twin):
+            of = row - 1
+            while twin[of]:
+                of -= 1
+            expected_x[row], expected_w[row] = xs[of], which[of]
+        _as_predecessors(xs, which, twin)
+        assert np.array_equal(xs, expected_x) and np.array_equal(which, expected_w), trial
 
 
 def test_the_rows_at_a_continuous_event_of_a_closed_loop_are_computed_once():
