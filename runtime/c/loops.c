@@ -2000,6 +2000,16 @@ static int mbs_loop_stamp_holds(double t, const double *x, const double *p, cons
            && mbs_loop_stamp_p_holds(w, p);
 }
 
+/* The velocities of w->xc made consistent with its positions from the rate of the residuals there, gdot = G v + g_t:
+ * v_D += dv_D with G_D dv_D = -gdot on the pivot rows (factors of rank r at hand), dv_I = 0. */
+static void mbs_loop_correct_velocities(mbs_loop_work *w, int r, const double *gdot)
+{
+    int i;
+    memset(w->dv, 0, MBS_NV * sizeof(double));
+    mbs_loop_solve(w, r, gdot, w->dv);
+    for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
+}
+
 /* x projected as mbs_project does, from the factors of G the last mbs_loop_rhs_direct left at these positions or
  * near them (Adams' predicted state: mbs_loop_stamp_q_near): the integrated state of an accepted step is the
  * state of its last stage (DOPRI5's first-same-as-last) or its corrected prediction (Adams), already
@@ -2012,7 +2022,7 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
 {
     double *q = w->xc, *gdot = w->c3, res, after;
     const int r = (int)w->stamp[3];
-    int i, s, rated;  /* rated: the last evaluation gave gdot at the positions left (mbs_loop_residuals) */
+    int s, rated;  /* rated: the last evaluation gave gdot at the positions left (mbs_loop_residuals) */
     w->blocked = mbs_loop_plan_holds(w);  /* the stamp holds only for factors of the kept partition: its blocks' */
     memcpy(w->xc, x, MBS_NX * sizeof(double));
     if ((s = mbs_loop_residuals(t, q, p, w, 1)) != 0) return s;
@@ -2035,9 +2045,7 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
         gdot = mbs_loop_rates_of(w);
     else if ((s = mbs_constraint_velocity(t, w->xc, p, gdot, w->tree)) != 0)
         return s;
-    memset(w->dv, 0, MBS_NV * sizeof(double));
-    mbs_loop_solve(w, r, gdot, w->dv);
-    for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
+    mbs_loop_correct_velocities(w, r, gdot);
     return mbs_loop_finite(w->xc, MBS_NX) ? 0 : MBS_LOOP_NONFINITE;  /* (where, as mbs_loop_maxabs tells, unused) */
 }
 
@@ -2265,11 +2273,8 @@ static int mbs_loop_project_from_row(double t, const double *x, const double *p,
         memcpy(w->h, mbs_loop_rates_of(w), MBS_NC * sizeof(double));
     if (mbs_loop_jacobian_at(t, w->xc, p, w, !rated) != 0) return -1;
     if ((r = mbs_loop_partition(t, w->xc, p, w, 1, NULL)) < 0) return -1;
-    if (rated) {  /* v_D += dv_D with G_D dv_D = -(G v + g_t) on the pivot rows, as an accepted step's */
-        int i;
-        memset(w->dv, 0, MBS_NV * sizeof(double));
-        mbs_loop_solve(w, r, w->h, w->dv);
-        for (i = 0; i < MBS_NV; i++) w->xc[MBS_NQ + i] += w->dv[i];
+    if (rated) {  /* as an accepted step's velocities */
+        mbs_loop_correct_velocities(w, r, w->h);
     } else {  /* keep v_I, solve G_D v_D = -(G_I v_I + g_t) */
         mbs_loop_solve(w, r, w->h, w->xc + MBS_NQ);
     }
