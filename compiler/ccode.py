@@ -307,13 +307,11 @@ class CEmitter:
         counts = read_counts(tape, tape.entries_for(exprs), exprs)  # mbs_events' own: its text, the same bits
         cases = []
         for k, e in printed:
-            text = self._function(plan_routine(tape, self.naming, printer, "mbs_event_indicator", "g", "", (nev,),
-                                               [(k, e)], inline_max_chars=self.inline_max_chars, counts=counts))
-            lines = text.split("\n")
-            if "mbs_event_indicator_part" in text or "    if (!mbs_all_finite(g, MBS_NEV))" not in lines:
+            r = plan_routine(tape, self.naming, printer, "mbs_event_indicator", "g", "", (nev,), [(k, e)],
+                             inline_max_chars=self.inline_max_chars, counts=counts)
+            if plan_parts(r.steps, r.results) is not None:
                 continue
-            start, end = lines.index("{") + 1, lines.index("    if (!mbs_all_finite(g, MBS_NEV))")
-            cases += [f"    case {k}: {{", *("    " + line for line in lines[start:end]),
+            cases += [f"    case {k}: {{", *("    " + line for line in self._body(r, *self._run_time_prologue(r))),
                       f"        return mbs_all_finite(g + {k}, 1) ? 0 : 2;", "    }"]
         return "\n".join([
             "/* event indicator k alone: g[k] of mbs_events (the rest of g as it was), for the root finding */",
@@ -512,20 +510,25 @@ class CEmitter:
         if plan is None:
             lines = [f"/* {_comment(r.doc)} */",
                      f"int {r.name}(double t, const double *x, const double *p, double *{out}, double *work)", "{",
-                     *([_PROLOGUE_COMMENT] if call else []), *pointers, *call]
-            lines += [_read_line(read) for read in r.reads]
-            reads = {a for *_, a, _ in r.reads}
-            unused = [arg for arg, present in (("t", r.uses_t), ("x", "x" in reads), ("p", "p" in reads),
-                                               ("work", r.check_positive)) if not (present or pointers)]
-            if unused:
-                lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
-            lines += _statements(r.steps, r.results, out)
+                     *self._body(r, pointers, call)]
             text = "\n".join(lines + self._epilogue(r))
         else:
             text = self._parted_function(r, plan, pointers, call)
         if r.name == LOOP_TERMS:
             return loop_terms_checks(text)
         return unchecked_constraint_matrix(text, out) if r.name == CONSTRAINT_MATRIX else text
+
+    def _body(self, r: Routine, pointers: list[str], call: list[str]) -> list[str]:
+        """The lines of a function printed in one piece between its opening brace and its epilogue: the run-time
+        prologue, the reads, the unused arguments voided, the temporaries and the outputs."""
+        lines = [*([_PROLOGUE_COMMENT] if call else []), *pointers, *call]
+        lines += [_read_line(read) for read in r.reads]
+        reads = {a for *_, a, _ in r.reads}
+        unused = [arg for arg, present in (("t", r.uses_t), ("x", "x" in reads), ("p", "p" in reads),
+                                           ("work", r.check_positive)) if not (present or pointers)]
+        if unused:
+            lines.append("    " + " ".join(f"(void){arg};" for arg in unused))
+        return lines + _statements(r.steps, r.results, r.out)
 
     def _epilogue(self, r: Routine) -> list[str]:
         """The end of a function once its outputs are written: the test for finite values, the status."""
