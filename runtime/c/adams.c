@@ -190,6 +190,24 @@ static void am_integrals(const double *r, int m, double theta, double *out)
     }
 }
 
+/* am_integrals at theta = 1 (the predictor's and the corrector's: the powers of theta all 1, so that each term is
+ * c[p] / (p + 1), the same bits without the products), each out[i] times h^(i+1) (as the caller multiplied them). */
+static void am_step_integrals(const double *r, int m, double h, double *out)
+{
+    double c[ADAMS_KMAX + 3], hi = h;
+    int i, p;
+    c[0] = 1.0;
+    for (i = 0; i <= m; i++, hi *= h) {
+        double s = 0.0;
+        for (p = 0; p <= i; p++) s += c[p] / (p + 1);
+        out[i] = s * hi;
+        if (i == m) break;
+        c[i + 1] = c[i];
+        for (p = i; p > 0; p--) c[p] = c[p - 1] - r[i] * c[p];
+        c[0] = -r[i] * c[0];
+    }
+}
+
 /* The weights of ode.c's error norm (mbs_ode_error_norm) between y0 and y1: w = 1 / (atol + rtol max(|y0|, |y1|)). */
 ADAMS_ELEMENTWISE static void am_weights(const mbs_ode *o, const double *y0, const double *y1, double *w)
 {
@@ -236,10 +254,15 @@ ADAMS_ELEMENTWISE static double am_norm(int n, double c, const double *v, const 
 #endif
 #endif
 #if ADAMS_LANES
+/* out of line: its return clears the vectors' upper halves (vzeroupper), which inlined into am_step stayed dirty into
+ * the model's code (the Iltis's rhs then ran 4 % slower) */
+#define ADAMS_LANES_CALL __attribute__((noinline))
 typedef double am_v4 __attribute__((vector_size(32)));
 typedef long long am_m4 __attribute__((vector_size(32)));
 /* v = p[0 .. 4), unaligned (a macro: a function returning a vector warns of its ABI without AVX) */
 #define AM_LOAD4(v, p) memcpy(&(v), (p), sizeof(am_v4))
+#else
+#define ADAMS_LANES_CALL
 #endif
 
 /* 1 / (atol + rtol max(|a|, |b|)), max as am_weights takes it (a NaN b gives a) */
@@ -249,7 +272,7 @@ static double am_weight(double atol, double rtol, double y0, double y1)
     return 1.0 / (atol + rtol * (a >= b || b != b ? a : b));
 }
 
-static void am_estimates(const mbs_ode *o, const double *y0, const double *y1, int lo, int hi, const double *a,
+ADAMS_LANES_CALL static void am_estimates(const mbs_ode *o, const double *y0, const double *y1, int lo, int hi, const double *a,
                          double *const *e, double *err)
 {
     const int n = o->n, count = hi - lo + 1;
@@ -515,8 +538,12 @@ static int am_step(mbs_ode *o)
         x0 = last ? o->t_bound : t + h;
         /* predict: the nodes t_n, t_{n-1}, ... in the unit of the step from t_n */
         for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
-        am_integrals(r, k - 1, 1.0, a);
-        for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
+        if (ADAMS_FULL_CHAIN) {
+            am_integrals(r, k - 1, 1.0, a);
+            for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
+        } else {
+            am_step_integrals(r, k - 1, h, a);
+        }
         if (ADAMS_FULL_CHAIN) {
             memcpy(m->yp, y, (size_t)n * sizeof(double));
             for (i = k - 1; i >= 0; i--) am_axpy(n, a[i], m->d[i], m->yp);
@@ -537,8 +564,12 @@ static int am_step(mbs_ode *o)
             /* correct: the nodes x0, t_n, t_{n-1}, ... */
             r[0] = 1.0;
             for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
-            am_integrals(r, kmax_est, 1.0, a);
-            for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
+            if (ADAMS_FULL_CHAIN) {
+                am_integrals(r, kmax_est, 1.0, a);
+                for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
+            } else {
+                am_step_integrals(r, kmax_est, h, a);
+            }
             if (ADAMS_FULL_CHAIN) {
                 memcpy(m->yc, y, (size_t)n * sizeof(double));
                 for (i = k; i >= 0; i--) am_axpy(n, a[i], m->e[i], m->yc);
