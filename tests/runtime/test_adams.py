@@ -26,6 +26,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SWITCHES = Path(__file__).parent / "models" / "adams_switches.mbs"
 SLIDER_CRANK = ROOT / "library" / "examples" / "slider_crank.mbs"
 HANDBACK_STOP = Path(__file__).parent / "models" / "handback_stop.mbs"
+FOUR_BARS = Path(__file__).parent / "models" / "floating_four_bars.mbs"  # 25 states: 16 + 8 + 1
 ADAMS_C = ROOT / "runtime" / "c" / "adams.c"
 LINEAR = 0.0  # order_problems.c: x' = [[-a, w], [-w, -a]] x
 G = 9.81
@@ -193,13 +194,14 @@ def test_the_other_restarts_at_a_switch_are_as_right(cache_dir, restart):
     check_against_references(res)
 
 
-@pytest.mark.parametrize("path", [SWITCHES, SLIDER_CRANK], ids=["switches", "slider_crank"])
+@pytest.mark.parametrize("path", [SWITCHES, SLIDER_CRANK, FOUR_BARS], ids=["switches", "slider_crank", "four_bars"])
 def test_the_vectorized_step_and_the_shorter_chain_change_no_bit(cache_dir, path):
     """The step's loops vectorized and the chain with f_{n+1} updated only up to the difference a later step reads
     (adams.c) against -DADAMS_STEP_FORMER=1 (scalar loops, the whole chain every step, the error estimates one norm
     at a time, the dense output copied): the same steps and samples to the bit, through restarts (whose rebuilt chain
-    and lowered order a stale difference would show in) and order changes, and on the closed loop's projected steps;
-    and so the error estimates' scalar accumulators (-DADAMS_LANES=0, the build without GCC's vectors)."""
+    and lowered order a stale difference would show in) and order changes, and on the closed loop's projected steps
+    (the four-bars' 25 states through every block of the passes: sixteen, eight and one element at a time); and so
+    the error estimates' scalar accumulators (-DADAMS_LANES=0, the build without GCC's vectors)."""
     system = mbs.load(path)
     scene = "run" if path == SWITCHES else None
     data, settings = system.start(scene)
