@@ -89,6 +89,7 @@
  * (0.86; 472M with that build's own arithmetic, as measured before these changes).
  */
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef MBS_ODE_TRACE
@@ -793,27 +794,29 @@ static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double 
 {
     am_mem *m;
     double *a;
+    /* each vector on a 64-byte boundary (a cache line): the passes' four-element loads never straddle two */
+    const size_t stride = ((size_t)n + 7) / 8 * 8;
     int j;
     /* cont: order, t_n, h, the nodes (up to KMAX + 2), y_n and up to KMAX + 2 difference vectors (those written by
      * am_fill_cont when read from outside, see the dense output in am_step) */
     if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
                       3 + ADAMS_KMAX + 2 + (size_t)(ADAMS_KMAX + 3) * (size_t)n)) return -1;
-    m = calloc(1, sizeof(am_mem) + ((5 * ADAMS_NPOINT + 1 + 7) * (size_t)n + 1) * sizeof(double));
+    m = calloc(1, sizeof(am_mem) + 64 + ((5 * ADAMS_NPOINT + 1 + 7) * stride + 1) * sizeof(double));
     if (!m) return -1;
     o->impl = m;
-    a = (double *)(m + 1);
+    a = (double *)(((uintptr_t)(m + 1) + 63) & ~(uintptr_t)63);
     for (j = 0; j < ADAMS_NPOINT; j++) {
-        m->d[j] = a; a += n;
-        m->fv[j] = a; a += n;
-        m->yv[j] = a; a += n;
-        m->spare[j] = a; a += n;
+        m->d[j] = a; a += stride;
+        m->fv[j] = a; a += stride;
+        m->yv[j] = a; a += stride;
+        m->spare[j] = a; a += stride;
     }
-    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += n; }
-    m->yp = a; a += n;
-    m->fp = a; a += n;
-    m->yc = a; a += n;
-    m->w = a; a += n;
-    m->fnew = a; a += n;  /* f_{n+1} */
+    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += stride; }
+    m->yp = a; a += stride;
+    m->fp = a; a += stride;
+    m->yc = a; a += stride;
+    m->w = a; a += stride;
+    m->fnew = a; a += stride;  /* f_{n+1} */
     m->scratch = a;  /* 2n: the initial step's scratch */
     o->step = am_step;
     o->dense = am_dense;
