@@ -183,17 +183,17 @@ typedef struct {
     const double *dense_y, *dense_e[ADAMS_KMAX + 2];
 } am_mem;
 
-/* out[i] = integral from 0 to theta of prod_{j<i} (u - r[j]) du, i = 0 .. m (the Newton basis in the unit of the
- * step, expanded in powers of u; m <= ADAMS_KMAX + 1). */
-static void am_integrals(const double *r, int m, double theta, double *out)
+/* out[i] = h^(i+1) times the integral from 0 to theta of prod_{j<i} (u - r[j]) du, i = 0 .. m (the Newton basis in
+ * the unit of the step, expanded in powers of u; m <= ADAMS_KMAX + 1). */
+static void am_integrals(const double *r, int m, double theta, double h, double *out)
 {
-    double c[ADAMS_KMAX + 3];  /* coefficients of the product so far, c[p] of u^p */
+    double c[ADAMS_KMAX + 3], hi = h;  /* coefficients of the product so far, c[p] of u^p */
     int i, p;
     c[0] = 1.0;
-    for (i = 0; i <= m; i++) {
+    for (i = 0; i <= m; i++, hi *= h) {
         double s = 0.0, tp = theta;
         for (p = 0; p <= i; p++) { s += c[p] * tp / (p + 1); tp *= theta; }
-        out[i] = s;
+        out[i] = s * hi;
         if (i == m) break;
         c[i + 1] = c[i];
         for (p = i; p > 0; p--) c[p] = c[p - 1] - r[i] * c[p];
@@ -202,7 +202,7 @@ static void am_integrals(const double *r, int m, double theta, double *out)
 }
 
 /* am_integrals at theta = 1 (the predictor's and the corrector's: the powers of theta all 1, so that each term is
- * c[p] / (p + 1), the same bits without the products), each out[i] times h^(i+1) (as the caller multiplied them). */
+ * c[p] / (p + 1), the same bits without the products). */
 static void am_step_integrals(const double *r, int m, double h, double *out)
 {
     double c[ADAMS_KMAX + 3], hi = h;
@@ -555,11 +555,32 @@ static int am_wants_final(am_mem *m, double h_next, int k_next)
 
 /* L = ||f(y) - f_p|| / ||y - y_p||, unweighted (fnew: f(y); fp at yp): the Lipschitz constant along the
  * correction (the step's weights, unequal between the states, underestimated it on the damped oscillator) */
-static void am_measure_lip(am_mem *m, int n, const double *y)
+ADAMS_LANES_CALL static void am_measure_lip(am_mem *m, int n, const double *y)
 {
     double num = 0.0, den = 0.0;
-    int i;
-    for (i = 0; i < n; i++) {
+    int i = 0;
+#if ADAMS_LANES
+    {   /* four elements at a time, the two sums in lanes 0 and 1 of one vector, added element after element (the same
+         * bits; lanes 2 and 3 repeat them) */
+        const am_m4 front = {0, 4, 1, 5}, back = {2, 6, 3, 7}, first = {0, 1, 0, 1}, second = {2, 3, 2, 3};
+        am_v4 s = {0.0, 0.0, 0.0, 0.0};
+        for (; i + 4 <= n; i += 4) {
+            am_v4 f1, f0, y1, y0, lo, hi;
+            AM_LOAD4(f1, m->fnew + i); AM_LOAD4(f0, m->fp + i); AM_LOAD4(y1, y + i); AM_LOAD4(y0, m->yp + i);
+            f1 -= f0; y1 -= y0;
+            f1 *= f1; y1 *= y1;
+            lo = __builtin_shuffle(f1, y1, front);  /* df0^2, dy0^2, df1^2, dy1^2 */
+            hi = __builtin_shuffle(f1, y1, back);
+            s += __builtin_shuffle(lo, first);
+            s += __builtin_shuffle(lo, second);
+            s += __builtin_shuffle(hi, first);
+            s += __builtin_shuffle(hi, second);
+        }
+        num = s[0];
+        den = s[1];
+    }
+#endif
+    for (; i < n; i++) {
         const double df = m->fnew[i] - m->fp[i], dy = y[i] - m->yp[i];
         num += df * df;
         den += dy * dy;
@@ -580,7 +601,7 @@ static int am_step(mbs_ode *o)
     int i;
     if (o->t != m->t_hist || (o->t_old == o->t && o->naccept > 0)) am_restart(o, m);
     while (o->status == MBS_ODE_RUNNING) {
-        double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3], hi;
+        double h, t = o->t, x0, r[ADAMS_KMAX + 3], a[ADAMS_KMAX + 3], err[ADAMS_KMAX + 3];
         int last, k, kmax_est, kmax_err, knew, s, final;
         if (mbs_ode_next_h(o, &h, &last)) break;
         k = m->k < m->nh ? m->k : m->nh;
@@ -588,8 +609,7 @@ static int am_step(mbs_ode *o)
         /* predict: the nodes t_n, t_{n-1}, ... in the unit of the step from t_n */
         for (i = 0; i < k; i++) r[i] = (m->tt[i] - t) / h;
         if (ADAMS_FULL_CHAIN) {
-            am_integrals(r, k - 1, 1.0, a);
-            for (i = 0, hi = h; i < k; i++, hi *= h) a[i] *= hi;
+            am_integrals(r, k - 1, 1.0, h, a);
         } else {
             am_step_integrals(r, k - 1, h, a);
         }
@@ -614,8 +634,7 @@ static int am_step(mbs_ode *o)
             r[0] = 1.0;
             for (i = 1; i <= kmax_est; i++) r[i] = (m->tt[i - 1] - t) / h;
             if (ADAMS_FULL_CHAIN) {
-                am_integrals(r, kmax_est, 1.0, a);
-                for (i = 0, hi = h; i <= kmax_est; i++, hi *= h) a[i] *= hi;
+                am_integrals(r, kmax_est, 1.0, h, a);
             } else {
                 am_step_integrals(r, kmax_est, h, a);
             }
@@ -754,10 +773,9 @@ static void am_dense(const mbs_ode *o, double t, double *out)
     const am_mem *m = o->impl;
     const double *c = o->cont;
     const int n = o->n, k = (int)c[0];
-    double h = c[2], a[ADAMS_KMAX + 3], hi;
+    double h = c[2], a[ADAMS_KMAX + 3];
     int i;
-    am_integrals(c + 3, k, (t - c[1]) / h, a);
-    for (i = 0, hi = h; i <= k; i++, hi *= h) a[i] *= hi;
+    am_integrals(c + 3, k, (t - c[1]) / h, h, a);
     if (ADAMS_FULL_CHAIN) {
         memcpy(out, m->dense_y, (size_t)n * sizeof(double));
         for (i = k; i >= 0; i--) am_axpy(n, a[i], m->dense_e[i], out);
