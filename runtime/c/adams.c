@@ -87,13 +87,14 @@
  * accepted step, the integration 406M -> 398M; 22,800 with the former arithmetic (453M).  The integration against
  * the former PECE build at its rtol 5e-7 (python bench/adams.py --instructions --pece-rtols 5e-7): 398M against 464M
  * (0.86; 472M with that build's own arithmetic, as measured before these changes).
- * Then, on the whole bump_10 simulate (python bench/driver_instructions.py --scenes bump_10 --baseline 6555312, the
- * same steps and results to the bit): the error estimates in one pass, each in its own lane of a vector (am_estimates:
- * 6.4M -> 3.1M, and the chain of dependent additions a quarter as long); the dense output read where the step left its
- * vectors instead of copied every step (2M); f pushed into the history by exchanging pointers; the passes sixteen
- * elements at a time (am_combine 7.4M -> 5.8M, am_extend 4.5M -> 3.6M); the step's integrals without the powers of
- * theta = 1: the method's own part (am_*, their copies and pow) 8,400 -> 5,800 instructions an accepted step, the
- * simulate 289.0M -> 279.3M.  With the method's memory on 64-byte boundaries the simulate's CPU time was 0.93 of
+ * Then, on bump_10 (the same steps and results to the bit): the error estimates in one pass, each in its own lane of a
+ * vector (am_estimates: 6.4M -> 3.1M, and the chain of dependent additions a quarter as long; L's two sums so too);
+ * the dense output read where the step left its vectors instead of copied every step (2M); f pushed into the history
+ * by exchanging pointers; the passes sixteen elements at a time (am_combine 7.4M -> 5.8M, am_extend 4.5M -> 3.6M); the
+ * step's integrals without the powers of theta = 1: the method's own part 8,272 -> 5,705 instructions an accepted
+ * step, the integration 235.3M -> 225.4M (python bench/adams.py --instructions --baseline 6555312), the whole
+ * simulate 288.8M -> 278.8M (python bench/driver_instructions.py --scenes bump_10 --baseline 6555312; its --cpu 9
+ * rounds: 0.975 of the CPU time).  With the method's memory on 64-byte boundaries the simulate's CPU time was 0.93 of
  * main's (interleaved medians, exported checkouts; the bench's --cpu rounds 0.98), the same code unaligned 0.99
  * (1.00); with the model's work memory moved by a few cache lines the unaligned layout was the faster by 3-5 %: where
  * the run's arrays lie moves the time by several per cent, which no instruction count shows.
