@@ -94,13 +94,13 @@
  * step's integrals without the powers of theta = 1: the method's own part 8,272 -> 5,705 instructions an accepted
  * step, the integration 235.3M -> 225.4M (python bench/adams.py --instructions --baseline 6555312), the whole
  * simulate 288.8M -> 278.8M (python bench/driver_instructions.py --scenes bump_10 --baseline 6555312; its --cpu 9
- * rounds: 0.975 of the CPU time).  With the method's memory on 64-byte boundaries the simulate's CPU time was 0.93 of
- * main's (interleaved medians, exported checkouts; the bench's --cpu rounds 0.98), the same code unaligned 0.99
- * (1.00); with the model's work memory moved by a few cache lines the unaligned layout was the faster by 3-5 %: where
- * the run's arrays lie moves the time by several per cent, which no instruction count shows.
+ * rounds: 0.975 of the CPU time).  The method's memory on 64-byte boundaries (rows of n rounded up to 8 doubles)
+ * measured 0.93 of main's CPU time against 0.99 unaligned in one session, 1.006 of the unaligned in another (12
+ * interleaved rounds), and the slower by 3-5 % with the model's work memory moved by a few cache lines: no robust
+ * effect, not kept.  Where the run's arrays lie moves its time by several per cent (the model's work memory on a
+ * 64-byte boundary: 1.05), which no instruction count shows.
  */
 #include <math.h>
-#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef MBS_ODE_TRACE
@@ -823,29 +823,27 @@ static int mbs_adams_init(mbs_ode *o, int n, mbs_fn fn, const double *p, double 
 {
     am_mem *m;
     double *a;
-    /* each vector on a 64-byte boundary (a cache line): the passes' four-element loads never straddle two */
-    const size_t stride = ((size_t)n + 7) / 8 * 8;
     int j;
     /* cont: order, t_n, h, the nodes (up to KMAX + 2), y_n and up to KMAX + 2 difference vectors (those written by
      * am_fill_cont when read from outside, see the dense output in am_step) */
     if (mbs_ode_setup(o, n, fn, p, work, t0, y0, t_bound, rtol, atol, natol, h0, h_max, h_min, max_steps,
                       3 + ADAMS_KMAX + 2 + (size_t)(ADAMS_KMAX + 3) * (size_t)n)) return -1;
-    m = calloc(1, sizeof(am_mem) + 64 + ((5 * ADAMS_NPOINT + 1 + 7) * stride + 1) * sizeof(double));
+    m = calloc(1, sizeof(am_mem) + ((5 * ADAMS_NPOINT + 1 + 7) * (size_t)n + 1) * sizeof(double));
     if (!m) return -1;
     o->impl = m;
-    a = (double *)(((uintptr_t)(m + 1) + 63) & ~(uintptr_t)63);
+    a = (double *)(m + 1);
     for (j = 0; j < ADAMS_NPOINT; j++) {
-        m->d[j] = a; a += stride;
-        m->fv[j] = a; a += stride;
-        m->yv[j] = a; a += stride;
-        m->spare[j] = a; a += stride;
+        m->d[j] = a; a += n;
+        m->fv[j] = a; a += n;
+        m->yv[j] = a; a += n;
+        m->spare[j] = a; a += n;
     }
-    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += stride; }
-    m->yp = a; a += stride;
-    m->fp = a; a += stride;
-    m->yc = a; a += stride;
-    m->w = a; a += stride;
-    m->fnew = a; a += stride;  /* f_{n+1} */
+    for (j = 0; j <= ADAMS_NPOINT; j++) { m->e[j] = a; a += n; }
+    m->yp = a; a += n;
+    m->fp = a; a += n;
+    m->yc = a; a += n;
+    m->w = a; a += n;
+    m->fnew = a; a += n;  /* f_{n+1} */
     m->scratch = a;  /* 2n: the initial step's scratch */
     o->step = am_step;
     o->dense = am_dense;
