@@ -33,7 +33,7 @@ both), each run's errors against the reference printed beside (the measures abov
 accuracy.  `--pece-rtols R [R ...]`: also adams built -DADAMS_PECE_FORMER=1 (PECE throughout, the former build) at
 these rtols, interleaved, with the ratio adams / adams PECE; both adams runs then on models built in one piece.
 
-    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former] [--pece-rtols R]
+    python bench/adams.py --instructions [--cases bump_10] [--adams-rtols R] [--former] [--pece-rtols R] [--baseline REV]
 
 `--instructions`: the integration of one run (`Solver.sample`) counted in instructions under valgrind's callgrind
 (load-independent), split by part: the rhs calls, the projection of the accepted steps, the indicators (`mbs_events`,
@@ -42,7 +42,9 @@ method's own (its steps' arithmetic, the dense output at the samples, the rest),
 at the scenes' former settings (rtol 1e-7, atol 1e-9) and adams at the scene's own, adams at --adams-rtols
 (atol / 100) when given, with --former adams built with -DADAMS_STEP_FORMER=1 (its step's loops scalar, the
 whole chain of differences updated every step: the same bits), with --pece-rtols R [R ...] adams built
--DADAMS_PECE_FORMER=1 (f evaluated again at every accepted state) at each R.
+-DADAMS_PECE_FORMER=1 (f evaluated again at every accepted state) at each R, with --baseline REV adams of the checkout
+of git revision REV (exported as bench/driver_instructions.py exports it) at the scene's settings, and the ratios of
+the integration and the method's own part to it.
 valgrind's libm rounds a little differently, so its step counts may differ by a few from a run's own.
 
 Nothing is asserted: figures are printed for a reader to compare.
@@ -53,6 +55,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import re
 import statistics
 import subprocess
@@ -325,7 +328,7 @@ def instruction_parts(path: Path, total: int) -> dict[str, float]:
     return parts
 
 
-def instructions(cases, adams_rtols, former: bool, pece_rtols=None) -> None:
+def instructions(cases, adams_rtols, former: bool, pece_rtols=None, baseline: str | None = None) -> None:
     """--instructions: the integration's instructions by part (see the docstring)."""
     for name in cases:
         path, scene = CASES[name]
@@ -334,15 +337,26 @@ def instructions(cases, adams_rtols, former: bool, pece_rtols=None) -> None:
             runs.append(("adams former", "adams", "scene", ("-DADAMS_STEP_FORMER=1",)))
         runs += [(f"adams {r:g}", "adams", repr(r), ()) for r in adams_rtols or ()]
         runs += [(f"PECE {r:g}", "adams", repr(r), ("-DADAMS_PECE_FORMER=1",)) for r in pece_rtols or ()]
+        if baseline:
+            runs.append((f"adams {baseline}", "adams", "scene", ()))
         counts = {}
         with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ)
+            if baseline:
+                sys.path.insert(0, str(Path(__file__).resolve().parent))
+                from driver_instructions import export
+                (Path(tmp) / "baseline").mkdir()
+                checkout = export(baseline, Path(tmp) / "baseline")
             for label, integrator, rtol, flags in runs:
+                if baseline and label == f"adams {baseline}":  # mbs imported from the checkout
+                    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(checkout), os.environ.get("PYTHONPATH")]))
                 child = [sys.executable, "-c", INSTRUCTIONS_CHILD, str(ROOT / path), scene, integrator, rtol, *flags]
-                subprocess.run(child, check=True, capture_output=True)  # the build, outside valgrind
+                # the build, outside valgrind (run from tmp: python -c imports mbs from the working directory first)
+                subprocess.run(child, check=True, capture_output=True, env=env, cwd=tmp)
                 out = Path(tmp) / "callgrind.out"
                 done = subprocess.run(["valgrind", "--tool=callgrind", "--collect-atstart=no",
                                        "--toggle-collect=solver_sample", f"--callgrind-out-file={out}", *child],
-                                      capture_output=True, text=True)
+                                      capture_output=True, text=True, env=env, cwd=tmp)
                 total = re.search(r"Collected\s*:\s*(\d+)", done.stderr)
                 stats = re.search(r"^STATS (\d+) (\d+) (\d+)$", done.stdout, re.M)
                 if done.returncode != 0 or not total or not stats:
@@ -367,6 +381,10 @@ def instructions(cases, adams_rtols, former: bool, pece_rtols=None) -> None:
         if former:
             now, was = (counts[label][0]["integration"][1] for label in ("adams", "adams former"))
             print(f"  adams / adams former: {now / was:.3f}")
+        if baseline:
+            print(f"  adams / adams {baseline}: " + ", ".join(
+                f"{key} {counts['adams'][0][key][1] / counts[f'adams {baseline}'][0][key][1]:.3f}"
+                for key in ("integration", "method", "root finding", "restarts")))
 
 
 def main() -> None:
@@ -384,6 +402,8 @@ def main() -> None:
     parser.add_argument("--instructions", action="store_true",
                         help="the integration's instructions by part under callgrind instead")
     parser.add_argument("--former", action="store_true", help="--instructions: also adams built -DADAMS_STEP_FORMER=1")
+    parser.add_argument("--baseline", default=None, metavar="REV",
+                        help="--instructions: also adams of the checkout of git revision REV (the same-run baseline)")
     args = parser.parse_args()
     given = any(a.startswith("--adams-rtol") for a in sys.argv[1:])
     if args.whole:
@@ -391,7 +411,7 @@ def main() -> None:
         return
     if args.instructions:
         instructions(args.cases if any(a.startswith("--cases") for a in sys.argv[1:]) else ["bump_10"],
-                     args.adams_rtols if given else None, args.former, args.pece_rtols)
+                     args.adams_rtols if given else None, args.former, args.pece_rtols, args.baseline)
         return
     for name in args.cases:
         bench(name, args.rtols, args.adams_rtols, args.repeat, args.variants)

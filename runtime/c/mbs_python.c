@@ -667,6 +667,7 @@ static PyObject *solver_get_g_old(SolverObject *self, void *c)
 static PyObject *solver_get_cont(SolverObject *self, void *c)
 {
     (void)c;
+    if (self->ode.fill_cont) self->ode.fill_cont(&self->ode);
     return vector_copy(self->ode.cont, (npy_intp)self->ode.ncont);
 }
 

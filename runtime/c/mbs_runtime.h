@@ -95,8 +95,10 @@ struct mbs_ode {
     void (*take_over)(mbs_ode *, const mbs_ode *from);    /* copy the method memory a restart keeps from another
                                                            * solver of the same method (ode.c mbs_ode_take_over);
                                                            * NULL: none */
+    void (*fill_cont)(mbs_ode *);                         /* write the last step's coefficients into cont, for a
+                                                           * reader outside the method (NULL: cont holds them) */
     size_t ncont;           /* doubles of dense-output coefficients (a multiple of n) */
-    double *cont;           /* dense-output coefficients of the last step, owned */
+    double *cont;           /* dense-output coefficients of the last step, owned (see fill_cont) */
     void *impl;             /* method memory, owned */
 };
 
