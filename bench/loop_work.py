@@ -60,7 +60,8 @@ from output_rows import callgrind as rows_callgrind  # noqa: E402
 FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1", "-DMBS_LOOP_BLOCK_FORMER=1")
 #: --former: one change's switch alone, or all of them.
 FORMERS = {"all": FORMER_FLAGS,
-           "rates": ("-DMBS_LOOP_RATES_FORMER=1",)}
+           "rates": ("-DMBS_LOOP_RATES_FORMER=1",),
+           "kept": ("-DMBS_LOOP_STEP_KEPT_ATOL=0",)}
 #: The reference of --accuracy: DOPRI5 (the bump scenes' own integrator is adams) at a tight tolerance.
 REFERENCE = {"integrator": "dopri5", "rtol": 1e-11, "atol": 1e-13}
 #: --accuracy: the scene's tolerances times these, each run with both builds.
