@@ -170,12 +170,13 @@
  * fraction of its smallest atol when that is more (at most MBS_LOOP_STEP_KEPT_MAX): a drift three orders below what
  * each step's error test lets through in any coordinate changes nothing the run resolves, and the four-bars' rtol
  * 1e-10 and 1e-8 runs above (atol 1e-12 and 1e-10) keep their 1e-13.  The Iltis over the bump at 10 m/s (atol 2e-9:
- * 2e-12 kept) polished 2,527 of its 3,685 accepted steps, now 1,432 of 3,696: the projection of a step 8,459 -> 7,060
- * instructions, a whole simulate 0.991 of its instructions; its errors against a tight reference the same within the
- * spread of tolerances a hair apart (the mean of the columns' median errors over 16 such runs 4.8e-6 against 4.3e-6,
- * each run's between 2.8e-6 and 7.6e-6; DOPRI5 at rtol 1e-7, atol 1e-9: 1.11e-5 against 1.15e-5; `python
- * bench/loop_work.py --former kept --simulate --accuracy [--dopri5] --scales ...`).  A hundredth of atol (2e-11) saved
- * 2.5 % of the simulate, but its errors rose by 1.35 over four such runs, each one above the former's mean.
+ * 2e-12 kept) polished 2,527 of its 3,685 accepted steps, now 1,432 of 3,696: the projection of a step 7,686 -> 6,362
+ * instructions, a whole simulate 0.991 of its instructions (`python bench/loop_work.py --former kept --simulate`); its
+ * errors against a tight reference the same within the spread of tolerances a hair apart (`--accuracy --scales ...`:
+ * the mean of the columns' median errors over 40 such runs 4.96e-6 against 4.68e-6, each run's between 2.5e-6 and
+ * 8.7e-6; with DOPRI5 at rtol 1e-7, atol 1e-9, 1e-12 kept, over 8 runs 1.11e-5 against 1.15e-5: `--dopri5`).  A
+ * hundredth of atol (2e-11) saved 2.5 % of the simulate, but its errors rose by 1.35 over four such runs, each one
+ * above the former's mean.
  * -DMBS_LOOP_STEP_KEPT_ATOL=0: MBS_LOOP_STEP_KEPT alone. */
 #ifndef MBS_LOOP_STEP_KEPT_ATOL
 #ifdef MBS_MACHINERY_FORMER
