@@ -2120,9 +2120,10 @@ static int mbs_loop_project_stamped(double t, const double *x, const double *p, 
     if (!(res <= MBS_LOOP_STEP_DRIFT)) return -1;
     if (res > kept && (s = mbs_loop_polish(t, q, p, w, r, res, &after, 1)) != 0) return s;
     rated = after >= 0.0;
-    if (res > MBS_LOOP_TOL && res > kept) {  /* drifted beyond the tolerance: within it after the polish, else projected afresh;
-                                * the polish's last residual is that of the positions it left unless it undid a
-                                * step (the same constraints at the same positions: the same bits) */
+    if (res > MBS_LOOP_TOL && res > kept) {  /* drifted beyond the tolerance (and the drift kept): within it after
+                                              * the polish, else projected afresh; the polish's last residual is that
+                                              * of the positions it left unless it undid a step (the same constraints
+                                              * at the same positions: the same bits) */
         if (after < 0.0 || MBS_LOOP_RECHECK_FORMER) {
             if ((s = mbs_loop_residuals(t, q, p, w, 1)) != 0) return s;
             after = mbs_loop_maxabs(w->g, MBS_NC, NULL);

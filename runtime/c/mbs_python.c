@@ -393,7 +393,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         natol = mbs_model->nx;
     }
     if (!atol) { Py_XDECREF(y0_tmp); return NULL; }
-    for (smallest_atol = atol[0], k = 1; k < natol; k++) smallest_atol = atol[k] < smallest_atol ? atol[k] : smallest_atol;
+    for (smallest_atol = atol[0], k = 1; k < natol; k++)
+        smallest_atol = atol[k] < smallest_atol ? atol[k] : smallest_atol;
     self = (SolverObject *)type->tp_alloc(type, 0);
     if (!self) { Py_XDECREF(y0_tmp); Py_XDECREF(atol_tmp); return NULL; }
     Py_INCREF(fn_obj);
