@@ -47,7 +47,7 @@ steps starting from the factors of the row before; the multipliers solved over t
 block; with it the multipliers' rows of M over all columns, as --former lambda).  --former lambda:
 -DMBS_LOOP_LAMBDA_FORMER=1 (c/loops.c mbs_loop_lambda: the rows of M times vdot over all NV columns instead of their
 structural nonzeros).  --former kept: -DMBS_LOOP_STEP_KEPT_ATOL=0 (c/loops.c: an accepted step keeps a drift of at
-most 1e-13, not a thousandth of the run's smallest atol).  --instructions counts the outputs' rows instead of timing
+most 1e-13, not a hundredth of the run's smallest atol).  --instructions counts the outputs' rows instead of timing
 them (valgrind's callgrind, load-independent): one child process per build calls `Function.rows` over the run's
 rows (the arguments simulate passes, saved from a run) with callgrind collecting inside that call only; and a whole
 simulate from a first start and from the kept start (one child each, callgrind collecting inside one simulate after

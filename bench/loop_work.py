@@ -23,7 +23,7 @@ the same to the bit, or how far apart.  valgrind's libm rounds a little differen
 run's own (the same for both builds).
 
 --former NAME: the former build of one change only (FORMERS; all: every switch of FORMER_FLAGS, the default; kept: an
-accepted step keeps a drift of at most 1e-13, not a thousandth of the run's smallest atol, c/loops.c
+accepted step keeps a drift of at most 1e-13, not a hundredth of the run's smallest atol, c/loops.c
 MBS_LOOP_STEP_KEPT_ATOL).
 --simulate: also one whole simulate of the scene per build under callgrind (Python and C, after two uncounted runs),
 with its rhs calls, and the ratio.  --accuracy: also both builds' results against a tight reference of the scene

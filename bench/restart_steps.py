@@ -19,7 +19,7 @@ controller memory (c/ode.c mbs_ode_take_over).  With --where a RESUME is counted
 --former machinery: the baseline is the former machinery around the rhs calls, the same model built with
 -DMBS_MACHINERY_FORMER=1 (bench/event_instructions.py --machinery counts its instructions): the step counts and, with
 --accuracy, the results against the reference show what it changes (nothing but the accepted steps' projection:
-a step drifted by at most 1e-13, or a thousandth of atol, keeps its positions, one drifted beyond 1e-12 is polished
+a step drifted by at most 1e-13, or a hundredth of atol, keeps its positions, one drifted beyond 1e-12 is polished
 with the factors at hand instead of projected afresh; the trajectories part by round-off, then by the integration
 error).
 
