@@ -1,6 +1,6 @@
 """Where the time of the Iltis bump scenes goes, and the tree-speed bound: what is reachable at their tolerance.
 
-    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--former rows|lambda]
+    python bench/bump_cost.py [--scenes bump_5 bump_10] [--repeat 5] [--cache-dir DIR] [--former rows|lambda|kept]
                               [--no-former] [--instructions]
 
 Per scene, the whole `System.simulate(scene)` as a user runs it (equilibrium included, results with every output;
@@ -46,10 +46,12 @@ per row, current against former, with their ratios.  --former rows (the default)
 steps starting from the factors of the row before; the multipliers solved over the whole factors instead of block by
 block; with it the multipliers' rows of M over all columns, as --former lambda).  --former lambda:
 -DMBS_LOOP_LAMBDA_FORMER=1 (c/loops.c mbs_loop_lambda: the rows of M times vdot over all NV columns instead of their
-structural nonzeros).  --instructions counts the outputs' rows instead of timing them (valgrind's callgrind,
-load-independent): one child process per build calls `Function.rows` over the run's rows (the arguments simulate
-passes, saved from a run) with callgrind collecting inside that call only; and a whole simulate from a first start
-and from the kept start (one child each, callgrind collecting inside one simulate after two uncounted ones).
+structural nonzeros).  --former kept: -DMBS_LOOP_STEP_KEPT_ATOL=0 (c/loops.c: an accepted step keeps a drift of at
+most 1e-13, not a hundredth of the run's smallest atol).  --instructions counts the outputs' rows instead of timing
+them (valgrind's callgrind, load-independent): one child process per build calls `Function.rows` over the run's
+rows (the arguments simulate passes, saved from a run) with callgrind collecting inside that call only; and a whole
+simulate from a first start and from the kept start (one child each, callgrind collecting inside one simulate after
+two uncounted ones).
 """
 
 from __future__ import annotations
@@ -95,9 +97,11 @@ clock = time.process_time
 #: The former paths' builds (c/loops.c), by --former: every row projected afresh (and the multipliers' rows of M
 #: whole); the multipliers' rows of M over all columns.
 FORMER_FLAGS = {"rows": ("-DMBS_LOOP_ROWS_FORMER=1", "-DMBS_LOOP_LAMBDA_FORMER=1"),
-                "lambda": ("-DMBS_LOOP_LAMBDA_FORMER=1",)}
+                "lambda": ("-DMBS_LOOP_LAMBDA_FORMER=1",),
+                "kept": ("-DMBS_LOOP_STEP_KEPT_ATOL=0",)}
 #: What each former path is, for the printed comparison.
-FORMER_TEXT = {"rows": "every row projected afresh", "lambda": "the multipliers' rows of M over all columns"}
+FORMER_TEXT = {"rows": "every row projected afresh", "lambda": "the multipliers' rows of M over all columns",
+               "kept": "every accepted step that drifted beyond 1e-13 polished"}
 
 
 class PartTimer:

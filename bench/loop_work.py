@@ -1,6 +1,6 @@
 """The run-time loop work of the Iltis over the bump (c/loops.c), current against former, in instructions.
 
-    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR] [--former all|rates]
+    python bench/loop_work.py [--scene bump_10] [--no-rows] [--baseline DIR] [--former all|rates|kept]
                               [--simulate] [--accuracy [--scales S ...] [--dopri5]]
 
 Two builds of the scene's model: the current one and the former (FORMER_FLAGS, each a compile-time switch of
@@ -22,7 +22,9 @@ valgrind, one simulate with each build: whether the results (every column, every
 the same to the bit, or how far apart.  valgrind's libm rounds a little differently, so its step counts may differ by a few from a
 run's own (the same for both builds).
 
---former NAME: the former build of one change only (FORMERS; all: every switch of FORMER_FLAGS, the default).
+--former NAME: the former build of one change only (FORMERS; all: every switch of FORMER_FLAGS, the default; kept: an
+accepted step keeps a drift of at most 1e-13, not a hundredth of the run's smallest atol, c/loops.c
+MBS_LOOP_STEP_KEPT_ATOL).
 --simulate: also one whole simulate of the scene per build under callgrind (Python and C, after two uncounted runs),
 with its rhs calls, and the ratio.  --accuracy: also both builds' results against a tight reference of the scene
 (REFERENCE: DOPRI5 at rtol 1e-11), for a change that alters the trajectory: the largest difference of each column
@@ -60,7 +62,8 @@ from output_rows import callgrind as rows_callgrind  # noqa: E402
 FORMER_FLAGS = ("-DMBS_LOOP_RECHECK_FORMER=1", "-DMBS_LOOP_ROW_POLISH_FORMER=1", "-DMBS_LOOP_BLOCK_FORMER=1")
 #: --former: one change's switch alone, or all of them.
 FORMERS = {"all": FORMER_FLAGS,
-           "rates": ("-DMBS_LOOP_RATES_FORMER=1",)}
+           "rates": ("-DMBS_LOOP_RATES_FORMER=1",),
+           "kept": ("-DMBS_LOOP_STEP_KEPT_ATOL=0",)}
 #: The reference of --accuracy: DOPRI5 (the bump scenes' own integrator is adams) at a tight tolerance.
 REFERENCE = {"integrator": "dopri5", "rtol": 1e-11, "atol": 1e-13}
 #: --accuracy: the scene's tolerances times these, each run with both builds.

@@ -22,7 +22,7 @@ static const mbs_entry MBS_COLD_TABLE[] = {
 static const mbs_model_info MBS_COLD_INFO = {
     MBS_NQ, MBS_NV, MBS_NX, MBS_NP, MBS_NWORK, -1,
     MBS_COLD_TABLE, (int)(sizeof MBS_COLD_TABLE / sizeof MBS_COLD_TABLE[0]),
-    NULL, NULL, NULL, NULL, NULL, NULL, NULL,
+    NULL, NULL, NULL, NULL, NULL, NULL, NULL, NULL,
 };
 
 void *mbs_module_init(const char *name);

@@ -150,6 +150,11 @@ static mbs_model_info MBS_INFO = {
 #else
     NULL,
 #endif
+#ifdef MBS_NC
+    mbs_loop_step_drift,
+#else
+    NULL,
+#endif
 };
 
 /* The module under `name` (a string that lives as long as the process): what PyInit_<name> returns. */

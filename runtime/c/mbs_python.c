@@ -357,10 +357,10 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
                              "max_step", "min_step", "max_steps", NULL};
     const char *method;
     PyObject *fn_obj, *y0_obj, *atol_obj, *y0_tmp = NULL, *atol_tmp = NULL;
-    double t0, t_bound, rtol, first_step = 0.0, max_step = 0.0, min_step = 0.0;
+    double t0, t_bound, rtol, first_step = 0.0, max_step = 0.0, min_step = 0.0, smallest_atol;
     long max_steps = 1000000;
     const double *y0, *atol;
-    int natol, i, rc;
+    int natol, i, k, rc;
     FunctionObject *fn;
     mbs_fn rhs;
     SolverObject *self;
@@ -393,6 +393,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         natol = mbs_model->nx;
     }
     if (!atol) { Py_XDECREF(y0_tmp); return NULL; }
+    for (smallest_atol = atol[0], k = 1; k < natol; k++)
+        smallest_atol = atol[k] < smallest_atol ? atol[k] : smallest_atol;
     self = (SolverObject *)type->tp_alloc(type, 0);
     if (!self) { Py_XDECREF(y0_tmp); Py_XDECREF(atol_tmp); return NULL; }
     Py_INCREF(fn_obj);
@@ -418,6 +420,8 @@ static PyObject *solver_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
         /* the factors of G the last evaluation left serve the projection: DOPRI5's last stage is at the
          * accepted state, Adams' at its predicted state, near it (c/loops.c mbs_loop_stamp_q_near) */
         self->ode.project = rhs == mbs_model->rhs_direct ? mbs_model->project_step : mbs_model->project;
+        if (rhs == mbs_model->rhs_direct && mbs_model->step_drift)  /* the drift its accepted states may keep */
+            mbs_model->step_drift(fn->work, smallest_atol);
         rc = self->ode.yproj ? 0 : -1;
     }
     if (rc) { Py_DECREF(self); return PyErr_NoMemory(); }

@@ -30,6 +30,8 @@ typedef struct {
     mbs_fn project_step;        /* the projection that reuses rhs_direct's factors of the last stage */
     mbs_fn rows_project;        /* the projection before the outputs of a row (Function.rows `projected`) */
     mbs_indicator_fn event_indicator;  /* mbs_event_indicator: one of mbs_events' indicators alone, or NULL */
+    void (*step_drift)(double *work, double atol);  /* closed loops: a run's smallest atol to project_step in its work
+                                                     * (the drift an accepted state keeps, c/loops.c), or NULL */
 } mbs_model_info;
 
 /* The extension module `name` of the model `info` (a PyObject *, or NULL with a Python exception set): what the

@@ -288,18 +288,20 @@ def test_constraints_hold_after_a_long_run_without_drift(fb):
 def test_the_c_integrators_keep_their_own_state_on_the_constraints(fb, method):
     """Every accepted step is projected onto the constraints (coordinate projection), so the integrated state
     itself does not drift away by the accumulated integration error: at every step of a 20 s run its residual
-    stays within the Newton tolerance of the projection (1e-12). Unprojected, the state of such a run drifts
-    linearly in time, past 1e-8 at rtol 1e-8 (bench/loops.py before the projection)."""
+    stays within the Newton tolerance of the projection (1e-12), or within the drift an accepted step keeps when
+    that is more (a hundredth of atol, c/loops.c MBS_LOOP_STEP_KEPT_ATOL: 1e-11 at atol 1e-9). Unprojected, the
+    state of such a run drifts linearly in time, past 1e-8 at rtol 1e-8 (bench/loops.py before the projection)."""
     from mbs.runtime.integrators.registry import get_integrator
     data = fb.workspace(four_bar_state(1.0, 6.0, **FB), fixed=["crank.phi", "der(crank.phi)"])
-    solver = get_integrator(method)(data.function("rhs"), 0.0, data.x, 20.0, rtol=1e-7, atol=1e-9)
+    atol = 1e-9
+    solver = get_integrator(method)(data.function("rhs"), 0.0, data.x, 20.0, rtol=1e-7, atol=atol)
     residuals = []
     while solver.status == "running":
         solver.step()
         residuals.append(np.max(np.abs(data.constraints(solver.t, solver.y))))
     assert solver.status == "finished", solver.message
     assert len(residuals) > 100  # a long run of many steps
-    assert max(residuals) <= 1e-12
+    assert max(residuals) <= max(1e-12, 1e-2 * atol)
 
 
 def test_partition_switches_at_the_dead_centres(cache_dir):
