@@ -740,6 +740,15 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 #else
 #define MBS_LOOP_UNROLL
 #endif
+/* ... and the loops of T^T M T's factors and solve (mbs_loop_reduced_factor_solve), whose size is NV - NC where every
+ * row is a pivot row (the Iltis's 10): unrolled whole. */
+#if defined(__GNUC__) && !defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL_ALL _Pragma("GCC unroll 16")
+#elif defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL_ALL _Pragma("unroll 16")
+#else
+#define MBS_LOOP_UNROLL_ALL
+#endif
 #if defined(__GNUC__)
 #define MBS_LOOP_INLINE static inline __attribute__((always_inline))
 #else
@@ -759,6 +768,20 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
         case 6: CALL(6); break;   \
         default: CALL(n); break;  \
         }                         \
+    } while (0)
+#endif
+/* CALL(size) with the size m of T^T M T, a constant for NV - NC (the rank where every row is a pivot row, no loop
+ * redundant: the Iltis's 10), else a variable. */
+#if MBS_LOOP_BLOCK_FORMER || MBS_NV - MBS_NC < 2 || MBS_NV - MBS_NC > 16
+#define MBS_LOOP_BY_REDUCED_SIZE(m, CALL) CALL(m)
+#else
+#define MBS_LOOP_BY_REDUCED_SIZE(m, CALL)   \
+    do {                                    \
+        if ((m) == MBS_NV - MBS_NC) {       \
+            CALL(MBS_NV - MBS_NC);          \
+        } else {                            \
+            CALL(m);                        \
+        }                                   \
     } while (0)
 #endif
 /* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
@@ -1689,61 +1712,44 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
     return dmax;
 }
 
-/* y -= x a over entries i0 .. n - 1 (two columns of A = T^T M T, or the solve's right-hand side and a column).  (4 at a
- * time in vector instructions took more instructions for the Iltis's columns of 1 to 9 entries: 336.9 M against 335.0 M
- * for a bump_10 simulate.) */
-static inline void mbs_loop_column_update(double *restrict y, const double *restrict x, double a, int i0, int n)
-{
-    int i;
-    for (i = i0; i < n; i++) y[i] -= x[i] * a;
-}
-
 /* A = L D L^T in place (A's lower triangle by columns, as mbs_loop_reduced_mass writes it: L_ij at A[j NV + i] below
  * the diagonal, D_j on it); a pivot below MBS_LOOP_MASS_TOL times dmax, the largest diagonal entry, is a motion without
  * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
  * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
  * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
- * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
- * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
- * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs).  The
- * forward substitution L y = a and the division by D ride along, column k of L once it is done (a_k final then), as
- * the solve took them. */
-static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restrict a)
+ * instead of a short inner product an entry; a column whose L_jk is zero (another loop's block that M does not
+ * couple) is skipped, where the inner products skipped the zeros left of each row's first nonzero: the same values
+ * (exact zeros subtracted or not; at most the sign of a zero differs).  The forward substitution L y = a and the
+ * division by D ride along, column k of L once it is done (a_k final then), as the solve took them.  Inlined with m a
+ * constant for NV - NC (MBS_LOOP_BY_REDUCED_SIZE), its loops unrolled whole: the same arithmetic (the two columns in
+ * one pass over column k that it took before gave each entry the same product and difference), the Iltis's loop
+ * algebra of a bump_10 rhs 11,986 -> 10,696 instructions (bench/loop_work.py --baseline). */
+MBS_LOOP_INLINE int mbs_loop_reduced_factor_sized(double *A, const int m, double dmax, double *restrict a)
 {
-    int j, k;
+    int j, k, i;
+    MBS_LOOP_UNROLL_ALL
     for (k = 0; k < m; k++) {
         double *ck = A + k * MBS_NV, d = ck[k];
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
         if (!(d > MBS_LOOP_MASS_TOL * dmax)) {  /* (and its acceleration 0) */
-            memset(ck + k, 0, (size_t)(m - k) * sizeof(double));
+            MBS_LOOP_UNROLL_ALL
+            for (j = k; j < m; j++) ck[j] = 0.0;
             a[k] = 0.0;
             continue;
         }
-        for (j = k + 1; j + 4 <= m; j += 4) {  /* L's column: 4 quotients at a time (vector instructions) */
-            int q;
-            for (q = 0; q < 4; q++) ck[j + q] /= d;
-        }
-        for (; j < m; j++) ck[j] /= d;
-        mbs_loop_column_update(a, ck, a[k], k + 1, m);  /* the forward substitution's column k (a_k is final) */
+        MBS_LOOP_UNROLL_ALL
+        for (j = k + 1; j < m; j++) ck[j] /= d;  /* L's column */
+        MBS_LOOP_UNROLL_ALL
+        for (i = k + 1; i < m; i++) a[i] -= ck[i] * a[k];  /* the forward substitution's column k (a_k is final) */
         a[k] /= d;
+        MBS_LOOP_UNROLL_ALL
         for (j = k + 1; j < m; j++) {
+            double *restrict cj = A + j * MBS_NV;
             const double ld = ck[j] * d;  /* L_jk D_k */
             if (ld == 0.0) continue;
-            if (j + 1 < m && ck[j + 1] * d != 0.0) {  /* columns j and j + 1 in one pass over column k */
-                double *restrict y0 = A + j * MBS_NV, *restrict y1 = A + (j + 1) * MBS_NV;
-                const double *restrict x = ck;
-                const double l1 = ck[j + 1] * d;
-                int i;
-                y0[j] -= x[j] * ld;
-                for (i = j + 1; i < m; i++) {
-                    y0[i] -= x[i] * ld;
-                    y1[i] -= x[i] * l1;
-                }
-                j++;
-            } else {
-                mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
-            }
+            MBS_LOOP_UNROLL_ALL
+            for (i = j; i < m; i++) cj[i] -= ck[i] * ld;
         }
     }
     return 0;
@@ -1751,15 +1757,28 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restri
 
 /* a = L^-T a with the factors of mbs_loop_reduced_factor, which took a through L^-1 and D^-1 already (zero pivots: 0),
  * by rows of L^T (L's columns), back. */
-static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
+MBS_LOOP_INLINE void mbs_loop_reduced_solve_sized(const double *A, const int m, double *restrict a)
 {
     int j, k;
+    MBS_LOOP_UNROLL_ALL
     for (j = m - 1; j >= 0; j--) {
         const double *cj = A + j * MBS_NV;
         double s = a[j];
+        MBS_LOOP_UNROLL_ALL
         for (k = j + 1; k < m; k++) s -= cj[k] * a[k];
         a[j] = s;
     }
+}
+
+/* a = (T^T M T)^-1 a: its factors (in place of A) and the solve. */
+static int mbs_loop_reduced_factor_solve(double *A, int m, double dmax, double *restrict a)
+{
+    int s = 0;
+#define MBS_LOOP_REDUCED(size) \
+    if ((s = mbs_loop_reduced_factor_sized(A, size, dmax, a)) == 0) mbs_loop_reduced_solve_sized(A, size, a)
+    MBS_LOOP_BY_REDUCED_SIZE(m, MBS_LOOP_REDUCED);
+#undef MBS_LOOP_REDUCED
+    return s;
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -1788,8 +1807,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
         dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
         dmax = mbs_loop_reduced_mass(w, m, start);
-    if ((s = mbs_loop_reduced_factor(A, m, dmax, w->a)) != 0) return s;
-    mbs_loop_reduced_solve(A, m, w->a);
+    if ((s = mbs_loop_reduced_factor_solve(A, m, dmax, w->a)) != 0) return s;
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
     for (j = 0; j < m; j++) {
