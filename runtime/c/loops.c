@@ -325,13 +325,16 @@ static double mbs_loop_maxabs(const double *a, int n, int *where)
 }
 
 /* Are all n entries of a finite?  (0 x is 0 for a finite x, NaN for an infinite one or NaN: no branch per entry,
- * where mbs_loop_maxabs, which also says where, takes one.) */
+ * where mbs_loop_maxabs, which also says where, takes one.)  Four independent sums, which the compiler makes one
+ * vector's (a single running sum of zeros keeps its order: one scalar product and sum an entry). */
 static int mbs_loop_finite(const double *a, int n)
 {
-    double probe = 0.0;
-    int i;
-    for (i = 0; i < n; i++) probe += 0.0 * a[i];
-    return probe == 0.0;
+    double probe[4] = {0.0, 0.0, 0.0, 0.0};
+    int i, k;
+    for (i = 0; i + 4 <= n; i += 4)
+        for (k = 0; k < 4; k++) probe[k] += 0.0 * a[i + k];
+    for (; i < n; i++) probe[0] += 0.0 * a[i];
+    return (probe[0] + probe[1]) + (probe[2] + probe[3]) == 0.0;
 }
 
 /* Unit quaternions in the position part of x. */
@@ -526,7 +529,8 @@ typedef struct {
     int *j0;     /* NC + 1: and the independent column positions jl[j0[b]] .. jl[j0[b + 1] - 1] */
     int *jl;     /* NV */
     int *block;  /* NV: the block of each column position, -1 for an independent one that no pivot row touches */
-    int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
+    int *clean;  /* 1: the r rows of w->G are zero outside the blocks and w->cp holds the kept columns (the last
+                  * factors were these blocks': only mbs_loop_factor writes either otherwise) */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
     int *ng;     /* the entries of G the blocks hold (at most NC x NV), */
@@ -848,7 +852,6 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     const int forward = w->terms;  /* gddot0 at hand: its forward substitution rides along (w->forward) */
     int i, k, c, b, e;
     w->forward = 0;
-    memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
     if (forward) {  /* (bl.row: rp as ints, before the row exchanges; 4 a loop) */
         const double *restrict h = w->h;
@@ -861,8 +864,9 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         for (; k < r; k++) y[k] = -h[bl.row[k]];
     } else
         memset(y, 0, (size_t)r * sizeof(double));
-    if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
+    if (!*bl.clean) {  /* another factorisation wrote w->G and w->cp since these blocks' last one */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
+        memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));  /* (the blocks' row exchanges leave it) */
         *bl.clean = 1;
     }
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
