@@ -1593,8 +1593,9 @@ static const double *mbs_loop_mass_times_column(const double *restrict M, const 
  * mbs_loop_mass_times_column adds them up (the same bits: the chunks' other columns add exact zeros to sums that
  * start at +0), in a vector register, one load, product and sum a row, where the rows' runs of 1 to 6 columns
  * took a scalar loop and its control a column (the Iltis: about 710 -> 360 instructions a column of T). */
-static const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
-                                               const int *ti, int n, const int *chunk, double *restrict mt)
+MBS_LOOP_INLINE const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
+                                                        const int *ti, const int n, const int *chunk,
+                                                        double *restrict mt)
 {
     int e, k, q;
     if (chunk[0] < 0) return mbs_loop_mass_times_column(M, tv, ti, n, mt);
@@ -1602,6 +1603,7 @@ static const double *mbs_loop_mass_times_block(const double *restrict M, const d
     for (q = 1; q <= chunk[0]; q += 2) {  /* two chunks at a time (an odd last one twice: the same values) */
         const int v0 = chunk[q], v1 = chunk[q + 1 <= chunk[0] ? q + 1 : q];
         double s0[4] = {0.0, 0.0, 0.0, 0.0}, s1[4] = {0.0, 0.0, 0.0, 0.0};
+        MBS_LOOP_UNROLL
         for (e = 0; e < n; e++) {
             const double *restrict row = M + ti[e] * MBS_NV;
             const double c = tv[e];
@@ -1678,6 +1680,35 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
     return dmax;
 }
 
+/* Column j of A (its entries i >= j) and a_j for a column of T a loop's block moves (nt entries, its block's chunks of
+ * M, the columns i < coupled of T that M couples with it, na such columns in all), as mbs_loop_reduced_mass_blocks
+ * describes; inlined with nt a constant for the sizes MBS_LOOP_BY_SIZE lists (1 + the block's rows), its loops over
+ * T_j's entries (and M T_j's, mbs_loop_mass_times_block) unrolled: the same arithmetic in the same order, T, T^T M T,
+ * its factors and vdot of a bump_10 rhs 6,034 -> 5,422 instructions (bench/loop_work.py --baseline).  Returns A_jj. */
+MBS_LOOP_INLINE double mbs_loop_reduced_column_block(mbs_loop_work *w, int r, const int *start, const int *cpi,
+                                                   int j, const int nt, const int *chunk, int coupled, int na, int m)
+{
+    const double *T = w->T, *Tj = w->T + start[j], *f = w->f;
+    const int *Ti = w->Ti, *Tij = w->Ti + start[j];
+    const double *mt = mbs_loop_mass_times_block(w->M, Tj, Tij, nt, chunk, w->b);
+    double *Aj = w->A + j * MBS_NV, sum = 0.0;
+    int i, e;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) sum += Tj[e] * f[Tij[e]];
+    w->a[j] = sum - mbs_loop_dot(mt, w->c0);
+    sum = 0.0;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) sum += Tj[e] * mt[Tij[e]];
+    Aj[j] = sum;
+    for (i = j + 1; i < coupled; i++) {
+        for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
+        Aj[i] = sum;
+    }
+    for (; i < na; i++) Aj[i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
+    for (; i < m; i++) Aj[i] = mt[cpi[r + i]];
+    return Aj[j];
+}
+
 /* A and a as mbs_loop_reduced_mass forms them (the same arithmetic in the same order) for T from
  * mbs_loop_null_space_blocks: its first na columns are those a loop moves (its blocks' independent velocities), the
  * others unit columns (independent velocities no loop moves, the plan puts them last), so the kind of each entry
@@ -1686,26 +1717,21 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
  * block beyond the reach of T_j's, mbs_loop_blocks_coupled).  Returns the largest diagonal entry. */
 static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
 {
-    const double *T = w->T, *M = w->M;
-    const int *Ti = w->Ti;
+    const double *M = w->M;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     const int m = MBS_NV - r, na = bl.j0[*bl.nb];
     double *A = w->A, dmax = 0.0;
-    int i, j, e;
+    int i, j;
     for (j = 0; j < na; j++) {
-        const double *mt = mbs_loop_mass_times_block(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
-                                                     bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * bl.block[r + j], w->b);
-        const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
-        double sum = 0.0;
-        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
-        w->a[j] = sum - mbs_loop_dot(mt, w->c0);
-        for (i = j; i < coupled; i++) {
-            for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
-            A[j * MBS_NV + i] = sum;
-        }
-        for (; i < na; i++) A[j * MBS_NV + i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
-        for (; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
-        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+        const int b = bl.block[r + j], n = start[j + 1] - start[j] - 1;  /* T_j: 1 + the block's rows (its size) */
+        const int *chunk = bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * b;
+        const int coupled = bl.j0[bl.reach[b] + 1];  /* the columns of T M couples with T_j's */
+        double d;
+#define MBS_LOOP_REDUCED_COLUMN(size) \
+        d = mbs_loop_reduced_column_block(w, r, start, cpi, j, 1 + (size), chunk, coupled, na, m)
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_REDUCED_COLUMN);
+#undef MBS_LOOP_REDUCED_COLUMN
+        dmax = d > dmax ? d : dmax;
     }
     for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
         const double *mt = M + cpi[r + j] * MBS_NV;
