@@ -730,10 +730,12 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 /* The kernels of one block of the kept partition (its elimination, solve, null-space columns and multipliers) are
  * inlined with the block's size, its number of pivot rows, a constant for the sizes MBS_LOOP_BY_SIZE lists, so that
  * their loops over the block's rows and columns unroll: tiny loops (a spatial loop's 6 rows and fewer) whose control
- * and index arithmetic cost more than their products.  The null space's columns (mbs_loop_null_space_block) keep their
- * loops: unrolled, they took 500 instructions fewer a call but made the Iltis's loop_rhs about 10 % slower in CPU time
- * (interleaved medians).  Other sizes take the same kernels with the size a variable; the same arithmetic in the same
- * order either way (the same bits).  -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
+ * and index arithmetic cost more than their products.  (The null space's columns, mbs_loop_null_space_block, kept their
+ * loops for a while: unrolled, they took 500 instructions fewer a call but the Iltis's loop_rhs measured 10 % slower
+ * in CPU time.  The luck of the library's pages in physical memory moves loop_rhs by up to 20 % with the same code,
+ * build to build: over fresh copies of each build, bench/rhs_placement.py, they run 0.99 of the loops'.)  Other sizes
+ * take the same kernels with the size a variable; the same arithmetic in the same order either way (the same bits).
+ * -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
 #ifndef MBS_LOOP_BLOCK_FORMER
 #define MBS_LOOP_BLOCK_FORMER 0
 #endif
@@ -1411,9 +1413,9 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns. */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
- * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops of
- * arithmetic not unrolled (see MBS_LOOP_UNROLL), its copies into T and c0 unrolled (the Iltis: 100 instructions fewer
- * a call). */
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its back
+ * substitutions and its copies into T and c0 unrolled (the Iltis's loop algebra of a bump_10 rhs 9,945 -> 9,540
+ * instructions, bench/loop_work.py; see MBS_LOOP_UNROLL for the CPU time). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
                                              const int *jl, int *start, const int *cpi, int *e)
 {
@@ -1433,11 +1435,13 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
         start[j] = *e;
         T[*e] = 1.0;
         Ti[(*e)++] = cpi[jl[j]];
+        MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             const double *g = B + k * MBS_NV;
             double sum = -g[col];
             if (j == j0) {
                 double s0 = y[k];
+                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) {
                     s0 -= g[c] * y[c];
                     sum -= g[c] * yt[c];
