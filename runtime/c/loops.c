@@ -1815,6 +1815,35 @@ static int mbs_loop_reduced_factor_solve(double *A, int m, double dmax, double *
     return s;
 }
 
+/* One column of T a (nt entries from e) added into vd; inlined with nt a constant for the sizes MBS_LOOP_BY_SIZE lists
+ * (1 + a block's rows). */
+MBS_LOOP_INLINE void mbs_loop_vdot_column(double *restrict vd, const double *restrict T, const int *Ti, const int nt,
+                                        double aj)
+{
+    int e;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) vd[Ti[e]] += T[e] * aj;
+}
+
+/* vd += T a for T from mbs_loop_null_space_blocks: its columns of the loops' blocks with their sizes, then its unit
+ * columns, one entry 1 each (1 a_j is a_j: the same sums). */
+static void mbs_loop_vdot_blocks(mbs_loop_work *w, int r, const int *start)
+{
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    const int m = MBS_NV - r, na = bl.j0[*bl.nb];
+    const double *T = w->T, *a = w->a;
+    const int *Ti = w->Ti;
+    double *restrict vd = w->vd;
+    int j;
+    for (j = 0; j < na; j++) {
+        const int n = start[j + 1] - start[j] - 1;
+#define MBS_LOOP_VDOT(size) mbs_loop_vdot_column(vd, T + start[j], Ti + start[j], 1 + (size), a[j])
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_VDOT);
+#undef MBS_LOOP_VDOT
+    }
+    for (; j < m; j++) vd[Ti[start[j]]] += a[j];
+}
+
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
  * position (mbs_loop_limit_rows). */
 static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, int *rank)
@@ -1844,11 +1873,14 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if ((s = mbs_loop_reduced_factor_solve(A, m, dmax, w->a)) != 0) return s;
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
-    for (j = 0; j < m; j++) {
-        double *restrict vd = w->vd;
-        const double aj = w->a[j];  /* (once: vd's entries are doubles too) */
-        for (k = start[j]; k < start[j + 1]; k++) vd[Ti[k]] += T[k] * aj;
-    }
+    if (w->blocked)
+        mbs_loop_vdot_blocks(w, r, start);
+    else
+        for (j = 0; j < m; j++) {
+            double *restrict vd = w->vd;
+            const double aj = w->a[j];  /* (once: vd's entries are doubles too) */
+            for (k = start[j]; k < start[j + 1]; k++) vd[Ti[k]] += T[k] * aj;
+        }
 #ifdef MBS_NLOADED
     if (mbs_loop_finite(w->vd, MBS_NV)) return mbs_loop_bearing_friction(t, p, w, r, m, start);
 #endif
