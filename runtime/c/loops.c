@@ -1417,11 +1417,11 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * substitutions and its copies into T and c0 unrolled (the Iltis's loop algebra of a bump_10 rhs 9,945 -> 9,540
  * instructions, bench/loop_work.py; see MBS_LOOP_UNROLL for the CPU time). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
-                                             const int *jl, int *start, const int *cpi, int *e)
+                                             const int *jl, int *start, const int *cpi, int *at)
 {
     const double *B = w->G + k0 * MBS_NV + k0;
-    double *T = w->T, *y = w->y + k0, yt[MBS_NC];
-    int *Ti = w->Ti, j, k, c;
+    double *restrict T = w->T, *restrict c0 = w->c0, *y = w->y + k0, yt[MBS_NC];
+    int *restrict Ti = w->Ti, j, k, c, e = *at;  /* (locals: a store through T, Ti or c0 changes none of them) */
     if (!w->forward) {
         for (k = 0; k < n; k++) {  /* L11 y = -gddot0 on the block's rows */
             const double *g = B + k * MBS_NV;
@@ -1432,9 +1432,9 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
     }
     for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
         const int col = jl[j] - k0;  /* relative to the block's first column */
-        start[j] = *e;
-        T[*e] = 1.0;
-        Ti[(*e)++] = cpi[jl[j]];
+        start[j] = e;
+        T[e] = 1.0;
+        Ti[e++] = cpi[jl[j]];
         MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             const double *g = B + k * MBS_NV;
@@ -1454,9 +1454,10 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
         }
         MBS_LOOP_UNROLL
         for (k = 0; k < n; k++) {
-            T[*e] = yt[k];
-            Ti[(*e)++] = cpi[k0 + k];
+            T[e + k] = yt[k];
+            Ti[e + k] = cpi[k0 + k];
         }
+        e += n;
     }
     if (j0 == j1) {  /* no independent column moves this block: c0_D alone */
         for (k = n - 1; k >= 0; k--) {
@@ -1466,7 +1467,8 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
         }
     }
     MBS_LOOP_UNROLL
-    for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
+    for (k = 0; k < n; k++) c0[cpi[k0 + k]] = y[k];
+    *at = e;
 }
 
 static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
