@@ -96,8 +96,9 @@
 /* The stamp of the factors mbs_loop_rhs_direct leaves (mbs_loop_stamp_store): marker, t, (unused), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 3 NV + 2 NC NV ints in
- * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block). */
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 4 NV + 2 NC NV ints in
+ * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block; the
+ * last NV the offsets of T's columns). */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 6 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #define MBS_LOOP_MASS_CHUNKS 7
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
@@ -530,7 +531,9 @@ typedef struct {
     int *jl;     /* NV */
     int *block;  /* NV: the block of each column position, -1 for an independent one that no pivot row touches */
     int *clean;  /* 1: the r rows of w->G are zero outside the blocks and w->cp holds the kept columns (the last
-                  * factors were these blocks': only mbs_loop_factor writes either otherwise) */
+                  * factors were these blocks': only mbs_loop_factor writes either otherwise); 3: besides, w->T, w->Ti
+                  * and w->c0 hold the pattern of mbs_loop_null_space_blocks (only mbs_loop_null_space writes them
+                  * otherwise, after mbs_loop_factor), and start its columns' offsets */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
     int *ng;     /* the entries of G the blocks hold (at most NC x NV), */
@@ -540,6 +543,7 @@ typedef struct {
     int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
                   * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
     int *mchunk; /* NC x (1 + MBS_LOOP_MASS_CHUNKS): block b's chunks of columns of M T_j (mbs_loop_plan_mass_chunks) */
+    int *start;  /* NV - r + 1 (at most NV, the room's last NV ints): the offsets of T's columns in w->T, w->Ti (clean 3) */
 } mbs_loop_blocks;
 
 static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -559,7 +563,8 @@ static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.src = s; s += MBS_NC * MBS_NV;
     b.dst = s; s += MBS_NC * MBS_NV;
     b.reach = s; s += MBS_NC;
-    b.mchunk = s;
+    b.mchunk = s; s += MBS_NC * (1 + MBS_LOOP_MASS_CHUNKS);
+    b.start = s;
     return b;
 }
 
@@ -866,7 +871,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         for (; k < r; k++) y[k] = -h[bl.row[k]];
     } else
         memset(y, 0, (size_t)r * sizeof(double));
-    if (!*bl.clean) {  /* another factorisation wrote w->G and w->cp since these blocks' last one */
+    if (!*bl.clean) {  /* another factorisation wrote w->G and w->cp since these blocks' last one (clean 1 or 3 else) */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
         memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));  /* (the blocks' row exchanges leave it) */
         *bl.clean = 1;
@@ -1411,13 +1416,15 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * by block (the plan lists the independent columns a block moves block by block, the unit ones last): c0_D's
  * forward substitution (unless the elimination did it, w->forward), then the back substitutions with U11 of c0_D
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
- * pass over U11 instead of two), then those of its other columns. */
+ * pass over U11 instead of two), then those of its other columns.  T's pattern depends on the plan alone (the
+ * offsets of its columns, in the plan's start, their unit entries and velocities, and c0_I = 0): written by the
+ * first call after another factorisation (the plan's clean flag 1), kept by the next ones (3). */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
  * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its back
  * substitutions and its copies into T and c0 unrolled (the Iltis's loop algebra of a bump_10 rhs 9,945 -> 9,540
  * instructions, bench/loop_work.py; see MBS_LOOP_UNROLL for the CPU time). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
-                                             const int *jl, int *start, const int *cpi, int *at)
+                                             const int *jl, int *start, const int *cpi, int *at, int pattern)
 {
     const double *B = w->G + k0 * MBS_NV + k0;
     double *restrict T = w->T, *restrict c0 = w->c0, *y = w->y + k0, yt[MBS_NC];
@@ -1432,9 +1439,14 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
     }
     for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
         const int col = jl[j] - k0;  /* relative to the block's first column */
-        start[j] = e;
-        T[e] = 1.0;
-        Ti[e++] = cpi[jl[j]];
+        if (pattern) {  /* the column's offset, its unit entry and its velocities: the plan's, written once */
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e] = cpi[jl[j]];
+            MBS_LOOP_UNROLL
+            for (k = 0; k < n; k++) Ti[e + 1 + k] = cpi[k0 + k];
+        }
+        e++;
         MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             const double *g = B + k * MBS_NV;
@@ -1453,10 +1465,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
             yt[k] = sum / g[k];
         }
         MBS_LOOP_UNROLL
-        for (k = 0; k < n; k++) {
-            T[e + k] = yt[k];
-            Ti[e + k] = cpi[k0 + k];
-        }
+        for (k = 0; k < n; k++) T[e + k] = yt[k];
         e += n;
     }
     if (j0 == j1) {  /* no independent column moves this block: c0_D alone */
@@ -1476,21 +1485,24 @@ static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, cons
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     double *T = w->T;
     int *Ti = w->Ti, b, j, e = 0;
-    const int m = MBS_NV - r;
-    memset(w->c0, 0, MBS_NV * sizeof(double));
+    const int m = MBS_NV - r, pattern = *bl.clean != 3;  /* (clean 1 here: these blocks' factors) */
+    if (pattern) memset(w->c0, 0, MBS_NV * sizeof(double));  /* c0_I = 0, the blocks write c0_D */
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, j0 = bl.j0[b], j1 = bl.j0[b + 1];
-#define MBS_LOOP_NULL_SPACE(size) mbs_loop_null_space_block(w, k0, size, j0, j1, bl.jl, start, cpi, &e)
+#define MBS_LOOP_NULL_SPACE(size) mbs_loop_null_space_block(w, k0, size, j0, j1, bl.jl, start, cpi, &e, pattern)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_NULL_SPACE);
 #undef MBS_LOOP_NULL_SPACE
     }
     w->forward = 0;  /* y is c0_D now */
-    for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
-        start[j] = e;
-        T[e] = 1.0;
-        Ti[e++] = cpi[r + j];
+    if (pattern) {
+        for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = cpi[r + j];
+        }
+        start[m] = e;
+        *bl.clean = 3;
     }
-    start[m] = e;
 }
 
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
@@ -1852,7 +1864,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, dmax;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    int *Ti = w->Ti, own_start[MBS_NV + 1], *start = own_start, cpi[MBS_NV];
     int j, k, s;
     if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
                     * the same state finds h replaced at a singular position) */
@@ -1864,10 +1876,12 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
     /* the null-space basis T (NV x m, packed columns) and c0 */
-    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
+    if (w->blocked) {  /* the kept columns as ints from its plan (w->cp holds them as doubles), T's offsets there */
+        start = mbs_loop_plan_blocks(w).start;
         mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
+    } else {
         mbs_loop_null_space(w, r, start, cpi);
+    }
     if (w->blocked)  /* the kept partition's columns of T in the order of its plan */
         dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
     else
