@@ -944,14 +944,15 @@ static void mbs_loop_plan_dirty(const mbs_loop_work *w)
 }
 
 /* mbs_loop_solve with the factors of mbs_loop_factor_blocks: each block's rows from its own columns (the same
- * arithmetic in the same order: the other blocks' entries of a row are exact zeros). */
+ * arithmetic in the same order: the other blocks' entries of a row are exact zeros); the columns' velocities as the
+ * plan's ints (col: w->cp as it holds them). */
 /* One block's part of mbs_loop_solve_blocks (n pivot rows from position k0, its independent columns jl), inlined with n
  * a constant for the sizes MBS_LOOP_BY_SIZE lists. */
 MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *h, double *z, const int k0, const int n,
-                                        const int *jl, const int nj)
+                                        const int *jl, const int nj, const int *col)
 {
-    const double *B = w->G + k0 * MBS_NV + k0;
-    double *y = w->y + k0;
+    const double *restrict B = w->G + k0 * MBS_NV + k0;
+    double *restrict y = w->y + k0;
     int c, e, k;
     MBS_LOOP_UNROLL
     for (k = 0; k < n; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
@@ -961,7 +962,7 @@ MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *
         y[k] = s;
     }
     for (e = 0; e < nj; e++) {
-        const double zj = z[(int)w->cp[jl[e]]];
+        const double zj = z[col[jl[e]]];
         const double *a = w->G + k0 * MBS_NV + jl[e];
         if (zj != 0.0) {
             MBS_LOOP_UNROLL
@@ -976,7 +977,7 @@ MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *
         y[k] = s / B[k * MBS_NV + k];
     }
     MBS_LOOP_UNROLL
-    for (k = 0; k < n; k++) z[(int)w->cp[k0 + k]] = y[k];
+    for (k = 0; k < n; k++) z[col[k0 + k]] = y[k];
 }
 
 static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z)
@@ -985,7 +986,7 @@ static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, doubl
     int b;
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-#define MBS_LOOP_SOLVE(size) mbs_loop_solve_block(w, h, z, k0, size, jl, nj)
+#define MBS_LOOP_SOLVE(size) mbs_loop_solve_block(w, h, z, k0, size, jl, nj, bl.col)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_SOLVE);
 #undef MBS_LOOP_SOLVE
     }
