@@ -797,8 +797,10 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 #endif
 /* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
  * (nj) and y riding along (the forward substitution of gddot0 when the caller has it, else of zeros: one more column
- * either way, no test an entry); returns the smallest relative pivot so far, or -1 when a pivot
- * vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, so that its loops unroll. */
+ * either way, no test an entry); returns the smallest pivot so far (its size: the caller divides the smallest by
+ * max |G| once, where a quotient a pivot took a division each; the quotients' order is the pivots', so the smallest
+ * quotient is the same), or -1 when a pivot vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists,
+ * so that its loops unroll. */
 MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y, const int k0, const int n,
                                              const int *jl, const int nj, const double amax0,
                                              double minpivot)
@@ -815,7 +817,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
             if (v > amax) { amax = v; pi = i; }
         }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return -1.0;
-        minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
+        minpivot = amax < minpivot ? amax : minpivot;
         if (pi != k) {
             double *x = B + k * MBS_NV, *z = B + pi * MBS_NV;
             for (c = 0; c < n; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
@@ -934,7 +936,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         if (minpivot < 0.0) return 0.0;
     }
     w->forward = forward;
-    return minpivot;
+    return minpivot < HUGE_VAL ? minpivot / amax0 : minpivot;  /* (the smallest pivot relative to max |G|) */
 }
 
 /* Another factorisation is about to write w->G: the blocks' rows are no longer zero outside them. */
