@@ -1463,6 +1463,7 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
                 }
                 y[k] = s0 / g[k];
             } else {
+                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) sum -= g[c] * yt[c];
             }
             yt[k] = sum / g[k];
