@@ -72,6 +72,12 @@
  * (mbs_loop_reduced_factor), the gather of G and the copies into T and c0 with less control: the same bits again
  * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 11,981 instructions (the kept factors of G
  * 4,184 -> 3,716, the rest 9,132 -> 7,139), a whole simulate 344.5 M -> 328.9 M (bench/loop_work.py --baseline).
+ * Then T^T M T's L D L^T and solve with its size a constant (NV - NC, MBS_LOOP_BY_REDUCED_SIZE), its columns of the
+ * loops' blocks, M T_j, vdot and the null space's back substitutions with T_j's size a constant, T's pattern kept
+ * with the plan, the pivots' quotients taken once: the same bits, the loop algebra of a bump_10 rhs 11,986 -> 9,201
+ * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,796), a whole simulate 281.4 M -> 264.4 M
+ * (bench/loop_work.py --baseline --simulate), the code of mbs_loop_accelerations 11 -> 28 kB; loop_rhs's CPU time over
+ * fresh copies of each library within the pages' luck of the former's (bench/rhs_placement.py: 0.995 of it, medians).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
