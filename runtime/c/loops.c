@@ -74,10 +74,11 @@
  * 4,184 -> 3,716, the rest 9,132 -> 7,139), a whole simulate 344.5 M -> 328.9 M (bench/loop_work.py --baseline).
  * Then T^T M T's L D L^T and solve with its size a constant (NV - NC, MBS_LOOP_BY_REDUCED_SIZE), its columns of the
  * loops' blocks, M T_j, vdot and the null space's back substitutions with T_j's size a constant, T's pattern kept
- * with the plan, the pivots' quotients taken once: the same bits, the loop algebra of a bump_10 rhs 11,986 -> 9,201
- * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,796), a whole simulate 281.4 M -> 264.4 M
+ * with the plan, the pivots' quotients taken once: the same bits, the loop algebra of a bump_10 rhs 11,986 -> 9,097
+ * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,705), a whole simulate 281.4 M -> 264 M
  * (bench/loop_work.py --baseline --simulate), the code of mbs_loop_accelerations 11 -> 28 kB; loop_rhs's CPU time over
- * fresh copies of each library within the pages' luck of the former's (bench/rhs_placement.py: 0.995 of it, medians).
+ * fresh copies of each library 0.96 of the former's (bench/rhs_placement.py, medians of 20 rounds, where the same
+ * build against itself gives 0.99; 0.995 in a run of 12).
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -1427,7 +1428,8 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
  * pass over U11 instead of two), then those of its other columns.  T's pattern depends on the plan alone (the
  * offsets of its columns, in the plan's start, their unit entries and velocities, and c0_I = 0): written by the
- * first call after another factorisation (the plan's clean flag 1), kept by the next ones (3). */
+ * first call after another factorisation (the plan's clean flag 1), kept by the next ones (3), as are the exact zeros
+ * of T^T M T between blocks that M does not couple (mbs_loop_accelerations). */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
  * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its back
  * substitutions and its copies into T and c0 unrolled (the Iltis's loop algebra of a bump_10 rhs 9,945 -> 9,540
@@ -1490,12 +1492,12 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
     *at = e;
 }
 
-static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
+static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi, const int pattern)
 {
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     double *T = w->T;
     int *Ti = w->Ti, b, j, e = 0;
-    const int m = MBS_NV - r, pattern = *bl.clean != 3;  /* (clean 1 here: these blocks' factors) */
+    const int m = MBS_NV - r;
     if (pattern) memset(w->c0, 0, MBS_NV * sizeof(double));  /* c0_I = 0, the blocks write c0_D */
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, j0 = bl.j0[b], j1 = bl.j0[b + 1];
@@ -1511,7 +1513,6 @@ static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, cons
             Ti[e++] = cpi[r + j];
         }
         start[m] = e;
-        *bl.clean = 3;
     }
 }
 
@@ -1714,7 +1715,8 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
  * T_j's entries (and M T_j's, mbs_loop_mass_times_block) unrolled: the same arithmetic in the same order, T, T^T M T,
  * its factors and vdot of a bump_10 rhs 6,034 -> 5,422 instructions (bench/loop_work.py --baseline).  Returns A_jj. */
 MBS_LOOP_INLINE double mbs_loop_reduced_column_block(mbs_loop_work *w, int r, const int *start, const int *cpi,
-                                                   int j, const int nt, const int *chunk, int coupled, int na, int m)
+                                                   int j, const int nt, const int *chunk, int coupled, int na, int m,
+                                                   int pattern)
 {
     const double *T = w->T, *Tj = w->T + start[j], *f = w->f;
     const int *Ti = w->Ti, *Tij = w->Ti + start[j];
@@ -1732,7 +1734,9 @@ MBS_LOOP_INLINE double mbs_loop_reduced_column_block(mbs_loop_work *w, int r, co
         for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
         Aj[i] = sum;
     }
-    for (; i < na; i++) Aj[i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
+    if (pattern)  /* mt is zero at T_i's velocities: the sum is +0 (and L's entry 0 / D_j stays +0 in A) */
+        for (; i < na; i++) Aj[i] = 0.0;
+    i = na;
     for (; i < m; i++) Aj[i] = mt[cpi[r + i]];
     return Aj[j];
 }
@@ -1743,7 +1747,7 @@ MBS_LOOP_INLINE double mbs_loop_reduced_column_block(mbs_loop_work *w, int r, co
  * of A is known by its place, not tested: an entry of M T_j for a unit row, an entry of M itself where both
  * columns are unit ones, and an exact zero where M couples no velocity of T_i with one of T_j (another loop's
  * block beyond the reach of T_j's, mbs_loop_blocks_coupled).  Returns the largest diagonal entry. */
-static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
+static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi, int pattern)
 {
     const double *M = w->M;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
@@ -1756,7 +1760,7 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
         const int coupled = bl.j0[bl.reach[b] + 1];  /* the columns of T M couples with T_j's */
         double d;
 #define MBS_LOOP_REDUCED_COLUMN(size) \
-        d = mbs_loop_reduced_column_block(w, r, start, cpi, j, 1 + (size), chunk, coupled, na, m)
+        d = mbs_loop_reduced_column_block(w, r, start, cpi, j, 1 + (size), chunk, coupled, na, m, pattern)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_REDUCED_COLUMN);
 #undef MBS_LOOP_REDUCED_COLUMN
         dmax = d > dmax ? d : dmax;
@@ -1887,15 +1891,18 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     m = MBS_NV - r;
     /* the null-space basis T (NV x m, packed columns) and c0 */
     if (w->blocked) {  /* the kept columns as ints from its plan (w->cp holds them as doubles), T's offsets there */
-        start = mbs_loop_plan_blocks(w).start;
-        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
+        const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+        const int pattern = *bl.clean != 3;  /* (clean 1 or 3 here: these blocks' factors) */
+        start = bl.start;
+        mbs_loop_null_space_blocks(w, r, start, bl.col, pattern);
+        /* the kept partition's columns of T in the order of its plan */
+        dmax = mbs_loop_reduced_mass_blocks(w, r, start, bl.col, pattern);
+        *bl.clean = 3;  /* T's pattern and A's exact zeros between uncoupled blocks written (A's stay: L's entries
+                         * there are 0 / D_j, and no update reaches them) */
     } else {
         mbs_loop_null_space(w, r, start, cpi);
-    }
-    if (w->blocked)  /* the kept partition's columns of T in the order of its plan */
-        dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
         dmax = mbs_loop_reduced_mass(w, m, start);
+    }
     if ((s = mbs_loop_reduced_factor_solve(A, m, dmax, w->a)) != 0) return s;
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
