@@ -75,10 +75,10 @@
  * Then T^T M T's L D L^T and solve with its size a constant (NV - NC, MBS_LOOP_BY_REDUCED_SIZE), its columns of the
  * loops' blocks, M T_j, vdot and the null space's back substitutions with T_j's size a constant, T's pattern kept
  * with the plan, the pivots' quotients taken once: the same bits, the loop algebra of a bump_10 rhs 11,986 -> 9,097
- * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,705), a whole simulate 281.4 M -> 264 M
- * (bench/loop_work.py --baseline --simulate), the code of mbs_loop_accelerations 11 -> 28 kB; loop_rhs's CPU time over
- * fresh copies of each library 0.96 of the former's (bench/rhs_placement.py, medians of 20 rounds, where the same
- * build against itself gives 0.99; 0.995 in a run of 12).
+ * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,705), the rhs 32,121 -> 29,233, a whole
+ * simulate 281.4 M -> 263.6 M (bench/loop_work.py --baseline --simulate), the code of mbs_loop_accelerations 11 -> 28
+ * kB; loop_rhs's CPU time over fresh copies of each library 0.96 and 0.996 of the former's in two runs
+ * (bench/rhs_placement.py, medians of 20 rounds; the same build against itself 0.99): within the pages' luck.
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
