@@ -131,8 +131,9 @@ def main(argv=None) -> int:
                 if not args.no_copy:
                     copy_afresh(libraries[label])
                 times[label].append(per_call(args.scene, states, args.function, args.seconds, flags[label]))
+    fresh = "a fresh process" if args.no_copy else "a fresh process and a fresh copy of the library"
     print(f"Iltis {args.scene}: {args.function} over the run's {n} states, CPU time a call, {args.rounds} rounds "
-          f"(a fresh process{'' if args.no_copy else ' and a fresh copy of the library'} each); baseline: {' '.join(baseline) or 'the same'}")
+          f"({fresh} each); baseline: {' '.join(baseline)}")
     for label in ("current", "baseline"):
         ts = times[label]
         print(f"  {label:<9s} median {statistics.median(ts) * 1e6:7.3f} us   fastest {min(ts) * 1e6:7.3f}   "

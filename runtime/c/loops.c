@@ -550,7 +550,8 @@ typedef struct {
     int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
                   * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
     int *mchunk; /* NC x (1 + MBS_LOOP_MASS_CHUNKS): block b's chunks of columns of M T_j (mbs_loop_plan_mass_chunks) */
-    int *start;  /* NV - r + 1 (at most NV, the room's last NV ints): the offsets of T's columns in w->T, w->Ti (clean 3) */
+    int *start;  /* NV - r + 1 (at most NV, the room's last NV ints): the offsets of T's columns in w->T, w->Ti
+                  * (clean 3) */
 } mbs_loop_blocks;
 
 static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
