@@ -72,6 +72,13 @@
  * (mbs_loop_reduced_factor), the gather of G and the copies into T and c0 with less control: the same bits again
  * (exact zeros added or not), the loop algebra of a bump_10 rhs 14,744 -> 11,981 instructions (the kept factors of G
  * 4,184 -> 3,716, the rest 9,132 -> 7,139), a whole simulate 344.5 M -> 328.9 M (bench/loop_work.py --baseline).
+ * Then T^T M T's L D L^T and solve with its size a constant (NV - NC, MBS_LOOP_BY_REDUCED_SIZE), its columns of the
+ * loops' blocks, M T_j, vdot and the null space's back substitutions with T_j's size a constant, T's pattern kept
+ * with the plan, the pivots' quotients taken once: the same bits, the loop algebra of a bump_10 rhs 11,986 -> 9,097
+ * instructions (the kept factors 3,717 -> 3,636, the rest 7,144 -> 4,705), the rhs 32,121 -> 29,233, a whole
+ * simulate 281.4 M -> 263.6 M (bench/loop_work.py --baseline --simulate), the code of mbs_loop_accelerations 11 -> 28
+ * kB; loop_rhs's CPU time over fresh copies of each library 0.96 and 0.996 of the former's in two runs
+ * (bench/rhs_placement.py, medians of 20 rounds; the same build against itself 0.99): within the pages' luck.
  *
  * Left alone, the integrated state would drift off the constraints by the integration error (the derivative
  * of its distance from x_c is zero, not negative).  The C integrators therefore replace every accepted state
@@ -97,8 +104,9 @@
  * keeps (mbs_loop_step_drift: not part of the stamp, which leaves it alone), rank, q, p. */
 #define MBS_LOOP_STAMP_SIZE (MBS_NQ + MBS_NP + 4)
 /* The plan of the kept partition's independent blocks (mbs_loop_plan_build): a marker, a copy of the kept
- * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 3 NV + 2 NC NV ints in
- * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block). */
+ * partition (MBS_LOOP_KEEP_SIZE = 4 + NV + NC, defined below), then at most 6 + 12 NC + 4 NV + 2 NC NV ints in
+ * the room of 3 + 6 NC + 2 NV + NC NV doubles (mbs_loop_blocks; 8 NC of the ints: 1 + MBS_LOOP_MASS_CHUNKS a block; the
+ * last NV the offsets of T's columns). */
 #define MBS_LOOP_PLAN_SIZE (1 + (4 + MBS_NV + MBS_NC) + 3 + 6 * MBS_NC + 2 * MBS_NV + MBS_NC * MBS_NV)
 #define MBS_LOOP_MASS_CHUNKS 7
 #if MBS_LOOP_NWORK < MBS_LOOP_NWORK_NEEDED || MBS_NWORK < MBS_TREE_NWORK + MBS_LOOP_NWORK
@@ -377,7 +385,8 @@ static double mbs_loop_maxabs(const double *a, int n, int *where)
 }
 
 /* Are all n entries of a finite?  (0 x is 0 for a finite x, NaN for an infinite one or NaN: no branch per entry,
- * where mbs_loop_maxabs, which also says where, takes one.) */
+ * where mbs_loop_maxabs, which also says where, takes one.)  Four independent sums, which the compiler makes one
+ * vector's (a single running sum of zeros keeps its order: one scalar product and sum an entry). */
 static int mbs_loop_finite(const double *a, int n)
 {
     double probe[4] = {0.0, 0.0, 0.0, 0.0};  /* four independent chains (as mbs_loop_gmax): NaN reaches the sum */
@@ -590,7 +599,10 @@ typedef struct {
     int *j0;     /* NC + 1: and the independent column positions jl[j0[b]] .. jl[j0[b + 1] - 1] */
     int *jl;     /* NV */
     int *block;  /* NV: the block of each column position, -1 for an independent one that no pivot row touches */
-    int *clean;  /* 1: the r rows of w->G are zero outside the blocks (the last factors were these blocks') */
+    int *clean;  /* 1: the r rows of w->G are zero outside the blocks and w->cp holds the kept columns (the last
+                  * factors were these blocks': only mbs_loop_factor writes either otherwise); 3: besides, w->T, w->Ti
+                  * and w->c0 hold the pattern of mbs_loop_null_space_blocks (only mbs_loop_null_space writes them
+                  * otherwise, after mbs_loop_factor), and start its columns' offsets */
     int *col;    /* NV: the kept columns in pivot order as ints (keep[4 ..] as the plan reordered them) */
     int *row;    /* NC: the kept pivot rows as ints, likewise (before the blocks' row exchanges) */
     int *ng;     /* the entries of G the blocks hold (at most NC x NV), */
@@ -600,6 +612,8 @@ typedef struct {
     int *reach;  /* NC: the last block whose velocities M couples with block b's (b itself at least): T_i^T M T_j
                   * is an exact zero for a column i of T beyond it and a column j of b (mbs_loop_reduced_mass_blocks) */
     int *mchunk; /* NC x (1 + MBS_LOOP_MASS_CHUNKS): block b's chunks of columns of M T_j (mbs_loop_plan_mass_chunks) */
+    int *start;  /* NV - r + 1 (at most NV, the room's last NV ints): the offsets of T's columns in w->T, w->Ti
+                  * (clean 3) */
 } mbs_loop_blocks;
 
 static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
@@ -619,7 +633,8 @@ static inline mbs_loop_blocks mbs_loop_plan_blocks(const mbs_loop_work *w)
     b.src = s; s += MBS_NC * MBS_NV;
     b.dst = s; s += MBS_NC * MBS_NV;
     b.reach = s; s += MBS_NC;
-    b.mchunk = s;
+    b.mchunk = s; s += MBS_NC * (1 + MBS_LOOP_MASS_CHUNKS);
+    b.start = s;
     return b;
 }
 
@@ -790,10 +805,12 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 /* The kernels of one block of the kept partition (its elimination, solve, null-space columns and multipliers) are
  * inlined with the block's size, its number of pivot rows, a constant for the sizes MBS_LOOP_BY_SIZE lists, so that
  * their loops over the block's rows and columns unroll: tiny loops (a spatial loop's 6 rows and fewer) whose control
- * and index arithmetic cost more than their products.  The null space's columns (mbs_loop_null_space_block) keep their
- * loops: unrolled, they took 500 instructions fewer a call but made the Iltis's loop_rhs about 10 % slower in CPU time
- * (interleaved medians).  Other sizes take the same kernels with the size a variable; the same arithmetic in the same
- * order either way (the same bits).  -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
+ * and index arithmetic cost more than their products.  (The null space's columns, mbs_loop_null_space_block, kept their
+ * loops for a while: unrolled, they took 500 instructions fewer a call but the Iltis's loop_rhs measured 10 % slower
+ * in CPU time.  The luck of the library's pages in physical memory moves loop_rhs by up to 20 % with the same code,
+ * build to build: over fresh copies of each build, bench/rhs_placement.py, they run 0.99 of the loops'.)  Other sizes
+ * take the same kernels with the size a variable; the same arithmetic in the same order either way (the same bits).
+ * -DMBS_LOOP_BLOCK_FORMER=1: every size a variable (bench/loop_work.py). */
 #ifndef MBS_LOOP_BLOCK_FORMER
 #define MBS_LOOP_BLOCK_FORMER 0
 #endif
@@ -803,6 +820,15 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
 #define MBS_LOOP_UNROLL _Pragma("unroll 8")
 #else
 #define MBS_LOOP_UNROLL
+#endif
+/* ... and the loops of T^T M T's factors and solve (mbs_loop_reduced_factor_solve), whose size is NV - NC where every
+ * row is a pivot row (the Iltis's 10): unrolled whole. */
+#if defined(__GNUC__) && !defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL_ALL _Pragma("GCC unroll 16")
+#elif defined(__clang__) && !MBS_LOOP_BLOCK_FORMER
+#define MBS_LOOP_UNROLL_ALL _Pragma("unroll 16")
+#else
+#define MBS_LOOP_UNROLL_ALL
 #endif
 #if defined(__GNUC__)
 #define MBS_LOOP_INLINE static inline __attribute__((always_inline))
@@ -825,10 +851,26 @@ static void mbs_loop_plan_build(mbs_loop_work *w)
         }                         \
     } while (0)
 #endif
+/* CALL(size) with the size m of T^T M T, a constant for NV - NC (the rank where every row is a pivot row, no loop
+ * redundant: the Iltis's 10), else a variable. */
+#if MBS_LOOP_BLOCK_FORMER || MBS_NV - MBS_NC < 2 || MBS_NV - MBS_NC > 16
+#define MBS_LOOP_BY_REDUCED_SIZE(m, CALL) CALL(m)
+#else
+#define MBS_LOOP_BY_REDUCED_SIZE(m, CALL)   \
+    do {                                    \
+        if ((m) == MBS_NV - MBS_NC) {       \
+            CALL(MBS_NV - MBS_NC);          \
+        } else {                            \
+            CALL(m);                        \
+        }                                   \
+    } while (0)
+#endif
 /* One block's elimination with partial pivoting among its n rows (from pivot position k0), its independent columns jl
  * (nj) and y riding along (the forward substitution of gddot0 when the caller has it, else of zeros: one more column
- * either way, no test an entry); returns the smallest relative pivot so far, or -1 when a pivot
- * vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, so that its loops unroll. */
+ * either way, no test an entry); returns the smallest pivot so far (its size: the caller divides the smallest by
+ * max |G| once, where a quotient a pivot took a division each; the quotients' order is the pivots', so the smallest
+ * quotient is the same), or -1 when a pivot vanishes.  Inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists,
+ * so that its loops unroll. */
 MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y, const int k0, const int n,
                                              const int *jl, const int nj, const double amax0,
                                              double minpivot)
@@ -845,7 +887,7 @@ MBS_LOOP_INLINE double mbs_loop_eliminate_block(double *A, double *rp, double *y
             if (v > amax) { amax = v; pi = i; }
         }
         if (!(amax > MBS_LOOP_RANK_TOL * amax0)) return -1.0;
-        minpivot = amax / amax0 < minpivot ? amax / amax0 : minpivot;
+        minpivot = amax < minpivot ? amax : minpivot;
         if (pi != k) {
             double *x = B + k * MBS_NV, *z = B + pi * MBS_NV;
             for (c = 0; c < n; c++) { tmp = x[c]; x[c] = z[c]; z[c] = tmp; }
@@ -889,7 +931,6 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
     const int forward = w->terms;  /* gddot0 at hand: its forward substitution rides along (w->forward) */
     int i, k, c, b, e;
     w->forward = 0;
-    memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));
     memcpy(w->rp, kp + 4 + MBS_NV, r * sizeof(double));
     if (forward) {  /* (bl.row: rp as ints, before the row exchanges; 4 a loop) */
         const double *restrict h = w->h;
@@ -902,8 +943,9 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         for (; k < r; k++) y[k] = -h[bl.row[k]];
     } else
         memset(y, 0, (size_t)r * sizeof(double));
-    if (!*bl.clean) {  /* another factorisation wrote w->G since these blocks' last one */
+    if (!*bl.clean) {  /* another factorisation wrote w->G and w->cp since these blocks' last one (clean 1 or 3 else) */
         memset(A, 0, (size_t)r * MBS_NV * sizeof(double));
+        memcpy(w->cp, kp + 4, MBS_NV * sizeof(double));  /* (the blocks' row exchanges leave it) */
         *bl.clean = 1;
     }
     /* every block's rows into w->G: its dependent columns, then its independent ones.  With every row a pivot
@@ -964,7 +1006,7 @@ static double mbs_loop_factor_blocks(mbs_loop_work *w)
         if (minpivot < 0.0) return 0.0;
     }
     w->forward = forward;
-    return minpivot;
+    return minpivot < HUGE_VAL ? minpivot / amax0 : minpivot;  /* (the smallest pivot relative to max |G|) */
 }
 
 /* Another factorisation is about to write w->G: the blocks' rows are no longer zero outside them. */
@@ -974,14 +1016,15 @@ static void mbs_loop_plan_dirty(const mbs_loop_work *w)
 }
 
 /* mbs_loop_solve with the factors of mbs_loop_factor_blocks: each block's rows from its own columns (the same
- * arithmetic in the same order: the other blocks' entries of a row are exact zeros). */
+ * arithmetic in the same order: the other blocks' entries of a row are exact zeros); the columns' velocities as the
+ * plan's ints (col: w->cp as it holds them). */
 /* One block's part of mbs_loop_solve_blocks (n pivot rows from position k0, its independent columns jl), inlined with n
  * a constant for the sizes MBS_LOOP_BY_SIZE lists. */
 MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *h, double *z, const int k0, const int n,
-                                        const int *jl, const int nj)
+                                        const int *jl, const int nj, const int *col)
 {
-    const double *B = w->G + k0 * MBS_NV + k0;
-    double *y = w->y + k0;
+    const double *restrict B = w->G + k0 * MBS_NV + k0;
+    double *restrict y = w->y + k0;
     int c, e, k;
     MBS_LOOP_UNROLL
     for (k = 0; k < n; k++) {  /* y = L11^-1 (-h_R) - U12 z_I */
@@ -991,7 +1034,7 @@ MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *
         y[k] = s;
     }
     for (e = 0; e < nj; e++) {
-        const double zj = z[(int)w->cp[jl[e]]];
+        const double zj = z[col[jl[e]]];
         const double *a = w->G + k0 * MBS_NV + jl[e];
         if (zj != 0.0) {
             MBS_LOOP_UNROLL
@@ -1006,7 +1049,7 @@ MBS_LOOP_INLINE void mbs_loop_solve_block(const mbs_loop_work *w, const double *
         y[k] = s / B[k * MBS_NV + k];
     }
     MBS_LOOP_UNROLL
-    for (k = 0; k < n; k++) z[(int)w->cp[k0 + k]] = y[k];
+    for (k = 0; k < n; k++) z[col[k0 + k]] = y[k];
 }
 
 static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, double *z)
@@ -1015,7 +1058,7 @@ static void mbs_loop_solve_blocks(const mbs_loop_work *w, const double *h, doubl
     int b;
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, nj = bl.j0[b + 1] - bl.j0[b], *jl = bl.jl + bl.j0[b];
-#define MBS_LOOP_SOLVE(size) mbs_loop_solve_block(w, h, z, k0, size, jl, nj)
+#define MBS_LOOP_SOLVE(size) mbs_loop_solve_block(w, h, z, k0, size, jl, nj, bl.col)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_SOLVE);
 #undef MBS_LOOP_SOLVE
     }
@@ -1446,17 +1489,20 @@ static void mbs_loop_null_space(mbs_loop_work *w, int r, int *start, int *cpi)
  * by block (the plan lists the independent columns a block moves block by block, the unit ones last): c0_D's
  * forward substitution (unless the elimination did it, w->forward), then the back substitutions with U11 of c0_D
  * and of the block's first independent column in one pass (a loop's block has one such column on the Iltis: one
- * pass over U11 instead of two), then those of its other columns. */
+ * pass over U11 instead of two), then those of its other columns.  T's pattern depends on the plan alone (the
+ * offsets of its columns, in the plan's start, their unit entries and velocities, and c0_I = 0): written by the
+ * first call after another factorisation (the plan's clean flag 1), kept by the next ones (3), as are the exact zeros
+ * of T^T M T between blocks that M does not couple (mbs_loop_accelerations). */
 /* One block's part of mbs_loop_null_space_blocks (n pivot rows from position k0, its independent columns jl[j0 .. j1 - 1]
- * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its loops of
- * arithmetic not unrolled (see MBS_LOOP_UNROLL), its copies into T and c0 unrolled (the Iltis: 100 instructions fewer
- * a call). */
+ * the plan lists), T's entries from *e on; inlined with n a constant for the sizes MBS_LOOP_BY_SIZE lists, its back
+ * substitutions and its copies into T and c0 unrolled (the Iltis's loop algebra of a bump_10 rhs 9,945 -> 9,540
+ * instructions, bench/loop_work.py; see MBS_LOOP_UNROLL for the CPU time). */
 MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, const int n, const int j0, const int j1,
-                                             const int *jl, int *start, const int *cpi, int *e)
+                                             const int *jl, int *start, const int *cpi, int *at, int pattern)
 {
     const double *B = w->G + k0 * MBS_NV + k0;
-    double *T = w->T, *y = w->y + k0, yt[MBS_NC];
-    int *Ti = w->Ti, j, k, c;
+    double *restrict T = w->T, *restrict c0 = w->c0, *y = w->y + k0, yt[MBS_NC];
+    int *restrict Ti = w->Ti, j, k, c, e = *at;  /* (locals: a store through T, Ti or c0 changes none of them) */
     if (!w->forward) {
         for (k = 0; k < n; k++) {  /* L11 y = -gddot0 on the block's rows */
             const double *g = B + k * MBS_NV;
@@ -1467,29 +1513,35 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
     }
     for (j = j0; j < j1; j++) {  /* U11 c0_D = y with (first column) U11 yt = -U12 e_j, upwards */
         const int col = jl[j] - k0;  /* relative to the block's first column */
-        start[j] = *e;
-        T[*e] = 1.0;
-        Ti[(*e)++] = cpi[jl[j]];
+        if (pattern) {  /* the column's offset, its unit entry and its velocities: the plan's, written once */
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e] = cpi[jl[j]];
+            MBS_LOOP_UNROLL
+            for (k = 0; k < n; k++) Ti[e + 1 + k] = cpi[k0 + k];
+        }
+        e++;
+        MBS_LOOP_UNROLL
         for (k = n - 1; k >= 0; k--) {
             const double *g = B + k * MBS_NV;
             double sum = -g[col];
             if (j == j0) {
                 double s0 = y[k];
+                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) {
                     s0 -= g[c] * y[c];
                     sum -= g[c] * yt[c];
                 }
                 y[k] = s0 / g[k];
             } else {
+                MBS_LOOP_UNROLL
                 for (c = k + 1; c < n; c++) sum -= g[c] * yt[c];
             }
             yt[k] = sum / g[k];
         }
         MBS_LOOP_UNROLL
-        for (k = 0; k < n; k++) {
-            T[*e] = yt[k];
-            Ti[(*e)++] = cpi[k0 + k];
-        }
+        for (k = 0; k < n; k++) T[e + k] = yt[k];
+        e += n;
     }
     if (j0 == j1) {  /* no independent column moves this block: c0_D alone */
         for (k = n - 1; k >= 0; k--) {
@@ -1499,29 +1551,32 @@ MBS_LOOP_INLINE void mbs_loop_null_space_block(mbs_loop_work *w, const int k0, c
         }
     }
     MBS_LOOP_UNROLL
-    for (k = 0; k < n; k++) w->c0[cpi[k0 + k]] = y[k];
+    for (k = 0; k < n; k++) c0[cpi[k0 + k]] = y[k];
+    *at = e;
 }
 
-static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi)
+static void mbs_loop_null_space_blocks(mbs_loop_work *w, int r, int *start, const int *cpi, const int pattern)
 {
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     double *T = w->T;
     int *Ti = w->Ti, b, j, e = 0;
     const int m = MBS_NV - r;
-    memset(w->c0, 0, MBS_NV * sizeof(double));
+    if (pattern) memset(w->c0, 0, MBS_NV * sizeof(double));  /* c0_I = 0, the blocks write c0_D */
     for (b = 0; b < *bl.nb; b++) {
         const int k0 = bl.k0[b], n = bl.k0[b + 1] - k0, j0 = bl.j0[b], j1 = bl.j0[b + 1];
-#define MBS_LOOP_NULL_SPACE(size) mbs_loop_null_space_block(w, k0, size, j0, j1, bl.jl, start, cpi, &e)
+#define MBS_LOOP_NULL_SPACE(size) mbs_loop_null_space_block(w, k0, size, j0, j1, bl.jl, start, cpi, &e, pattern)
         MBS_LOOP_BY_SIZE(n, MBS_LOOP_NULL_SPACE);
 #undef MBS_LOOP_NULL_SPACE
     }
     w->forward = 0;  /* y is c0_D now */
-    for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
-        start[j] = e;
-        T[e] = 1.0;
-        Ti[e++] = cpi[r + j];
+    if (pattern) {
+        for (j = bl.j0[*bl.nb]; j < m; j++) {  /* the unit columns */
+            start[j] = e;
+            T[e] = 1.0;
+            Ti[e++] = cpi[r + j];
+        }
+        start[m] = e;
     }
-    start[m] = e;
 }
 
 /* r = the rank of G (just factored), or the rank of the extended rows at a singular position (then w->G holds
@@ -1630,8 +1685,9 @@ static const double *mbs_loop_mass_times_column(const double *restrict M, const 
  * mbs_loop_mass_times_column adds them up (the same bits: the chunks' other columns add exact zeros to sums that
  * start at +0), in a vector register, one load, product and sum a row, where the rows' runs of 1 to 6 columns
  * took a scalar loop and its control a column (the Iltis: about 710 -> 360 instructions a column of T). */
-static const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
-                                               const int *ti, int n, const int *chunk, double *restrict mt)
+MBS_LOOP_INLINE const double *mbs_loop_mass_times_block(const double *restrict M, const double *restrict tv,
+                                                        const int *ti, const int n, const int *chunk,
+                                                        double *restrict mt)
 {
     int e, k, q;
     if (chunk[0] < 0) return mbs_loop_mass_times_column(M, tv, ti, n, mt);
@@ -1639,6 +1695,7 @@ static const double *mbs_loop_mass_times_block(const double *restrict M, const d
     for (q = 1; q <= chunk[0]; q += 2) {  /* two chunks at a time (an odd last one twice: the same values) */
         const int v0 = chunk[q], v1 = chunk[q + 1 <= chunk[0] ? q + 1 : q];
         double s0[4] = {0.0, 0.0, 0.0, 0.0}, s1[4] = {0.0, 0.0, 0.0, 0.0};
+        MBS_LOOP_UNROLL
         for (e = 0; e < n; e++) {
             const double *restrict row = M + ti[e] * MBS_NV;
             const double c = tv[e];
@@ -1715,34 +1772,61 @@ static double mbs_loop_reduced_mass(mbs_loop_work *w, int m, const int *start)
     return dmax;
 }
 
+/* Column j of A (its entries i >= j) and a_j for a column of T a loop's block moves (nt entries, its block's chunks of
+ * M, the columns i < coupled of T that M couples with it, na such columns in all), as mbs_loop_reduced_mass_blocks
+ * describes; inlined with nt a constant for the sizes MBS_LOOP_BY_SIZE lists (1 + the block's rows), its loops over
+ * T_j's entries (and M T_j's, mbs_loop_mass_times_block) unrolled: the same arithmetic in the same order, T, T^T M T,
+ * its factors and vdot of a bump_10 rhs 6,034 -> 5,422 instructions (bench/loop_work.py --baseline).  Returns A_jj. */
+MBS_LOOP_INLINE double mbs_loop_reduced_column_block(mbs_loop_work *w, int r, const int *start, const int *cpi,
+                                                   int j, const int nt, const int *chunk, int coupled, int na, int m,
+                                                   int pattern)
+{
+    const double *T = w->T, *Tj = w->T + start[j], *f = w->f;
+    const int *Ti = w->Ti, *Tij = w->Ti + start[j];
+    const double *mt = mbs_loop_mass_times_block(w->M, Tj, Tij, nt, chunk, w->b);
+    double *Aj = w->A + j * MBS_NV, sum = 0.0;
+    int i, e;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) sum += Tj[e] * f[Tij[e]];
+    w->a[j] = sum - mbs_loop_dot(mt, w->c0);
+    sum = 0.0;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) sum += Tj[e] * mt[Tij[e]];
+    Aj[j] = sum;
+    for (i = j + 1; i < coupled; i++) {
+        for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
+        Aj[i] = sum;
+    }
+    if (pattern)  /* mt is zero at T_i's velocities: the sum is +0 (and L's entry 0 / D_j stays +0 in A) */
+        for (; i < na; i++) Aj[i] = 0.0;
+    i = na;
+    for (; i < m; i++) Aj[i] = mt[cpi[r + i]];
+    return Aj[j];
+}
+
 /* A and a as mbs_loop_reduced_mass forms them (the same arithmetic in the same order) for T from
  * mbs_loop_null_space_blocks: its first na columns are those a loop moves (its blocks' independent velocities), the
  * others unit columns (independent velocities no loop moves, the plan puts them last), so the kind of each entry
  * of A is known by its place, not tested: an entry of M T_j for a unit row, an entry of M itself where both
  * columns are unit ones, and an exact zero where M couples no velocity of T_i with one of T_j (another loop's
  * block beyond the reach of T_j's, mbs_loop_blocks_coupled).  Returns the largest diagonal entry. */
-static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi)
+static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *start, const int *cpi, int pattern)
 {
-    const double *T = w->T, *M = w->M;
-    const int *Ti = w->Ti;
+    const double *M = w->M;
     const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
     const int m = MBS_NV - r, na = bl.j0[*bl.nb];
     double *A = w->A, dmax = 0.0;
-    int i, j, e;
+    int i, j;
     for (j = 0; j < na; j++) {
-        const double *mt = mbs_loop_mass_times_block(M, T + start[j], Ti + start[j], start[j + 1] - start[j],
-                                                     bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * bl.block[r + j], w->b);
-        const int coupled = bl.j0[bl.reach[bl.block[r + j]] + 1];  /* the columns of T M couples with T_j's */
-        double sum = 0.0;
-        for (e = start[j]; e < start[j + 1]; e++) sum += T[e] * w->f[Ti[e]];
-        w->a[j] = sum - mbs_loop_dot(mt, w->c0);
-        for (i = j; i < coupled; i++) {
-            for (sum = 0.0, e = start[i]; e < start[i + 1]; e++) sum += T[e] * mt[Ti[e]];
-            A[j * MBS_NV + i] = sum;
-        }
-        for (; i < na; i++) A[j * MBS_NV + i] = 0.0;  /* mt is zero at T_i's velocities: the sum is +0 */
-        for (; i < m; i++) A[j * MBS_NV + i] = mt[cpi[r + i]];
-        dmax = A[j * MBS_NV + j] > dmax ? A[j * MBS_NV + j] : dmax;
+        const int b = bl.block[r + j], n = start[j + 1] - start[j] - 1;  /* T_j: 1 + the block's rows (its size) */
+        const int *chunk = bl.mchunk + (1 + MBS_LOOP_MASS_CHUNKS) * b;
+        const int coupled = bl.j0[bl.reach[b] + 1];  /* the columns of T M couples with T_j's */
+        double d;
+#define MBS_LOOP_REDUCED_COLUMN(size) \
+        d = mbs_loop_reduced_column_block(w, r, start, cpi, j, 1 + (size), chunk, coupled, na, m, pattern)
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_REDUCED_COLUMN);
+#undef MBS_LOOP_REDUCED_COLUMN
+        dmax = d > dmax ? d : dmax;
     }
     for (; j < m; j++) {  /* a unit column: M T_j is row v of M (symmetric), T_j^T f is 0 + 1 f_v */
         const double *mt = M + cpi[r + j] * MBS_NV;
@@ -1753,61 +1837,44 @@ static double mbs_loop_reduced_mass_blocks(mbs_loop_work *w, int r, const int *s
     return dmax;
 }
 
-/* y -= x a over entries i0 .. n - 1 (two columns of A = T^T M T, or the solve's right-hand side and a column).  (4 at a
- * time in vector instructions took more instructions for the Iltis's columns of 1 to 9 entries: 336.9 M against 335.0 M
- * for a bump_10 simulate.) */
-static inline void mbs_loop_column_update(double *restrict y, const double *restrict x, double a, int i0, int n)
-{
-    int i;
-    for (i = i0; i < n; i++) y[i] -= x[i] * a;
-}
-
 /* A = L D L^T in place (A's lower triangle by columns, as mbs_loop_reduced_mass writes it: L_ij at A[j NV + i] below
  * the diagonal, D_j on it); a pivot below MBS_LOOP_MASS_TOL times dmax, the largest diagonal entry, is a motion without
  * inertia (L's column and D_j zero).  By columns, each one's updates to the columns after it as they come (column j
  * of A less L_jk D_k times column k of L, for k = 0 .. j - 1 in turn): for each entry the products and differences
  * the rows' inner products took before (L_ik (L_jk D_k), in the order of k), each column one contiguous update
- * (two columns in one pass where they can) instead of a short inner product an entry; a column whose L_jk is zero
- * (another loop's block that M does not couple) is skipped, where the inner products skipped the zeros left of each
- * row's first nonzero: the same values (exact zeros subtracted or not; at most the sign of a zero differs).  The
- * forward substitution L y = a and the division by D ride along, column k of L once it is done (a_k final then), as
- * the solve took them. */
-static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restrict a)
+ * instead of a short inner product an entry; a column whose L_jk is zero (another loop's block that M does not
+ * couple) is skipped, where the inner products skipped the zeros left of each row's first nonzero: the same values
+ * (exact zeros subtracted or not; at most the sign of a zero differs).  The forward substitution L y = a and the
+ * division by D ride along, column k of L once it is done (a_k final then), as the solve took them.  Inlined with m a
+ * constant for NV - NC (MBS_LOOP_BY_REDUCED_SIZE), its loops unrolled whole: the same arithmetic (the two columns in
+ * one pass over column k that it took before gave each entry the same product and difference), the Iltis's loop
+ * algebra of a bump_10 rhs 11,986 -> 10,696 instructions (bench/loop_work.py --baseline). */
+MBS_LOOP_INLINE int mbs_loop_reduced_factor_sized(double *A, const int m, double dmax, double *restrict a)
 {
-    int j, k;
+    int j, k, i;
+    MBS_LOOP_UNROLL_ALL
     for (k = 0; k < m; k++) {
         double *ck = A + k * MBS_NV, d = ck[k];
         if (!isfinite(d)) return MBS_LOOP_NONFINITE;
         if (d < -1e3 * MBS_LOOP_MASS_TOL * dmax) return MBS_LOOP_SINGULAR;  /* indefinite: a negative mass */
         if (!(d > MBS_LOOP_MASS_TOL * dmax)) {  /* (and its acceleration 0) */
-            memset(ck + k, 0, (size_t)(m - k) * sizeof(double));
+            MBS_LOOP_UNROLL_ALL
+            for (j = k; j < m; j++) ck[j] = 0.0;
             a[k] = 0.0;
             continue;
         }
-        for (j = k + 1; j + 4 <= m; j += 4) {  /* L's column: 4 quotients at a time (vector instructions) */
-            int q;
-            for (q = 0; q < 4; q++) ck[j + q] /= d;
-        }
-        for (; j < m; j++) ck[j] /= d;
-        mbs_loop_column_update(a, ck, a[k], k + 1, m);  /* the forward substitution's column k (a_k is final) */
+        MBS_LOOP_UNROLL_ALL
+        for (j = k + 1; j < m; j++) ck[j] /= d;  /* L's column */
+        MBS_LOOP_UNROLL_ALL
+        for (i = k + 1; i < m; i++) a[i] -= ck[i] * a[k];  /* the forward substitution's column k (a_k is final) */
         a[k] /= d;
+        MBS_LOOP_UNROLL_ALL
         for (j = k + 1; j < m; j++) {
+            double *restrict cj = A + j * MBS_NV;
             const double ld = ck[j] * d;  /* L_jk D_k */
             if (ld == 0.0) continue;
-            if (j + 1 < m && ck[j + 1] * d != 0.0) {  /* columns j and j + 1 in one pass over column k */
-                double *restrict y0 = A + j * MBS_NV, *restrict y1 = A + (j + 1) * MBS_NV;
-                const double *restrict x = ck;
-                const double l1 = ck[j + 1] * d;
-                int i;
-                y0[j] -= x[j] * ld;
-                for (i = j + 1; i < m; i++) {
-                    y0[i] -= x[i] * ld;
-                    y1[i] -= x[i] * l1;
-                }
-                j++;
-            } else {
-                mbs_loop_column_update(A + j * MBS_NV, ck, ld, j, m);
-            }
+            MBS_LOOP_UNROLL_ALL
+            for (i = j; i < m; i++) cj[i] -= ck[i] * ld;
         }
     }
     return 0;
@@ -1815,15 +1882,57 @@ static int mbs_loop_reduced_factor(double *A, int m, double dmax, double *restri
 
 /* a = L^-T a with the factors of mbs_loop_reduced_factor, which took a through L^-1 and D^-1 already (zero pivots: 0),
  * by rows of L^T (L's columns), back. */
-static void mbs_loop_reduced_solve(const double *A, int m, double *restrict a)
+MBS_LOOP_INLINE void mbs_loop_reduced_solve_sized(const double *A, const int m, double *restrict a)
 {
     int j, k;
+    MBS_LOOP_UNROLL_ALL
     for (j = m - 1; j >= 0; j--) {
         const double *cj = A + j * MBS_NV;
         double s = a[j];
+        MBS_LOOP_UNROLL_ALL
         for (k = j + 1; k < m; k++) s -= cj[k] * a[k];
         a[j] = s;
     }
+}
+
+/* a = (T^T M T)^-1 a: its factors (in place of A) and the solve. */
+static int mbs_loop_reduced_factor_solve(double *A, int m, double dmax, double *restrict a)
+{
+    int s = 0;
+#define MBS_LOOP_REDUCED(size) \
+    if ((s = mbs_loop_reduced_factor_sized(A, size, dmax, a)) == 0) mbs_loop_reduced_solve_sized(A, size, a)
+    MBS_LOOP_BY_REDUCED_SIZE(m, MBS_LOOP_REDUCED);
+#undef MBS_LOOP_REDUCED
+    return s;
+}
+
+/* One column of T a (nt entries from e) added into vd; inlined with nt a constant for the sizes MBS_LOOP_BY_SIZE lists
+ * (1 + a block's rows). */
+MBS_LOOP_INLINE void mbs_loop_vdot_column(double *restrict vd, const double *restrict T, const int *Ti, const int nt,
+                                        double aj)
+{
+    int e;
+    MBS_LOOP_UNROLL
+    for (e = 0; e < nt; e++) vd[Ti[e]] += T[e] * aj;
+}
+
+/* vd += T a for T from mbs_loop_null_space_blocks: its columns of the loops' blocks with their sizes, then its unit
+ * columns, one entry 1 each (1 a_j is a_j: the same sums). */
+static void mbs_loop_vdot_blocks(mbs_loop_work *w, int r, const int *start)
+{
+    const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+    const int m = MBS_NV - r, na = bl.j0[*bl.nb];
+    const double *T = w->T, *a = w->a;
+    const int *Ti = w->Ti;
+    double *restrict vd = w->vd;
+    int j;
+    for (j = 0; j < na; j++) {
+        const int n = start[j + 1] - start[j] - 1;
+#define MBS_LOOP_VDOT(size) mbs_loop_vdot_column(vd, T + start[j], Ti + start[j], 1 + (size), a[j])
+        MBS_LOOP_BY_SIZE(n, MBS_LOOP_VDOT);
+#undef MBS_LOOP_VDOT
+    }
+    for (; j < m; j++) vd[Ti[start[j]]] += a[j];
 }
 
 /* vdot at the state w->xc (G factored there with rank r, h = g_t) into w->vd; *r updated at a singular
@@ -1832,7 +1941,7 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
 {
     int r = *rank, m;
     double *T = w->T, *A = w->A, dmax;
-    int *Ti = w->Ti, start[MBS_NV + 1], cpi[MBS_NV];
+    int *Ti = w->Ti, own_start[MBS_NV + 1], *start = own_start, cpi[MBS_NV];
     int j, k, s;
     if (w->terms)  /* M, f, G0 and gddot0 at w->xc already (mbs_loop_rhs_direct): once only (a second solve at
                     * the same state finds h replaced at a singular position) */
@@ -1844,23 +1953,30 @@ static int mbs_loop_accelerations(double t, const double *p, mbs_loop_work *w, i
     if (r < 0) return MBS_LOOP_NONFINITE;
     m = MBS_NV - r;
     /* the null-space basis T (NV x m, packed columns) and c0 */
-    if (w->blocked)  /* the kept columns as ints from its plan (w->cp holds them as doubles) */
-        mbs_loop_null_space_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
+    if (w->blocked) {  /* the kept columns as ints from its plan (w->cp holds them as doubles), T's offsets there */
+        const mbs_loop_blocks bl = mbs_loop_plan_blocks(w);
+        const int pattern = *bl.clean != 3;  /* (clean 1 or 3 here: these blocks' factors) */
+        start = bl.start;
+        mbs_loop_null_space_blocks(w, r, start, bl.col, pattern);
+        /* the kept partition's columns of T in the order of its plan */
+        dmax = mbs_loop_reduced_mass_blocks(w, r, start, bl.col, pattern);
+        *bl.clean = 3;  /* T's pattern and A's exact zeros between uncoupled blocks written (A's stay: L's entries
+                         * there are 0 / D_j, and no update reaches them) */
+    } else {
         mbs_loop_null_space(w, r, start, cpi);
-    if (w->blocked)  /* the kept partition's columns of T in the order of its plan */
-        dmax = mbs_loop_reduced_mass_blocks(w, r, start, mbs_loop_plan_blocks(w).col);
-    else
         dmax = mbs_loop_reduced_mass(w, m, start);
-    if ((s = mbs_loop_reduced_factor(A, m, dmax, w->a)) != 0) return s;
-    mbs_loop_reduced_solve(A, m, w->a);
+    }
+    if ((s = mbs_loop_reduced_factor_solve(A, m, dmax, w->a)) != 0) return s;
     /* vdot = T a + c0 */
     memcpy(w->vd, w->c0, MBS_NV * sizeof(double));
-    for (j = 0; j < m; j++) {
-        double *restrict vd = w->vd;
-        const double aj = w->a[j];  /* (once: vd's entries are doubles too) */
-        for (k = start[j]; k < start[j + 1]; k++) vd[Ti[k]] += T[k] * aj;
-    }
+    if (w->blocked)
+        mbs_loop_vdot_blocks(w, r, start);
+    else
+        for (j = 0; j < m; j++) {
+            double *restrict vd = w->vd;
+            const double aj = w->a[j];  /* (once: vd's entries are doubles too) */
+            for (k = start[j]; k < start[j + 1]; k++) vd[Ti[k]] += T[k] * aj;
+        }
 #ifdef MBS_NLOADED
     if (mbs_loop_finite(w->vd, MBS_NV)) return mbs_loop_bearing_friction(t, p, w, r, m, start);
 #endif
