@@ -56,11 +56,12 @@ BUILD_FORMAT = 3
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The run-time C files compiled into every model (all hashed).
 RUNTIME_SOURCES = ("mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c", "rosenbrock.c", "rodasp.c", "rodas5p.c",
-                   "adams.c", "loops.c", "loop_jacobian.c", "mbs_python.h", "mbs_python.c", "mbs_glue.c", "mbs_cold_glue.c")
+                   "adams.c", "loops.c", "loop_jacobian.c", "mbs_python.h", "mbs_python.c", "mbs_glue.c", "mbs_cold_glue.c",
+                   "huge_text.c")
 #: The run-time object's unit (the same for every model) and the C files it is made of (its cache key hashes them).
 RUNTIME_UNIT = "runtime.c"
 RUNTIME_UNIT_SOURCES = ("mbs_python.c", "mbs_python.h", "mbs_runtime.h", "ode.c", "dense_lu.c", "dopri5.c",
-                        "rosenbrock.c", "rodasp.c", "rodas5p.c", "adams.c")
+                        "rosenbrock.c", "rodasp.c", "rodas5p.c", "adams.c", "huge_text.c")
 #: Compiler flags; -fno-math-errno lets sqrt/sin compile to instructions (no errno is ever read).
 FLAGS = ("-O2", "-fPIC", "-shared", "-std=c99", "-Wall", "-fno-math-errno")
 #: Appended to the flags of the model's units in a split build (runtime/translation_units.py) when the compiler is GCC, from

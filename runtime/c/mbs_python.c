@@ -30,6 +30,7 @@
 #include "rodasp.c"
 #include "rodas5p.c"
 #include "adams.c"
+#include "huge_text.c"
 
 /* The model of this module (one model per module: each links its own copy of this object). */
 static const mbs_model_info *mbs_model = NULL;
@@ -807,6 +808,7 @@ void *mbs_python_module(const char *name, const mbs_model_info *info)
 {
     /* the types' qualified names tell which module a function belongs to (runtime/integrators/native.py) */
     static char function_name[200], solver_name[200];
+    mbs_huge_text();  /* the library's code on a huge page (c/huge_text.c: the same speed in every process) */
     mbs_model = info;
     snprintf(function_name, sizeof function_name, "%s.Function", name);
     snprintf(solver_name, sizeof solver_name, "%s.Solver", name);
