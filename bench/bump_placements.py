@@ -14,6 +14,10 @@ as bench/bump_cost.py) and, interleaved in the same process, the same scene with
 settings (bench/dopri5_former.py: the baseline of issue 12's figures).  Printed: per placement the medians and their
 ratio, then over the placements the median, the fastest and the slowest, as real-time factors (simulated time over
 CPU time).  Nothing is asserted.
+
+Since runtime/c/huge_text.c the library moves its code and constants onto huge pages when it is loaded (where the
+kernel offers transparent huge pages), which takes most of the luck away: `MBS_HUGE_TEXT=0 python
+bench/bump_placements.py` (the children inherit it) shows the file's own pages, the baseline of that change.
 """
 
 from __future__ import annotations
