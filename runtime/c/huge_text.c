@@ -9,15 +9,17 @@
  * (bench/bump_placements.py).  Copied into a 2 MB huge page, the code is contiguous in physical memory, so its
  * pages spread evenly over the cache sets in every process.
  *
- * Each read-only segment of this library of 64 kB or more (its code, the one holding this function, and its
- * constants: the lookup tables' knots, a road profile's thousands) is copied into an anonymous mapping whose 2 MB-aligned
- * range the kernel backs by huge pages at the first write (madvise MADV_HUGEPAGE), given the segment's protection, and
- * moved over the segment's own addresses with mremap (atomic: the code that runs, this function included, reads the
- * same bytes before and after; a position-independent library writes nothing into its code or constants).  Done only on Linux
- * on x86-64 where transparent huge pages are on ("always" or "madvise"), not under valgrind (its tools tell functions
- * by the file mapping) and not with MBS_HUGE_TEXT=0; any failure leaves the file's mapping as it was.  The cost: one
- * copy of the code per process (1 MB for the Iltis: about 0.1 ms) and the memory of a huge page instead of the page
- * cache's shared pages. */
+ * The read-only segments of this library of 64 kB or more (its code, the one holding this function, and its
+ * constants: the lookup tables' knots, a road profile's thousands) are copied one after another into an anonymous
+ * mapping whose 2 MB-aligned range the kernel backs by huge pages at the first write (madvise MADV_HUGEPAGE), each
+ * given its protection and moved over its own addresses with mremap (atomic: the code that runs, this function
+ * included, reads the same bytes before and after; a position-independent library writes nothing into its code or
+ * constants).  Done only on Linux on x86-64 where transparent huge pages are on ("always" or "madvise"), not under
+ * valgrind (its tools tell functions by the file mapping) and not with MBS_HUGE_TEXT=0; any failure leaves the file's
+ * mapping as it was.  The cost: one copy of the code and constants per process (1 MB for the Iltis: about 0.1 ms)
+ * and the memory of a huge page instead of the page
+ * cache's shared pages (the part of the last huge page beyond the segments is unmapped; the kernel frees it when it
+ * splits the page under memory pressure). */
 #if defined(__linux__) && defined(__x86_64__)
 #include <link.h>
 #include <stdint.h>
@@ -73,38 +75,50 @@ static int mbs_huge_pages_on(void)
     return strstr(line, "[always]") != NULL || strstr(line, "[madvise]") != NULL;
 }
 
-/* Pages [start, end) (whole pages) with protection prot moved onto a huge page; 0, or -1 with the mapping untouched. */
-static int mbs_huge_segment(uintptr_t start, uintptr_t end, int prot)
+/* The segments' pages copied one after another into one run of huge pages (2 MB for the Iltis's code and constants
+ * together), each given its protection and moved over its own addresses; a segment whose move fails keeps the file's
+ * mapping. */
+static void mbs_huge_segments(const mbs_segments *seg)
 {
     const uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE);
-    const uintptr_t from = start & ~(page - 1), size = ((end + page - 1) & ~(page - 1)) - from;
-    const uintptr_t span = (size + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);  /* whole huge pages */
-    uintptr_t aligned;
-    char *region = (char *)mmap(NULL, span + MBS_HUGE_PAGE, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
-    if (region == (char *)MAP_FAILED) return -1;
-    aligned = ((uintptr_t)region + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);
-    if (madvise((void *)aligned, span, MADV_HUGEPAGE) != 0
-        || (memcpy((void *)aligned, (const void *)from, size), mprotect((void *)aligned, size, prot)) != 0
-        || mremap((void *)aligned, size, size, MREMAP_MAYMOVE | MREMAP_FIXED, (void *)from) == MAP_FAILED) {
-        munmap(region, span + MBS_HUGE_PAGE);  /* (the file's mapping untouched) */
-        return -1;
+    uintptr_t from[MBS_HUGE_SEGMENTS], size[MBS_HUGE_SEGMENTS], total = 0, span, aligned, at;
+    char *region;
+    int k;
+    for (k = 0; k < seg->n; k++) {
+        from[k] = seg->start[k] & ~(page - 1);
+        size[k] = ((seg->end[k] + page - 1) & ~(page - 1)) - from[k];
+        total += size[k];
     }
-    /* the rest of the anonymous region: before the aligned start, and after the moved pages */
+    span = (total + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);  /* whole huge pages */
+    region = (char *)mmap(NULL, span + MBS_HUGE_PAGE, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (region == (char *)MAP_FAILED) return;
+    aligned = ((uintptr_t)region + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);
+    at = aligned;
+    if (madvise((void *)aligned, span, MADV_HUGEPAGE) == 0) {
+        for (k = 0; k < seg->n; at += size[k], k++) {
+            memcpy((void *)at, (const void *)from[k], size[k]);
+            if (mprotect((void *)at, size[k], seg->prot[k]) != 0
+                || mremap((void *)at, size[k], size[k], MREMAP_MAYMOVE | MREMAP_FIXED, (void *)from[k]) == MAP_FAILED)
+                break;  /* (this segment and the later ones keep the file's mapping) */
+        }
+    }
+    /* what is left of the anonymous region, exactly (a hole the moves left may hold another thread's mapping by now):
+     * before the aligned start, and from the first segment not moved on */
     if (aligned > (uintptr_t)region) munmap(region, aligned - (uintptr_t)region);
-    munmap((void *)(aligned + size), (uintptr_t)region + span + MBS_HUGE_PAGE - (aligned + size));
-    return 0;
+    munmap((void *)at, (uintptr_t)region + span + MBS_HUGE_PAGE - at);
 }
 
 static void mbs_huge_text(void)
 {
+    static int done;  /* once per library (a module created again must not move code another thread may run) */
     const char *off = getenv("MBS_HUGE_TEXT"), *preload = getenv("LD_PRELOAD");
     mbs_segments seg;
-    int k;
+    if (done) return;
+    done = 1;
     if ((off && strcmp(off, "0") == 0) || (preload && strstr(preload, "vgpreload")) || !mbs_huge_pages_on()) return;
     memset(&seg, 0, sizeof seg);
     seg.probe = (uintptr_t)&mbs_huge_text;
-    if (!dl_iterate_phdr(mbs_segments_of, &seg)) return;
-    for (k = 0; k < seg.n; k++) mbs_huge_segment(seg.start[k], seg.end[k], seg.prot[k]);
+    if (dl_iterate_phdr(mbs_segments_of, &seg) && seg.n > 0) mbs_huge_segments(&seg);
 }
 #else
 static void mbs_huge_text(void) {}

@@ -43,7 +43,8 @@ def run(env_off: bool) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux") or not THP.exists(), reason="Linux with transparent huge pages")
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not THP.exists(),
+                    reason="Linux with transparent huge pages")
 def test_the_code_moves_onto_huge_pages_and_computes_the_same_bits():
     on = "[always]" in THP.read_text() or "[madvise]" in THP.read_text()
     moved, kept = run(env_off=False), run(env_off=True)
