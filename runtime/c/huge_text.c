@@ -83,19 +83,22 @@ static void mbs_huge_segments(const mbs_segments *seg)
     const uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE);
     uintptr_t from[MBS_HUGE_SEGMENTS], size[MBS_HUGE_SEGMENTS], total = 0, span, aligned, at;
     char *region;
-    int k;
-    for (k = 0; k < seg->n; k++) {
-        from[k] = seg->start[k] & ~(page - 1);
-        size[k] = ((seg->end[k] + page - 1) & ~(page - 1)) - from[k];
-        total += size[k];
+    int k, n;
+    for (n = 0; n < seg->n; n++) {
+        from[n] = seg->start[n] & ~(page - 1);
+        size[n] = ((seg->end[n] + page - 1) & ~(page - 1)) - from[n];
+        if (n > 0 && from[n] < from[n - 1] + size[n - 1]) break;  /* a page shared with the segment before (its
+                                                                      * protection would be overwritten): not moved */
+        total += size[n];
     }
+    if (n == 0) return;
     span = (total + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);  /* whole huge pages */
     region = (char *)mmap(NULL, span + MBS_HUGE_PAGE, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
     if (region == (char *)MAP_FAILED) return;
     aligned = ((uintptr_t)region + MBS_HUGE_PAGE - 1) & ~(MBS_HUGE_PAGE - 1);
     at = aligned;
     if (madvise((void *)aligned, span, MADV_HUGEPAGE) == 0) {
-        for (k = 0; k < seg->n; at += size[k], k++) {
+        for (k = 0; k < n; at += size[k], k++) {
             memcpy((void *)at, (const void *)from[k], size[k]);
             if (mprotect((void *)at, size[k], seg->prot[k]) != 0
                 || mremap((void *)at, size[k], size[k], MREMAP_MAYMOVE | MREMAP_FIXED, (void *)from[k]) == MAP_FAILED)
