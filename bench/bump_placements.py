@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import statistics
 import subprocess
 import sys
@@ -39,6 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 MODEL = ROOT / "library" / "iltis" / "vehicle.mbs"
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from dopri5_former import DOPRI5_FORMER  # noqa: E402
+from rhs_placement import copy_afresh  # noqa: E402
 
 #: One placement: the scene's medians (ms of CPU) now and at the former settings, interleaved, as "now former".
 CHILD = """
@@ -67,14 +67,6 @@ def mapped_libraries(system, scene: str) -> list[Path]:
     cache = str(build.default_cache_dir())
     with open("/proc/self/maps") as maps:
         return sorted({Path(line.split()[-1]) for line in maps if cache in line and line.rstrip().endswith(".so")})
-
-
-def copy_afresh(path: Path) -> None:
-    """The file replaced by a copy of itself: the same bytes in pages allocated anew."""
-    fresh = path.with_name(path.name + ".fresh")
-    shutil.copyfile(path, fresh)
-    shutil.copymode(path, fresh)
-    os.replace(fresh, path)
 
 
 def timed_child(scene: str, repeat: int, huge: bool = True) -> tuple[float, float]:

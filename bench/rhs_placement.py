@@ -21,6 +21,9 @@ copied afresh, when the two may trade places: the caches are indexed by physical
 two builds compared once each differ by up to 20 % whatever their code; over fresh copies the luck averages out.
 valgrind's instruction counts (bench/loop_work.py) see none of this: they are the measure of a change's work, this
 bench whether the CPU follows.  --no-copy: the libraries as they lie (the luck of one placement each, to see it).
+Since runtime/c/huge_text.c a library moves its code and constants onto huge pages when it is loaded (where the
+kernel offers transparent huge pages), which takes most of that luck away; MBS_HUGE_TEXT=0 (the children inherit it)
+brings the file's own pages back.
 
 Nothing is asserted: figures are printed for a reader to compare.
 """

@@ -45,13 +45,20 @@ def test_a_drifted_step_is_projected_as_mbs_project_does(four_bar_data, drift):
     assert np.array_equal(step_end[:nx], data.function("loop_rhs")(0.0, x))  # the last stage's rhs: untouched
 
 
+def drifted(data, drift):
+    """The state of `data` with its positions off the loop's closure by about `drift`, its velocities off theirs."""
+    nq = len(data.x) // 2
+    x = np.array(data.x)
+    x[:nq] += drift * np.array([0.3, -1.0, 0.7])
+    x[nq:] += 1e-9
+    return x
+
+
 def test_a_step_that_drifted_by_round_off_keeps_its_positions(four_bar_data):
     data = four_bar_data
     nx = len(data.x)
     nq = nx // 2
-    x = np.array(data.x)
-    x[:nq] += 2e-14 * np.array([0.3, -1.0, 0.7])
-    x[nq:] += 1e-9  # velocities off the velocity constraints
+    x = drifted(data, 2e-14)
     assert 1e-15 < np.max(np.abs(data.constraints(0.0, x))) <= 1e-13
     projected = data.function("loop_accept")(0.0, x)[nx:]
     assert np.array_equal(projected[:nq], x[:nq])  # not polished to the round-off floor
@@ -66,9 +73,7 @@ def test_a_step_that_drifted_within_the_tolerance_is_polished(four_bar_data):
     data = four_bar_data
     nx = len(data.x)
     nq = nx // 2
-    x = np.array(data.x)
-    x[:nq] += 4e-13 * np.array([0.3, -1.0, 0.7])
-    x[nq:] += 1e-9  # velocities off the velocity constraints
+    x = drifted(data, 4e-13)
     residual = np.max(np.abs(data.constraints(0.0, x)))
     assert 1e-13 < residual <= 1e-12
     projected = data.function("loop_accept")(0.0, x)[nx:]
@@ -76,16 +81,6 @@ def test_a_step_that_drifted_within_the_tolerance_is_polished(four_bar_data):
     assert np.max(np.abs(data.constraints(0.0, projected))) < 1e-13
     assert np.max(np.abs(data.constraint_velocity(0.0, projected))) <= 1e-12
     assert np.allclose(projected, data.function("project")(0.0, x), rtol=0.0, atol=1e-13)
-
-
-
-def drifted(data, drift):
-    """The state of `data` with its positions off the loop's closure by about `drift`, its velocities off theirs."""
-    nq = len(data.x) // 2
-    x = np.array(data.x)
-    x[:nq] += drift * np.array([0.3, -1.0, 0.7])
-    x[nq:] += 1e-9
-    return x
 
 
 def test_a_run_keeps_a_drift_of_a_hundredth_of_its_atol(cache_dir):
